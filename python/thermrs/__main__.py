@@ -1,0 +1,3 @@
+from thermrs.cli import main
+
+main()

@@ -1,0 +1,61 @@
+"""Type stubs of the compiled core bindings (``rust/thermrs-py``)."""
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class ThermrsError(Exception):
+    """Base class of every error thermrs raises on purpose."""
+
+class RigError(ThermrsError):
+    """A rig file that does not parse or does not validate; the message names the key."""
+
+class InputError(ThermrsError):
+    """Arguments or data that do not fit: shapes, names, values, unreadable files."""
+
+Progress = Callable[[int, int], object]
+
+class Rig:
+    @staticmethod
+    def from_path(path: str) -> Rig: ...
+    @staticmethod
+    def from_toml(text: str, source_name: str = "<string>") -> Rig: ...
+    def to_json(self) -> str: ...
+    def explain_json(self) -> str: ...
+    def mapped_temperatures(self) -> list[str]: ...
+
+class ForwardModel:
+    def __init__(
+        self,
+        rig: Rig,
+        *,
+        alpha_per_k: float | None = None,
+        reference_c: float | None = None,
+        alpha_by_temperature: dict[str, float] | None = None,
+        kappa_per_k: float = 0.0,
+    ) -> None: ...
+    def temperature_names(self) -> list[str]: ...
+    def flange_positions(
+        self,
+        q: npt.NDArray[np.float64],
+        temperatures: Sequence[npt.NDArray[np.float64]] | None = None,
+        progress: Progress | None = None,
+    ) -> npt.NDArray[np.float64]: ...
+    def flange_transforms(
+        self,
+        q: npt.NDArray[np.float64],
+        temperatures: Sequence[npt.NDArray[np.float64]] | None = None,
+        progress: Progress | None = None,
+    ) -> npt.NDArray[np.float64]: ...
+    def spots(
+        self,
+        camera: str,
+        q: npt.NDArray[np.float64],
+        temperatures: Sequence[npt.NDArray[np.float64]] | None = None,
+        progress: Progress | None = None,
+    ) -> npt.NDArray[np.float64]: ...
+
+def num_threads() -> int: ...

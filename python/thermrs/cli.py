@@ -1,0 +1,177 @@
+"""The ``thermrs`` command line: a thin layer over the library API.
+
+Exit codes (SPEC §7): 0 success; 2 bad input or usage (one line on stderr, no traceback);
+3 finished with data loss; 1 internal error (set ``THERMRS_DEBUG=1`` for the traceback).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import traceback
+from pathlib import Path
+
+import click
+from rich.console import Console
+from rich.table import Table
+
+from thermrs import paper as paper_mod
+from thermrs.errors import ThermrsError
+from thermrs.rig import default_rig_path, load_rig
+
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_DATA_LOSS = 0, 1, 2, 3
+
+out = Console(highlight=False)
+
+
+def _fmt(x: float | None, digits: int = 2) -> str:
+    return "—" if x is None else f"{x:.{digits}f}"
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="thermrs")
+def cli() -> None:
+    """Measure, model and predict the temperature-induced drift of industrial robots."""
+
+
+@cli.command()
+@click.option("--json", "as_json", is_flag=True, help="Print SPEC §7 JSON instead of tables.")
+@click.option("--train-run", default=1, show_default=True, help="Run whose drift fits α.")
+@click.option(
+    "--exact",
+    is_flag=True,
+    help="Carry full precision instead of the paper's rounding to 0.01.",
+)
+def paper(as_json: bool, train_run: int, exact: bool) -> None:
+    """Reproduce the KR 15/2 paper's Tables 6 and 7 (Eq. 1–3)."""
+    data = paper_mod.load_paper_data()
+    rounding = not exact
+    if as_json:
+        doc = paper_mod.to_json(train_run=train_run, data=data, paper_rounding=rounding)
+        click.echo(json.dumps(doc, indent=2))
+        return
+    printed = data.printed if train_run == 1 else {}
+    p6 = printed.get("table6", {})
+    t6 = Table(title=f"Table 6 — α from Run {train_run} (×10⁻⁶ /°C)")
+    for col in ("α", "thermrs", "paper", "Δ"):
+        t6.add_column(col, justify="right" if col != "α" else "left")
+    for row in paper_mod.table6(train_run=train_run, data=data, paper_rounding=rounding).iter_rows(
+        named=True
+    ):
+        mine = row["alpha_per_k"] * 1e6
+        theirs = p6.get(row["alpha"])
+        t6.add_row(
+            f"α_{row['alpha']}",
+            _fmt(mine, 2 if rounding else 4),
+            _fmt(theirs),
+            _fmt(None if theirs is None else mine - theirs, 3),
+        )
+    if "alpha_6061_t6" in p6:
+        t6.add_row("α_6061-T6 (handbook)", "", _fmt(p6["alpha_6061_t6"]), "")
+    out.print(t6)
+
+    p7 = {(r["alpha"], r["camera"]): r for r in printed.get("table7", [])}
+    t7 = Table(title="Table 7 — predicted vs measured Δl_x (µm), error (%)")
+    for col in ("α", "camera", "run", "predicted", "measured", "error %", "paper pred.", "paper meas.", "paper err."):
+        t7.add_column(col, justify="left" if col in ("α", "camera") else "right")
+    for r in paper_mod.table7(train_run=train_run, data=data, paper_rounding=rounding).iter_rows(
+        named=True
+    ):
+        ref = p7.get((r["alpha"], r["camera"]), {}).get(f"run{r['run']}", {})
+        t7.add_row(
+            f"α_{r['alpha']}",
+            r["camera"],
+            str(r["run"]),
+            _fmt(r["predicted_um"]),
+            _fmt(r["measured_um"]),
+            _fmt(r["error_pct"]),
+            _fmt(ref.get("predicted_um")),
+            _fmt(ref.get("measured_um")),
+            _fmt(ref.get("error_pct")),
+        )
+    out.print(t7)
+    if rounding:
+        out.print(
+            "[dim]Paper's arithmetic: α rounded to 0.01×10⁻⁶, drifts to 0.01 µm before the % "
+            "error. Run 2 measured values include the paper's +1 °C start adjustment.[/dim]"
+        )
+
+
+@cli.command()
+@click.argument("rig_path", required=False, type=click.Path(path_type=Path))
+@click.option("--json", "as_json", is_flag=True, help="Print SPEC §7 JSON instead of tables.")
+def rig(rig_path: Path | None, as_json: bool) -> None:
+    """Check and explain a rig file (default: the embedded paper rig).
+
+    Per pose: the flange position and, for every camera, where the laser meets its chip and
+    at what incidence. Exits 2 if the laser misses a pose's own camera.
+    """
+    r = load_rig(rig_path)
+    view = r.check()
+    if as_json:
+        doc = {"poses": view["poses"]}
+        click.echo(json.dumps(doc, indent=2))
+        return
+    out.print(f"[bold]{r.name or r.model}[/bold]  ({rig_path or default_rig_path()})")
+    out.print(
+        f"robot {r.model}; cameras {', '.join(c.name for c in r.cameras)}; "
+        f"α = {r.alpha_per_k:.3g} /K at {r.reference_c:g} °C; expanding "
+        + ", ".join(f"{m.name}←{m.temperature}" for m in r.lengths)
+    )
+    for pose_name, p in view["poses"].items():
+        x, y, z = p["flange_mm"]
+        t = Table(
+            title=(
+                f"Pose {pose_name}: flange ({x:.2f}, {y:.2f}, {z:.2f}) mm, "
+                f"elevation {p['elevation_deg']:.2f}°, azimuth {p['azimuth_deg']:.2f}°"
+            )
+        )
+        for col in ("camera", "spot x (px)", "spot y (px)", "incidence (°)", "distance (mm)", ""):
+            t.add_column(col, justify="left" if col in ("camera", "") else "right")
+        for cam, spot in p["spot_px"].items():
+            own = r.camera(cam).pose == pose_name
+            inc = p["incidence_deg"][cam]
+            dist = p["distance_mm"][cam]
+            t.add_row(
+                cam,
+                _fmt(spot[0], 3) if spot else "misses",
+                _fmt(spot[1], 3) if spot else "",
+                _fmt(inc, 4),
+                _fmt(dist, 3),
+                "taught for this pose" if own else "",
+            )
+        out.print(t)
+
+
+def _debug() -> bool:
+    return os.environ.get("THERMRS_DEBUG", "") not in ("", "0")
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point: run the CLI and map errors to SPEC §7 exit codes."""
+    try:
+        cli.main(args=argv, prog_name="thermrs", standalone_mode=False)
+    except click.exceptions.Exit as e:
+        sys.exit(e.exit_code)
+    except click.ClickException as e:  # usage errors: exit 2
+        e.show()
+        sys.exit(EXIT_BAD_INPUT)
+    except click.exceptions.Abort:
+        click.echo("thermrs: interrupted", err=True)
+        sys.exit(130)
+    except KeyboardInterrupt:
+        click.echo("thermrs: interrupted", err=True)
+        sys.exit(130)
+    except ThermrsError as e:
+        click.echo(f"thermrs: error: {e}", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    except Exception as e:
+        if _debug():
+            traceback.print_exc()
+        click.echo(
+            f"thermrs: internal error: {type(e).__name__}: {e} (THERMRS_DEBUG=1 shows the traceback)",
+            err=True,
+        )
+        sys.exit(EXIT_INTERNAL)
+

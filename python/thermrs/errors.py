@@ -1,0 +1,9 @@
+"""The exceptions thermrs raises on purpose.
+
+Every one derives from :class:`ThermrsError`; the CLI turns them into one line on stderr and
+exit code 2 (bad input), see SPEC §7.
+"""
+
+from thermrs._native import InputError, RigError, ThermrsError
+
+__all__ = ["InputError", "RigError", "ThermrsError"]

@@ -1,0 +1,231 @@
+"""Rig files (SPEC §3): load, validate and explain.
+
+Parsing and validation happen in Rust (``thermrs-core``'s ``rig`` module); every problem is a
+:class:`~thermrs.errors.RigError` whose one-line message names the file, the line where known,
+and the key, e.g.::
+
+    rig my-rig.toml line 48: camera[1]: unknown field `tpoic`, expected one of `name`, ...
+
+Example
+-------
+>>> import thermrs
+>>> rig = thermrs.load_rig(thermrs.default_rig_path())
+>>> [c.name for c in rig.cameras]
+['A', 'B']
+>>> round(rig.explain()["poses"]["A"]["flange_mm"][0], 2)
+1087.87
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from thermrs import _native
+from thermrs.errors import RigError
+
+__all__ = [
+    "Camera",
+    "DhRow",
+    "LengthMap",
+    "Pose",
+    "Rig",
+    "Roi",
+    "default_rig_path",
+    "load_rig",
+]
+
+
+def default_rig_path() -> Path:
+    """Path of the embedded rig of the paper's set-up (KUKA KR 15/2, two lensless CCDs)."""
+    return Path(str(resources.files("thermrs") / "data" / "kr15-paper.toml"))
+
+
+@dataclass(frozen=True)
+class DhRow:
+    """One standard DH row; θ = sign·q + theta_offset."""
+
+    a_mm: float
+    alpha_deg: float
+    d_mm: float
+    theta_offset_deg: float
+    sign: int
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A lensless CCD camera: its chip in the base frame and its pixel grid."""
+
+    name: str
+    topic: str
+    pose: str
+    centre_mm: tuple[float, float, float]
+    x_axis: tuple[float, float, float]
+    y_axis: tuple[float, float, float]
+    pixel_pitch_um: tuple[float, float]
+    size_px: tuple[int, int]
+
+    def px_to_um(
+        self, x_px: npt.ArrayLike, y_px: npt.ArrayLike
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """Chip micrometres (u, v) about the chip centre (SPEC §4)."""
+        x = np.asarray(x_px, dtype=np.float64)
+        y = np.asarray(y_px, dtype=np.float64)
+        u = (x - (self.size_px[0] - 1) / 2) * self.pixel_pitch_um[0]
+        v = (y - (self.size_px[1] - 1) / 2) * self.pixel_pitch_um[1]
+        return u, v
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A taught pose: six joint angles in degrees as the controller reports them."""
+
+    name: str
+    joints_deg: tuple[float, float, float, float, float, float]
+
+    @property
+    def joints_rad(self) -> npt.NDArray[np.float64]:
+        """The joint angles in radians (as JointState reports them)."""
+        return np.radians(np.asarray(self.joints_deg, dtype=np.float64))
+
+
+@dataclass(frozen=True)
+class Roi:
+    """A thermal region of interest: columns x0..x1−1, rows y0..y1−1."""
+
+    name: str
+    rect_px: tuple[int, int, int, int]
+
+
+@dataclass(frozen=True)
+class LengthMap:
+    """A DH length (``a<i>`` / ``d<i>``) that expands with a temperature (ROI or ``ambient``)."""
+
+    name: str
+    temperature: str
+
+
+class Rig:
+    """A validated rig.
+
+    Build it with :func:`load_rig` or :meth:`Rig.from_toml`; it cannot hold an invalid rig.
+    """
+
+    def __init__(self, native: _native.Rig, source: str) -> None:
+        self._native = native
+        self.source = source
+        self._data: dict[str, Any] = json.loads(native.to_json())
+        d = self._data
+        robot = d["robot"]
+        self.name: str | None = d.get("name")
+        self.model: str = robot["model"]
+        self.joint_names: list[str] = list(robot["joint_names"])
+        self.joint_states_topic: str = robot["joint_states_topic"]
+        self.dh: list[DhRow] = [DhRow(**row) for row in robot["dh"]]
+        self.laser_origin_mm: tuple[float, ...] = tuple(d["laser"]["origin_mm"])
+        self.laser_direction: tuple[float, ...] = tuple(d["laser"]["direction"])
+        self.cameras: list[Camera] = [
+            Camera(
+                name=c["name"],
+                topic=c["topic"],
+                pose=c["pose"],
+                centre_mm=tuple(c["centre_mm"]),
+                x_axis=tuple(c["x_axis"]),
+                y_axis=tuple(c["y_axis"]),
+                pixel_pitch_um=tuple(c["pixel_pitch_um"]),
+                size_px=tuple(c["size_px"]),
+            )
+            for c in d["camera"]
+        ]
+        self.poses: dict[str, Pose] = {
+            p["name"]: Pose(p["name"], tuple(p["joints_deg"])) for p in d["pose"]
+        }
+        thermal = d.get("thermal")
+        self.thermal_topic: str | None = thermal["topic"] if thermal else None
+        self.thermal_size_px: tuple[int, int] | None = (
+            tuple(thermal["size_px"]) if thermal else None
+        )
+        self.thermal_scale: float | None = thermal["scale"] if thermal else None
+        self.thermal_offset_c: float | None = thermal["offset_c"] if thermal else None
+        self.rois: list[Roi] = [
+            Roi(r["name"], tuple(r["rect_px"])) for r in (thermal["roi"] if thermal else [])
+        ]
+        ambient = d.get("ambient")
+        self.ambient_topic: str | None = ambient["topic"] if ambient else None
+        exp = d["expansion"]
+        self.alpha_per_k: float = exp["alpha_per_k"]
+        self.reference_c: float = exp["reference_c"]
+        self.lengths: list[LengthMap] = [LengthMap(**m) for m in exp["length"]]
+
+    # --- construction -----------------------------------------------------------------------
+    @classmethod
+    def from_path(cls, path: str | Path) -> Rig:
+        """Read and validate a rig file.
+
+        Raises
+        ------
+        RigError
+            The file does not parse or validate; the message names the key.
+        InputError
+            The file cannot be read.
+        """
+        return cls(_native.Rig.from_path(str(path)), str(path))
+
+    @classmethod
+    def from_toml(cls, text: str, *, source_name: str = "<string>") -> Rig:
+        """Parse and validate rig TOML text."""
+        return cls(_native.Rig.from_toml(text, source_name), source_name)
+
+    # --- queries ----------------------------------------------------------------------------
+    def camera(self, name: str) -> Camera:
+        """The camera called ``name``."""
+        for c in self.cameras:
+            if c.name == name:
+                return c
+        known = ", ".join(c.name for c in self.cameras)
+        raise RigError(f"rig {self.source}: no camera {name!r} (cameras: {known})")
+
+    def camera_pose(self, camera: str) -> Pose:
+        """The pose at which the laser hits ``camera``."""
+        return self.poses[self.camera(camera).pose]
+
+    @property
+    def mapped_temperatures(self) -> list[str]:
+        """Temperature names (ROIs or ``ambient``) the nominal model expands lengths with."""
+        return self._native.mapped_temperatures()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The rig as plain data (the file's keys)."""
+        return json.loads(self._native.to_json())  # type: ignore[no-any-return]
+
+    def explain(self) -> dict[str, Any]:
+        """Every pose at nominal lengths: flange position, spot and incidence per camera.
+
+        Returns the SPEC §7 ``thermrs rig --json`` shape, ``{"poses": {pose: {"flange_mm",
+        "spot_px", "incidence_deg", ...}}}``, extended with ``distance_mm`` per camera,
+        ``elevation_deg``/``azimuth_deg`` per pose and a ``problems`` list. A camera whose chip
+        the ray misses has ``spot_px`` null.
+        """
+        return json.loads(self._native.explain_json())  # type: ignore[no-any-return]
+
+    def check(self) -> dict[str, Any]:
+        """:meth:`explain`, raising :class:`RigError` if the laser misses a pose's own camera."""
+        view = self.explain()
+        if view["problems"]:
+            raise RigError(f"rig {self.source}: {view['problems'][0]}")
+        return view
+
+    def __repr__(self) -> str:
+        cams = ", ".join(c.name for c in self.cameras)
+        return f"Rig({self.source!r}, robot={self.model!r}, cameras=[{cams}])"
+
+
+def load_rig(path: str | Path | None = None) -> Rig:
+    """Load and validate a rig file; without a path, the embedded paper rig."""
+    return Rig.from_path(default_rig_path() if path is None else path)

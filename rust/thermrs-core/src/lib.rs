@@ -1,0 +1,17 @@
+//! thermrs-core: the pure-Rust heart of thermrs.
+//!
+//! It knows nothing of Python. Modules, one idea each:
+//! - [`rig`]: rig files (SPEC §3), parsed and validated with errors naming the key;
+//! - [`kinematics`]: standard Denavit–Hartenberg forward kinematics with per-sample link lengths;
+//! - [`optics`]: the laser ray and its intersection with a CCD chip, in pixels (SPEC §4);
+//! - [`model`]: the thermal-expansion forward model (SPEC §4), vectorised over time series;
+//! - [`explain`]: a rig checked and explained pose by pose (`thermrs rig`).
+
+pub mod error;
+pub mod explain;
+pub mod kinematics;
+pub mod model;
+pub mod optics;
+pub mod rig;
+
+pub use error::{Error, Result};

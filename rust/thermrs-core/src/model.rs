@@ -1,0 +1,411 @@
+//! The thermal-expansion forward model (SPEC §4) — the one place its physics lives.
+//!
+//! A DH length L listed in the rig's `[expansion]` expands to
+//! `L·(1 + α_T·ΔT·(1 + κ·ΔT))`, ΔT = T − reference_c, with T the temperature mapped to it at
+//! that sample. The nominal model has one α and κ = 0; `alpha_by_temperature` (one α per mapped
+//! temperature) and `kappa_per_k` are the SPEC §6 effects `alpha_per_link` and `nonlinear_alpha`.
+//! The flange pose is the DH product with the expanded lengths at the sample's joints; the laser
+//! ray is mapped through it and meets the chip plane (see [`crate::optics`]).
+//!
+//! Everything is vectorised over samples: joints are an `N×6` row-major slice (radians),
+//! temperatures one `N`-long column per mapped name. Work over 8,192 samples is spread over the
+//! rayon pool.
+
+use std::collections::BTreeMap;
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::kinematics::{Chain, Frame};
+use crate::optics::{Chip, Ray};
+use crate::rig::{LengthRef, Rig};
+
+/// Samples below this count are computed on the calling thread.
+const PARALLEL_THRESHOLD: usize = 8192;
+/// Samples per parallel work item.
+const PARALLEL_CHUNK: usize = 4096;
+
+/// Parameters of the expansion law.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExpansionParams {
+    /// α (1/K) for every mapped temperature without its own entry.
+    pub alpha_per_k: f64,
+    /// The temperature at which the rig's lengths are exact (°C).
+    pub reference_c: f64,
+    /// Per-temperature α overrides (`alpha_per_link`).
+    pub alpha_by_temperature: BTreeMap<String, f64>,
+    /// Quadratic strain term κ (1/K): strain = α·ΔT·(1 + κ·ΔT) (`nonlinear_alpha`).
+    pub kappa_per_k: f64,
+}
+
+impl ExpansionParams {
+    /// The rig's nominal α and reference temperature.
+    pub fn nominal(rig: &Rig) -> ExpansionParams {
+        ExpansionParams {
+            alpha_per_k: rig.expansion.alpha_per_k,
+            reference_c: rig.expansion.reference_c,
+            alpha_by_temperature: BTreeMap::new(),
+            kappa_per_k: 0.0,
+        }
+    }
+
+    /// Length factor 1 + strain for a temperature with coefficient `alpha`.
+    #[inline]
+    pub fn factor(alpha: f64, kappa: f64, reference_c: f64, t_c: f64) -> f64 {
+        let dt = t_c - reference_c;
+        1.0 + alpha * dt * (1.0 + kappa * dt)
+    }
+}
+
+/// What [`ForwardModel::flange_batch`] writes per sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FlangeOutput {
+    /// x, y, z (mm): 3 values.
+    Position,
+    /// The 4×4 homogeneous matrix, row-major: 16 values.
+    Matrix,
+}
+
+impl FlangeOutput {
+    pub fn width(self) -> usize {
+        match self {
+            FlangeOutput::Position => 3,
+            FlangeOutput::Matrix => 16,
+        }
+    }
+}
+
+/// Values per sample written by [`ForwardModel::spot_batch`]: x_px, y_px, distance_mm,
+/// incidence_deg (all NaN where the ray meets no chip plane in front of it).
+pub const SPOT_WIDTH: usize = 4;
+
+/// The rig's robot, laser and chips with an expansion law, ready for batches.
+#[derive(Debug, Clone)]
+pub struct ForwardModel {
+    chain: Chain,
+    laser_origin: Vector3<f64>,
+    laser_direction: Vector3<f64>,
+    chips: Vec<Chip>,
+    camera_names: Vec<String>,
+    temperature_names: Vec<String>,
+    /// (length, index into temperature_names)
+    lengths: Vec<(LengthRef, usize)>,
+    /// α per temperature name.
+    alpha: Vec<f64>,
+    kappa: f64,
+    reference_c: f64,
+}
+
+/// Per-sample temperature columns, one per [`ForwardModel::temperature_names`] entry, or none
+/// (every length at its nominal value).
+pub type TemperatureColumns<'a> = Option<&'a [&'a [f64]]>;
+
+impl ForwardModel {
+    /// Build the model of a validated rig.
+    pub fn new(rig: &Rig, params: &ExpansionParams) -> Result<ForwardModel> {
+        let temperature_names = rig.mapped_temperatures();
+        for name in params.alpha_by_temperature.keys() {
+            if !temperature_names.contains(name) {
+                return Err(Error::Input(format!(
+                    "alpha for temperature {name:?}: the rig maps no length to it (mapped: {})",
+                    temperature_names.join(", ")
+                )));
+            }
+        }
+        for (what, v) in [
+            ("alpha_per_k", params.alpha_per_k),
+            ("reference_c", params.reference_c),
+            ("kappa_per_k", params.kappa_per_k),
+        ] {
+            if !v.is_finite() {
+                return Err(Error::Input(format!("{what} is {v}, expected a finite number")));
+            }
+        }
+        let lengths = rig
+            .length_map()
+            .into_iter()
+            .map(|(l, t)| {
+                let idx = temperature_names.iter().position(|n| *n == t).expect("mapped");
+                (l, idx)
+            })
+            .collect();
+        let alpha = temperature_names
+            .iter()
+            .map(|n| {
+                *params
+                    .alpha_by_temperature
+                    .get(n)
+                    .unwrap_or(&params.alpha_per_k)
+            })
+            .collect();
+        let l = &rig.laser;
+        Ok(ForwardModel {
+            chain: Chain::new(&rig.robot.dh),
+            laser_origin: Vector3::from(l.origin_mm),
+            laser_direction: Vector3::from(l.direction),
+            chips: rig.camera.iter().map(Chip::from_camera).collect(),
+            camera_names: rig.camera.iter().map(|c| c.name.clone()).collect(),
+            temperature_names,
+            lengths,
+            alpha,
+            kappa: params.kappa_per_k,
+            reference_c: params.reference_c,
+        })
+    }
+
+    /// The nominal model of a rig (its own α, no effects).
+    pub fn nominal(rig: &Rig) -> Result<ForwardModel> {
+        ForwardModel::new(rig, &ExpansionParams::nominal(rig))
+    }
+
+    pub fn chain(&self) -> &Chain {
+        &self.chain
+    }
+
+    pub fn chips(&self) -> &[Chip] {
+        &self.chips
+    }
+
+    /// The temperature names the model needs, in the order temperature columns are given.
+    pub fn temperature_names(&self) -> &[String] {
+        &self.temperature_names
+    }
+
+    /// Index of a camera by name, or an error naming the known ones.
+    pub fn camera_index(&self, name: &str) -> Result<usize> {
+        self.camera_names.iter().position(|c| c == name).ok_or_else(|| {
+            Error::Input(format!(
+                "camera {name:?} is not in the rig (cameras: {})",
+                self.camera_names.join(", ")
+            ))
+        })
+    }
+
+    /// The DH lengths (a, d) in mm at one set of temperatures (one per temperature name).
+    #[inline]
+    pub fn lengths_at(&self, temps: Option<&[f64]>) -> ([f64; 6], [f64; 6]) {
+        let mut a = self.chain.a_mm;
+        let mut d = self.chain.d_mm;
+        if let Some(t) = temps {
+            for &(l, ti) in &self.lengths {
+                let f = ExpansionParams::factor(self.alpha[ti], self.kappa, self.reference_c, t[ti]);
+                match l {
+                    LengthRef::A(r) => a[r] *= f,
+                    LengthRef::D(r) => d[r] *= f,
+                }
+            }
+        }
+        (a, d)
+    }
+
+    /// The flange frame for joints `q` (radians) at temperatures `temps`.
+    #[inline]
+    pub fn flange(&self, q: &[f64], temps: Option<&[f64]>) -> Frame {
+        let (a, d) = self.lengths_at(temps);
+        self.chain.flange_with(q, &a, &d)
+    }
+
+    /// The laser ray in the base frame for a flange frame.
+    #[inline]
+    pub fn laser_ray(&self, flange: &Frame) -> Ray {
+        Ray::through(flange, &self.laser_origin, &self.laser_direction)
+    }
+
+    /// Check a batch's shapes; returns its sample count N.
+    pub fn batch_len(&self, q: &[f64], temps: TemperatureColumns<'_>) -> Result<usize> {
+        if q.len() % 6 != 0 {
+            return Err(Error::Input(format!(
+                "joints: {} values is not a whole number of 6-joint samples",
+                q.len()
+            )));
+        }
+        let n = q.len() / 6;
+        if let Some(cols) = temps {
+            if cols.len() != self.temperature_names.len() {
+                return Err(Error::Input(format!(
+                    "{} temperature columns given, the rig maps {} ({})",
+                    cols.len(),
+                    self.temperature_names.len(),
+                    self.temperature_names.join(", ")
+                )));
+            }
+            for (c, name) in cols.iter().zip(&self.temperature_names) {
+                if c.len() != n {
+                    return Err(Error::Input(format!(
+                        "temperature {name:?} has {} samples, joints have {n}",
+                        c.len()
+                    )));
+                }
+            }
+        }
+        Ok(n)
+    }
+
+    /// Run `f(sample, temps_at_sample, out_row)` for every sample, in parallel for large batches.
+    fn for_samples<F>(&self, n: usize, temps: TemperatureColumns<'_>, out: &mut [f64], width: usize, f: F)
+    where
+        F: Fn(usize, Option<&[f64]>, &mut [f64]) + Sync,
+    {
+        let k = self.temperature_names.len();
+        let work = |start: usize, chunk: &mut [f64]| {
+            let mut t = vec![0.0; k];
+            for (j, row) in chunk.chunks_exact_mut(width).enumerate() {
+                let i = start + j;
+                let tt = temps.map(|cols| {
+                    for (slot, col) in t.iter_mut().zip(cols.iter()) {
+                        *slot = col[i];
+                    }
+                    &t[..]
+                });
+                f(i, tt, row);
+            }
+        };
+        if n < PARALLEL_THRESHOLD {
+            work(0, out);
+        } else {
+            out.par_chunks_mut(PARALLEL_CHUNK * width)
+                .enumerate()
+                .for_each(|(c, chunk)| work(c * PARALLEL_CHUNK, chunk));
+        }
+    }
+
+    /// Flange poses for `N` samples. `q`: N×6 joints (radians, row-major). `out`: N×width.
+    pub fn flange_batch(
+        &self,
+        q: &[f64],
+        temps: TemperatureColumns<'_>,
+        what: FlangeOutput,
+        out: &mut [f64],
+    ) -> Result<()> {
+        let n = self.batch_len(q, temps)?;
+        let width = what.width();
+        if out.len() != n * width {
+            return Err(Error::Input(format!("output has {} values, need {}", out.len(), n * width)));
+        }
+        self.for_samples(n, temps, out, width, |i, t, row| {
+            let f = self.flange(&q[6 * i..6 * i + 6], t);
+            match what {
+                FlangeOutput::Position => row.copy_from_slice(f.translation.as_slice()),
+                FlangeOutput::Matrix => {
+                    let m = f.to_matrix();
+                    for r in 0..4 {
+                        for c in 0..4 {
+                            row[4 * r + c] = m[(r, c)];
+                        }
+                    }
+                }
+            }
+        });
+        Ok(())
+    }
+
+    /// Where the laser meets `camera`'s chip plane for `N` samples: per sample
+    /// [`SPOT_WIDTH`] values (x_px, y_px, distance_mm, incidence_deg), NaN where it does not.
+    pub fn spot_batch(
+        &self,
+        camera: usize,
+        q: &[f64],
+        temps: TemperatureColumns<'_>,
+        out: &mut [f64],
+    ) -> Result<()> {
+        let n = self.batch_len(q, temps)?;
+        let chip = self.chips.get(camera).ok_or_else(|| {
+            Error::Input(format!("camera index {camera} out of range ({} cameras)", self.chips.len()))
+        })?;
+        if out.len() != n * SPOT_WIDTH {
+            return Err(Error::Input(format!(
+                "output has {} values, need {}",
+                out.len(),
+                n * SPOT_WIDTH
+            )));
+        }
+        self.for_samples(n, temps, out, SPOT_WIDTH, |i, t, row| {
+            let f = self.flange(&q[6 * i..6 * i + 6], t);
+            match chip.intersect(&self.laser_ray(&f)) {
+                Some(h) => row.copy_from_slice(&[h.x_px, h.y_px, h.distance_mm, h.incidence_deg]),
+                None => row.fill(f64::NAN),
+            }
+        });
+        Ok(())
+    }
+}
+
+/// Number of threads the parallel loops use (rayon's pool; `RAYON_NUM_THREADS` sets it).
+pub fn num_threads() -> usize {
+    rayon::current_num_threads()
+}
+
+/// A pose's taught joints in radians.
+pub fn pose_joints_rad(joints_deg: &[f64; 6]) -> [f64; 6] {
+    joints_deg.map(f64::to_radians)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PAPER: &str = include_str!("../../../python/thermrs/data/kr15-paper.toml");
+
+    fn rig() -> Rig {
+        Rig::from_toml(PAPER, "paper").unwrap()
+    }
+
+    #[test]
+    fn reference_temperature_leaves_lengths_nominal() {
+        let rig = rig();
+        let m = ForwardModel::nominal(&rig).unwrap();
+        let (a, d) = m.lengths_at(Some(&[23.0, 23.0]));
+        assert_eq!(a, m.chain().a_mm);
+        assert_eq!(d, m.chain().d_mm);
+        let (a, d) = m.lengths_at(Some(&[33.0, 13.0]));
+        assert!((a[1] - 650.0 * (1.0 + 2.32e-5 * 10.0)).abs() < 1e-12);
+        assert!((d[3] - -600.0 * (1.0 - 2.32e-5 * 10.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn batch_matches_single_and_parallel_matches_serial() {
+        let rig = rig();
+        let m = ForwardModel::nominal(&rig).unwrap();
+        let n = 20_000;
+        let q: Vec<f64> = (0..n * 6).map(|i| ((i * 7919) % 1000) as f64 / 500.0 - 1.0).collect();
+        let t1: Vec<f64> = (0..n).map(|i| 20.0 + (i % 17) as f64).collect();
+        let t2: Vec<f64> = (0..n).map(|i| 25.0 - (i % 13) as f64).collect();
+        let cols: [&[f64]; 2] = [&t1, &t2];
+        let mut out = vec![0.0; n * 3];
+        m.flange_batch(&q, Some(&cols), FlangeOutput::Position, &mut out).unwrap();
+        for i in [0, 1, 4095, 4096, 12345, n - 1] {
+            let f = m.flange(&q[6 * i..6 * i + 6], Some(&[t1[i], t2[i]]));
+            assert_eq!(&out[3 * i..3 * i + 3], f.translation.as_slice());
+        }
+    }
+
+    #[test]
+    fn warming_link2_moves_the_spot_on_camera_a() {
+        let rig = rig();
+        let m = ForwardModel::nominal(&rig).unwrap();
+        let q = pose_joints_rad(&rig.pose[0].joints_deg);
+        let mut cold = [0.0; SPOT_WIDTH];
+        let mut warm = [0.0; SPOT_WIDTH];
+        m.spot_batch(0, &q, Some(&[&[23.0][..], &[23.0][..]]), &mut cold).unwrap();
+        m.spot_batch(0, &q, Some(&[&[28.0][..], &[23.0][..]]), &mut warm).unwrap();
+        assert!((cold[0] - 375.5).abs() < 1e-6 && (cold[1] - 290.5).abs() < 1e-6);
+        // 650 mm·α·5 K ≈ 75 µm of arm growth, mostly along base x = chip y.
+        let dy_um = (warm[1] - cold[1]) * 8.3;
+        assert!(dy_um > 50.0 && dy_um < 80.0, "{dy_um}");
+    }
+
+    #[test]
+    fn bad_batches_are_rejected() {
+        let rig = rig();
+        let m = ForwardModel::nominal(&rig).unwrap();
+        let mut out = vec![0.0; 3];
+        assert!(m.flange_batch(&[0.0; 5], None, FlangeOutput::Position, &mut out).is_err());
+        let short: [&[f64]; 2] = [&[1.0, 2.0], &[1.0]];
+        let e = m
+            .flange_batch(&[0.0; 12], Some(&short), FlangeOutput::Position, &mut vec![0.0; 6])
+            .unwrap_err();
+        assert!(e.to_string().contains("link3"), "{e}");
+        assert!(m.camera_index("C").unwrap_err().to_string().contains("A, B"));
+    }
+}

@@ -1,0 +1,564 @@
+//! Rig files (SPEC §3, `format = "thermrs-rig/1"`): parsing and validation.
+//!
+//! Parsing is strict: unknown keys, missing keys and wrong types are rejected by serde with the
+//! key path (via `serde_path_to_error`) and the line. Validation then checks what types cannot:
+//! counts, unit vectors, references between sections, ROIs inside the frame. Every error is one
+//! line naming the key.
+
+use std::collections::{BTreeMap, HashSet};
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, RigError};
+
+/// The format string every rig file must carry.
+pub const RIG_FORMAT: &str = "thermrs-rig/1";
+/// Tolerance on the norm of unit vectors and on the orthogonality of chip axes.
+pub const UNIT_TOLERANCE: f64 = 1e-6;
+/// The temperature name that refers to the ambient thermometer rather than a ROI.
+pub const AMBIENT: &str = "ambient";
+
+/// A whole rig: one robot, its poses, the laser, the CCD cameras, the thermal camera.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rig {
+    pub format: String,
+    #[serde(default)]
+    pub name: Option<String>,
+    pub robot: Robot,
+    pub laser: Laser,
+    pub camera: Vec<Camera>,
+    pub pose: Vec<Pose>,
+    #[serde(default)]
+    pub thermal: Option<Thermal>,
+    #[serde(default)]
+    pub ambient: Option<Ambient>,
+    pub expansion: Expansion,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Robot {
+    pub model: String,
+    pub joint_names: Vec<String>,
+    pub joint_states_topic: String,
+    pub dh: Vec<DhRow>,
+}
+
+/// One standard (distal) DH row: θᵢ = signᵢ·qᵢ + theta_offsetᵢ.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DhRow {
+    pub a_mm: f64,
+    pub alpha_deg: f64,
+    pub d_mm: f64,
+    pub theta_offset_deg: f64,
+    pub sign: i64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Laser {
+    pub origin_mm: [f64; 3],
+    pub direction: [f64; 3],
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Camera {
+    pub name: String,
+    pub topic: String,
+    pub pose: String,
+    pub centre_mm: [f64; 3],
+    pub x_axis: [f64; 3],
+    pub y_axis: [f64; 3],
+    pub pixel_pitch_um: [f64; 2],
+    pub size_px: [i64; 2],
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pose {
+    pub name: String,
+    pub joints_deg: [f64; 6],
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Thermal {
+    pub topic: String,
+    pub size_px: [i64; 2],
+    pub scale: f64,
+    pub offset_c: f64,
+    #[serde(default)]
+    pub roi: Vec<Roi>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Roi {
+    pub name: String,
+    /// [x0, y0, x1, y1]: columns x0..x1−1, rows y0..y1−1.
+    pub rect_px: [i64; 4],
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ambient {
+    pub topic: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Expansion {
+    pub alpha_per_k: f64,
+    pub reference_c: f64,
+    #[serde(default)]
+    pub length: Vec<LengthMap>,
+}
+
+/// One DH length that expands with one temperature.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LengthMap {
+    /// `a<i>` or `d<i>`, i the 1-based DH row.
+    pub name: String,
+    /// A ROI name or `ambient`.
+    pub temperature: String,
+}
+
+/// Which DH length: `a` or `d` of a 0-based row.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+pub enum LengthRef {
+    A(usize),
+    D(usize),
+}
+
+impl LengthRef {
+    /// Parse `a1`..`a6`, `d1`..`d6`.
+    pub fn parse(name: &str) -> Option<LengthRef> {
+        let (kind, row) = name.split_at_checked(1)?;
+        let row: usize = row.parse().ok()?;
+        if !(1..=6).contains(&row) || name.len() != 2 {
+            return None;
+        }
+        match kind {
+            "a" => Some(LengthRef::A(row - 1)),
+            "d" => Some(LengthRef::D(row - 1)),
+            _ => None,
+        }
+    }
+
+    pub fn row(&self) -> usize {
+        match *self {
+            LengthRef::A(r) | LengthRef::D(r) => r,
+        }
+    }
+}
+
+impl std::fmt::Display for LengthRef {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            LengthRef::A(r) => write!(f, "a{}", r + 1),
+            LengthRef::D(r) => write!(f, "d{}", r + 1),
+        }
+    }
+}
+
+fn line_of(text: &str, offset: usize) -> usize {
+    text[..offset.min(text.len())].matches('\n').count() + 1
+}
+
+fn one_line(message: &str) -> String {
+    message.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+impl Rig {
+    /// Read and validate a rig file.
+    pub fn from_path(path: impl AsRef<Path>) -> Result<Rig, Error> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Ok(Rig::from_toml(&text, &path.display().to_string())?)
+    }
+
+    /// Parse and validate rig TOML text; `source_name` names it in errors.
+    pub fn from_toml(text: &str, source_name: &str) -> Result<Rig, RigError> {
+        let err = |line: Option<usize>, key: String, message: String| RigError {
+            source_name: source_name.to_string(),
+            line,
+            key,
+            message,
+        };
+        let de = toml::Deserializer::parse(text)
+            .map_err(|e| err(e.span().map(|s| line_of(text, s.start)), String::new(), one_line(e.message())))?;
+        let rig: Rig = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            let inner = e.into_inner();
+            let key = if path == "." { String::new() } else { path };
+            err(
+                inner.span().map(|s| line_of(text, s.start)),
+                key,
+                one_line(inner.message()),
+            )
+        })?;
+        rig.validate().map_err(|(key, message)| err(None, key, message))?;
+        Ok(rig)
+    }
+
+    /// The checks types cannot express. Returns (key, message) of the first problem.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        let fail = |key: &str, message: String| Err((key.to_string(), message));
+        if self.format != RIG_FORMAT {
+            return fail("format", format!("is {:?}, expected {RIG_FORMAT:?}", self.format));
+        }
+        // robot
+        let r = &self.robot;
+        if r.model.trim().is_empty() {
+            return fail("robot.model", "is empty".into());
+        }
+        if r.joint_names.len() != 6 {
+            return fail(
+                "robot.joint_names",
+                format!("has {} names, expected 6", r.joint_names.len()),
+            );
+        }
+        check_names(&r.joint_names, "robot.joint_names")?;
+        check_topic(&r.joint_states_topic, "robot.joint_states_topic")?;
+        if r.dh.len() != 6 {
+            return fail("robot.dh", format!("has {} rows, expected 6", r.dh.len()));
+        }
+        for (i, row) in r.dh.iter().enumerate() {
+            for (k, v) in [
+                ("a_mm", row.a_mm),
+                ("alpha_deg", row.alpha_deg),
+                ("d_mm", row.d_mm),
+                ("theta_offset_deg", row.theta_offset_deg),
+            ] {
+                check_finite(v, &format!("robot.dh[{i}].{k}"))?;
+            }
+            if row.sign != 1 && row.sign != -1 {
+                return fail(
+                    &format!("robot.dh[{i}].sign"),
+                    format!("is {}, expected 1 or -1", row.sign),
+                );
+            }
+        }
+        // laser
+        check_vec(&self.laser.origin_mm, "laser.origin_mm")?;
+        check_unit(&self.laser.direction, "laser.direction")?;
+        // poses
+        if self.pose.is_empty() {
+            return fail("pose", "no [[pose]] given; at least one is needed".into());
+        }
+        let pose_names: Vec<String> = self.pose.iter().map(|p| p.name.clone()).collect();
+        check_names(&pose_names, "pose")?;
+        for (i, p) in self.pose.iter().enumerate() {
+            for (j, v) in p.joints_deg.iter().enumerate() {
+                check_finite(*v, &format!("pose[{i}].joints_deg[{j}]"))?;
+            }
+        }
+        // cameras
+        if self.camera.is_empty() {
+            return fail("camera", "no [[camera]] given; at least one is needed".into());
+        }
+        let cam_names: Vec<String> = self.camera.iter().map(|c| c.name.clone()).collect();
+        check_names(&cam_names, "camera")?;
+        let mut topics: HashSet<&str> = HashSet::new();
+        topics.insert(r.joint_states_topic.as_str());
+        for (i, c) in self.camera.iter().enumerate() {
+            let key = |k: &str| format!("camera[{i}].{k}");
+            check_topic(&c.topic, &key("topic"))?;
+            if !topics.insert(c.topic.as_str()) {
+                return fail(&key("topic"), format!("{:?} is used twice", c.topic));
+            }
+            if !pose_names.contains(&c.pose) {
+                return fail(
+                    &key("pose"),
+                    format!(
+                        "{:?} names no [[pose]] (poses: {})",
+                        c.pose,
+                        pose_names.join(", ")
+                    ),
+                );
+            }
+            check_vec(&c.centre_mm, &key("centre_mm"))?;
+            check_unit(&c.x_axis, &key("x_axis"))?;
+            check_unit(&c.y_axis, &key("y_axis"))?;
+            let dot: f64 = (0..3).map(|k| c.x_axis[k] * c.y_axis[k]).sum();
+            if dot.abs() > UNIT_TOLERANCE {
+                return fail(
+                    &key("y_axis"),
+                    format!("is not orthogonal to x_axis (dot product {dot:.3e})"),
+                );
+            }
+            for (k, v) in c.pixel_pitch_um.iter().enumerate() {
+                if !(v.is_finite() && *v > 0.0) {
+                    return fail(
+                        &format!("camera[{i}].pixel_pitch_um[{k}]"),
+                        format!("is {v}, expected a positive pitch"),
+                    );
+                }
+            }
+            for (k, v) in c.size_px.iter().enumerate() {
+                if *v <= 0 {
+                    return fail(
+                        &format!("camera[{i}].size_px[{k}]"),
+                        format!("is {v}, expected a positive pixel count"),
+                    );
+                }
+            }
+        }
+        // thermal
+        let mut temp_names: Vec<&str> = Vec::new();
+        if let Some(t) = &self.thermal {
+            check_topic(&t.topic, "thermal.topic")?;
+            if !topics.insert(t.topic.as_str()) {
+                return fail("thermal.topic", format!("{:?} is used twice", t.topic));
+            }
+            for (k, v) in t.size_px.iter().enumerate() {
+                if *v <= 0 {
+                    return fail(
+                        &format!("thermal.size_px[{k}]"),
+                        format!("is {v}, expected a positive pixel count"),
+                    );
+                }
+            }
+            if !(t.scale.is_finite() && t.scale != 0.0) {
+                return fail("thermal.scale", format!("is {}, expected a non-zero number", t.scale));
+            }
+            check_finite(t.offset_c, "thermal.offset_c")?;
+            let roi_names: Vec<String> = t.roi.iter().map(|r| r.name.clone()).collect();
+            check_names(&roi_names, "thermal.roi")?;
+            for (i, roi) in t.roi.iter().enumerate() {
+                if roi.name == AMBIENT {
+                    return fail(
+                        &format!("thermal.roi[{i}].name"),
+                        format!("{AMBIENT:?} is reserved for the ambient thermometer"),
+                    );
+                }
+                let [x0, y0, x1, y1] = roi.rect_px;
+                let [w, h] = t.size_px;
+                if !(0 <= x0 && x0 < x1 && x1 <= w && 0 <= y0 && y0 < y1 && y1 <= h) {
+                    return fail(
+                        &format!("thermal.roi[{i}].rect_px"),
+                        format!(
+                            "[{x0}, {y0}, {x1}, {y1}] is empty or outside the {w}x{h} frame \
+                             (need 0 <= x0 < x1 <= {w}, 0 <= y0 < y1 <= {h})"
+                        ),
+                    );
+                }
+                temp_names.push(roi.name.as_str());
+            }
+        }
+        if let Some(a) = &self.ambient {
+            check_topic(&a.topic, "ambient.topic")?;
+            if !topics.insert(a.topic.as_str()) {
+                return fail("ambient.topic", format!("{:?} is used twice", a.topic));
+            }
+            temp_names.push(AMBIENT);
+        }
+        // expansion
+        let e = &self.expansion;
+        check_finite(e.alpha_per_k, "expansion.alpha_per_k")?;
+        if e.alpha_per_k.abs() > 1e-3 {
+            return fail(
+                "expansion.alpha_per_k",
+                format!("is {}, not a plausible per-kelvin coefficient (|α| > 1e-3)", e.alpha_per_k),
+            );
+        }
+        check_finite(e.reference_c, "expansion.reference_c")?;
+        let mut seen = HashSet::new();
+        for (i, l) in e.length.iter().enumerate() {
+            let Some(lr) = LengthRef::parse(&l.name) else {
+                return fail(
+                    &format!("expansion.length[{i}].name"),
+                    format!("{:?} is not a DH length (a1..a6 or d1..d6)", l.name),
+                );
+            };
+            if !seen.insert(lr) {
+                return fail(
+                    &format!("expansion.length[{i}].name"),
+                    format!("{:?} is listed twice", l.name),
+                );
+            }
+            let row = &r.dh[lr.row()];
+            let value = match lr {
+                LengthRef::A(_) => row.a_mm,
+                LengthRef::D(_) => row.d_mm,
+            };
+            if value == 0.0 {
+                return fail(
+                    &format!("expansion.length[{i}].name"),
+                    format!("{:?} is 0 mm in robot.dh, so it cannot expand", l.name),
+                );
+            }
+            if !temp_names.contains(&l.temperature.as_str()) {
+                let known = if temp_names.is_empty() {
+                    "none: the rig has no [[thermal.roi]] and no [ambient]".to_string()
+                } else {
+                    temp_names.join(", ")
+                };
+                return fail(
+                    &format!("expansion.length[{i}].temperature"),
+                    format!("{:?} is neither a ROI nor ambient (known: {known})", l.temperature),
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// Index of a camera by name.
+    pub fn camera_index(&self, name: &str) -> Option<usize> {
+        self.camera.iter().position(|c| c.name == name)
+    }
+
+    /// A pose by name.
+    pub fn pose_by_name(&self, name: &str) -> Option<&Pose> {
+        self.pose.iter().find(|p| p.name == name)
+    }
+
+    /// The temperature names the nominal model needs, in first-use order.
+    pub fn mapped_temperatures(&self) -> Vec<String> {
+        let mut out: Vec<String> = Vec::new();
+        for l in &self.expansion.length {
+            if !out.contains(&l.temperature) {
+                out.push(l.temperature.clone());
+            }
+        }
+        out
+    }
+
+    /// Expanded lengths as (which length, temperature name), validated.
+    pub fn length_map(&self) -> Vec<(LengthRef, String)> {
+        self.expansion
+            .length
+            .iter()
+            .filter_map(|l| LengthRef::parse(&l.name).map(|r| (r, l.temperature.clone())))
+            .collect()
+    }
+
+    /// Rig as JSON (for the bindings and for `--json` outputs).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("a rig always serialises")
+    }
+
+    /// Every ROI name with its rectangle.
+    pub fn rois(&self) -> BTreeMap<String, [i64; 4]> {
+        self.thermal
+            .iter()
+            .flat_map(|t| t.roi.iter().map(|r| (r.name.clone(), r.rect_px)))
+            .collect()
+    }
+}
+
+fn check_finite(v: f64, key: &str) -> Result<(), (String, String)> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err((key.to_string(), format!("is {v}, expected a finite number")))
+    }
+}
+
+fn check_vec(v: &[f64; 3], key: &str) -> Result<(), (String, String)> {
+    for (k, x) in v.iter().enumerate() {
+        check_finite(*x, &format!("{key}[{k}]"))?;
+    }
+    Ok(())
+}
+
+fn check_unit(v: &[f64; 3], key: &str) -> Result<(), (String, String)> {
+    check_vec(v, key)?;
+    let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    if norm == 0.0 {
+        return Err((key.to_string(), "is a zero-length vector, expected a unit vector".into()));
+    }
+    if (norm - 1.0).abs() > UNIT_TOLERANCE {
+        return Err((
+            key.to_string(),
+            format!("has length {norm:.9}, expected a unit vector (within {UNIT_TOLERANCE:e})"),
+        ));
+    }
+    Ok(())
+}
+
+fn check_topic(topic: &str, key: &str) -> Result<(), (String, String)> {
+    if topic.trim().is_empty() {
+        return Err((key.to_string(), "is empty, expected a topic name".into()));
+    }
+    Ok(())
+}
+
+fn check_names(names: &[String], key: &str) -> Result<(), (String, String)> {
+    let mut seen = HashSet::new();
+    for (i, n) in names.iter().enumerate() {
+        let k = if key.starts_with("robot.") {
+            format!("{key}[{i}]")
+        } else {
+            format!("{key}[{i}].name")
+        };
+        if n.trim().is_empty() {
+            return Err((k, "is empty".into()));
+        }
+        if !seen.insert(n.as_str()) {
+            return Err((k, format!("{n:?} is used twice")));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PAPER: &str = include_str!("../../../python/thermrs/data/kr15-paper.toml");
+
+    fn parse(text: &str) -> Result<Rig, RigError> {
+        Rig::from_toml(text, "t.toml")
+    }
+
+    #[test]
+    fn paper_rig_parses() {
+        let rig = parse(PAPER).unwrap();
+        assert_eq!(rig.camera.len(), 2);
+        assert_eq!(rig.robot.dh[2].a_mm, 152.91);
+        assert_eq!(rig.mapped_temperatures(), vec!["link2", "link3"]);
+    }
+
+    #[test]
+    fn unknown_key_is_named_with_its_line() {
+        let text = PAPER.replace("topic = \"/ccd_b/image_raw\"", "tpoic = \"/ccd_b/image_raw\"");
+        let e = parse(&text).unwrap_err();
+        assert!(e.key.starts_with("camera[1]"), "{e}");
+        assert!(e.message.contains("tpoic"), "{e}");
+        assert!(e.line.is_some(), "{e}");
+        assert!(!e.to_string().contains('\n'));
+    }
+
+    #[test]
+    fn wrong_type_is_named() {
+        let text = PAPER.replace("a_mm = 650.0", "a_mm = \"650\"");
+        let e = parse(&text).unwrap_err();
+        assert_eq!(e.key, "robot.dh[1].a_mm", "{e}");
+    }
+
+    #[test]
+    fn roi_outside_frame() {
+        let text = PAPER.replace("140,\n    40,\n    250,", "140,\n    40,\n    350,");
+        let e = parse(&text).unwrap_err();
+        assert_eq!(e.key, "thermal.roi[1].rect_px", "{e}");
+    }
+
+    #[test]
+    fn length_names_parse() {
+        assert_eq!(LengthRef::parse("a2"), Some(LengthRef::A(1)));
+        assert_eq!(LengthRef::parse("d6"), Some(LengthRef::D(5)));
+        assert_eq!(LengthRef::parse("d7"), None);
+        assert_eq!(LengthRef::parse("a12"), None);
+        assert_eq!(LengthRef::parse("b1"), None);
+        assert_eq!(LengthRef::parse(""), None);
+    }
+}

@@ -1,0 +1,263 @@
+//! `thermrs._native`: thin pyo3 bindings of `thermrs-core`.
+//!
+//! The bindings only convert: numpy arrays in (contiguous float64, checked), numpy arrays out
+//! (Rust vectors handed over without a copy), core errors to typed Python exceptions. Long work
+//! runs in chunks with the GIL released (`py.detach`); between chunks the bindings check for
+//! signals (Ctrl-C) and report progress through an optional `progress(done, total)` callback.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+
+use thermrs_core::error::Error as CoreError;
+use thermrs_core::explain;
+use thermrs_core::model::{ExpansionParams, FlangeOutput, ForwardModel, SPOT_WIDTH};
+use thermrs_core::rig::Rig;
+
+create_exception!(
+    thermrs._native,
+    ThermrsError,
+    PyException,
+    "Base class of every error thermrs raises on purpose."
+);
+create_exception!(
+    thermrs._native,
+    RigError,
+    ThermrsError,
+    "A rig file that does not parse or does not validate; the message names the key."
+);
+create_exception!(
+    thermrs._native,
+    InputError,
+    ThermrsError,
+    "Arguments or data that do not fit: shapes, names, values, unreadable files."
+);
+
+/// Samples per GIL-free chunk; between chunks: signals and progress.
+const CHUNK: usize = 1 << 18;
+
+fn to_py(e: CoreError) -> PyErr {
+    match e {
+        CoreError::Rig(r) => RigError::new_err(r.to_string()),
+        other => InputError::new_err(other.to_string()),
+    }
+}
+
+/// A validated rig (wraps the core's `Rig`).
+#[pyclass(frozen, module = "thermrs._native", name = "Rig")]
+struct PyRig {
+    inner: Rig,
+}
+
+#[pymethods]
+impl PyRig {
+    /// Read and validate a rig file.
+    #[staticmethod]
+    fn from_path(py: Python<'_>, path: PathBuf) -> PyResult<PyRig> {
+        let inner = py.detach(|| Rig::from_path(&path)).map_err(to_py)?;
+        Ok(PyRig { inner })
+    }
+
+    /// Parse and validate rig TOML text; `source_name` names it in errors.
+    #[staticmethod]
+    #[pyo3(signature = (text, source_name = "<string>"))]
+    fn from_toml(text: &str, source_name: &str) -> PyResult<PyRig> {
+        let inner = Rig::from_toml(text, source_name).map_err(|e| to_py(e.into()))?;
+        Ok(PyRig { inner })
+    }
+
+    /// The rig as a JSON string (all keys of the file, defaults filled in).
+    fn to_json(&self) -> String {
+        self.inner.to_json()
+    }
+
+    /// The rig explained pose by pose (SPEC §7 `thermrs rig --json`, extended) as JSON, plus
+    /// a `problems` list (poses whose own camera the laser misses).
+    fn explain_json(&self) -> PyResult<String> {
+        let view = explain::explain(&self.inner).map_err(to_py)?;
+        let mut v = view.to_spec_json();
+        v["problems"] = serde_json::json!(view.problems);
+        Ok(v.to_string())
+    }
+
+    /// The temperature names the nominal model maps lengths to, in column order.
+    fn mapped_temperatures(&self) -> Vec<String> {
+        self.inner.mapped_temperatures()
+    }
+}
+
+/// The forward model of a rig with one expansion law (see `thermrs.model`).
+#[pyclass(frozen, module = "thermrs._native", name = "ForwardModel")]
+struct PyForwardModel {
+    inner: ForwardModel,
+}
+
+fn report(py: Python<'_>, progress: Option<&Bound<'_, PyAny>>, done: usize, total: usize) -> PyResult<()> {
+    py.check_signals()?;
+    if let Some(cb) = progress {
+        cb.call1((done, total))?;
+    }
+    Ok(())
+}
+
+impl PyForwardModel {
+    /// Shared driver: check shapes, then run `f` chunk by chunk without the GIL.
+    fn run<F>(
+        &self,
+        py: Python<'_>,
+        q: &PyReadonlyArray2<'_, f64>,
+        temperatures: &Option<Vec<PyReadonlyArray1<'_, f64>>>,
+        width: usize,
+        progress: Option<&Bound<'_, PyAny>>,
+        f: F,
+    ) -> PyResult<Vec<f64>>
+    where
+        F: Fn(&[f64], Option<&[&[f64]]>, &mut [f64]) -> Result<(), CoreError> + Sync,
+    {
+        let shape = q.shape();
+        if shape[1] != 6 {
+            return Err(InputError::new_err(format!(
+                "joints must have shape (N, 6), got ({}, {})",
+                shape[0], shape[1]
+            )));
+        }
+        let n = shape[0];
+        let q = q
+            .as_slice()
+            .map_err(|_| InputError::new_err("joints must be a C-contiguous float64 array"))?;
+        let cols: Option<Vec<&[f64]>> = match temperatures {
+            None => None,
+            Some(ts) => Some(
+                ts.iter()
+                    .map(|t| t.as_slice())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| {
+                        InputError::new_err("temperatures must be C-contiguous float64 arrays")
+                    })?,
+            ),
+        };
+        self.inner.batch_len(q, cols.as_deref()).map_err(to_py)?;
+        let mut out = vec![0.0f64; n * width];
+        let mut start = 0;
+        report(py, progress, 0, n)?;
+        while start < n {
+            let end = (start + CHUNK).min(n);
+            let qc = &q[6 * start..6 * end];
+            let tc: Option<Vec<&[f64]>> =
+                cols.as_ref().map(|cs| cs.iter().map(|c| &c[start..end]).collect());
+            let oc = &mut out[width * start..width * end];
+            py.detach(|| f(qc, tc.as_deref(), oc)).map_err(to_py)?;
+            start = end;
+            report(py, progress, start, n)?;
+        }
+        Ok(out)
+    }
+}
+
+#[pymethods]
+impl PyForwardModel {
+    #[new]
+    #[pyo3(signature = (rig, *, alpha_per_k = None, reference_c = None, alpha_by_temperature = None, kappa_per_k = 0.0))]
+    fn new(
+        rig: &PyRig,
+        alpha_per_k: Option<f64>,
+        reference_c: Option<f64>,
+        alpha_by_temperature: Option<BTreeMap<String, f64>>,
+        kappa_per_k: f64,
+    ) -> PyResult<PyForwardModel> {
+        let mut params = ExpansionParams::nominal(&rig.inner);
+        if let Some(a) = alpha_per_k {
+            params.alpha_per_k = a;
+        }
+        if let Some(r) = reference_c {
+            params.reference_c = r;
+        }
+        params.alpha_by_temperature = alpha_by_temperature.unwrap_or_default();
+        params.kappa_per_k = kappa_per_k;
+        let inner = ForwardModel::new(&rig.inner, &params).map_err(to_py)?;
+        Ok(PyForwardModel { inner })
+    }
+
+    /// Temperature names, in the order `temperatures` columns are expected.
+    fn temperature_names(&self) -> Vec<String> {
+        self.inner.temperature_names().to_vec()
+    }
+
+    /// Flange positions (N, 3) in mm.
+    #[pyo3(signature = (q, temperatures = None, progress = None))]
+    fn flange_positions<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArray2<'py, f64>,
+        temperatures: Option<Vec<PyReadonlyArray1<'py, f64>>>,
+        progress: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let n = q.shape()[0];
+        let out = self.run(py, &q, &temperatures, 3, progress.as_ref(), |q, t, o| {
+            self.inner.flange_batch(q, t, FlangeOutput::Position, o)
+        })?;
+        let arr = Array2::from_shape_vec((n, 3), out).expect("shape");
+        Ok(arr.into_pyarray(py))
+    }
+
+    /// Flange transforms (N, 4, 4), homogeneous, base frame.
+    #[pyo3(signature = (q, temperatures = None, progress = None))]
+    fn flange_transforms<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArray2<'py, f64>,
+        temperatures: Option<Vec<PyReadonlyArray1<'py, f64>>>,
+        progress: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let n = q.shape()[0];
+        let out = self.run(py, &q, &temperatures, 16, progress.as_ref(), |q, t, o| {
+            self.inner.flange_batch(q, t, FlangeOutput::Matrix, o)
+        })?;
+        let arr = numpy::ndarray::Array3::from_shape_vec((n, 4, 4), out).expect("shape");
+        Ok(arr.into_pyarray(py))
+    }
+
+    /// Laser spot on one camera's chip plane: (N, 4) columns x_px, y_px, distance_mm,
+    /// incidence_deg; NaN where the ray does not meet the plane in front of the laser.
+    #[pyo3(signature = (camera, q, temperatures = None, progress = None))]
+    fn spots<'py>(
+        &self,
+        py: Python<'py>,
+        camera: &str,
+        q: PyReadonlyArray2<'py, f64>,
+        temperatures: Option<Vec<PyReadonlyArray1<'py, f64>>>,
+        progress: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let cam = self.inner.camera_index(camera).map_err(to_py)?;
+        let n = q.shape()[0];
+        let out = self.run(py, &q, &temperatures, SPOT_WIDTH, progress.as_ref(), |q, t, o| {
+            self.inner.spot_batch(cam, q, t, o)
+        })?;
+        let arr = Array2::from_shape_vec((n, SPOT_WIDTH), out).expect("shape");
+        Ok(arr.into_pyarray(py))
+    }
+}
+
+/// Number of threads the core's parallel loops use.
+#[pyfunction]
+fn num_threads() -> usize {
+    thermrs_core::model::num_threads()
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("ThermrsError", py.get_type::<ThermrsError>())?;
+    m.add("RigError", py.get_type::<RigError>())?;
+    m.add("InputError", py.get_type::<InputError>())?;
+    m.add_class::<PyRig>()?;
+    m.add_class::<PyForwardModel>()?;
+    m.add_function(wrap_pyfunction!(num_threads, m)?)?;
+    Ok(())
+}
