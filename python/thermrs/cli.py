@@ -73,7 +73,17 @@ def paper(as_json: bool, train_run: int, exact: bool) -> None:
 
     p7 = {(r["alpha"], r["camera"]): r for r in printed.get("table7", [])}
     t7 = Table(title="Table 7 — predicted vs measured Δl_x (µm), error (%)")
-    for col in ("α", "camera", "run", "predicted", "measured", "error %", "paper pred.", "paper meas.", "paper err."):
+    for col in (
+        "α",
+        "camera",
+        "run",
+        "predicted",
+        "measured",
+        "error %",
+        "paper pred.",
+        "paper meas.",
+        "paper err.",
+    ):
         t7.add_column(col, justify="left" if col in ("α", "camera") else "right")
     for r in paper_mod.table7(train_run=train_run, data=data, paper_rounding=rounding).iter_rows(
         named=True
@@ -170,8 +180,8 @@ def main(argv: list[str] | None = None) -> None:
         if _debug():
             traceback.print_exc()
         click.echo(
-            f"thermrs: internal error: {type(e).__name__}: {e} (THERMRS_DEBUG=1 shows the traceback)",
+            f"thermrs: internal error: {type(e).__name__}: {e} "
+            "(THERMRS_DEBUG=1 shows the traceback)",
             err=True,
         )
         sys.exit(EXIT_INTERNAL)
-

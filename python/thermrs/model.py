@@ -58,7 +58,10 @@ class Spots:
         """Whether each hit lies on the chip's light-sensitive area."""
         w, h = self.size_px
         return (
-            (self.x_px >= -0.5) & (self.x_px <= w - 0.5) & (self.y_px >= -0.5) & (self.y_px <= h - 0.5)
+            (self.x_px >= -0.5)
+            & (self.x_px <= w - 0.5)
+            & (self.y_px >= -0.5)
+            & (self.y_px <= h - 0.5)
         )
 
     @property
@@ -150,7 +153,7 @@ class ForwardModel:
                 f"temperatures {missing} are missing; the rig maps lengths to {needed}"
             )
         cols = [np.asarray(temperatures[n], dtype=np.float64) for n in needed]
-        for name, c in zip(needed, cols):
+        for name, c in zip(needed, cols, strict=True):
             if c.ndim > 1:
                 raise InputError(f"temperature {name!r} must be a scalar or 1-D, got {c.shape}")
         n = max([q.shape[0] if q.ndim == 2 else 1] + [c.size for c in cols])

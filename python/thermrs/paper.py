@@ -130,9 +130,10 @@ def _r(x: float, digits: int, on: bool) -> float:
 
 def effective_expansion_m(data: PaperData, dt2_c: float, dt3_c: float) -> float:
     """Eq. (1) weighted by temperature change: l₂·cos 17.55°·ΔT₂ + l₃·cos 55.57°·ΔT₃ (m·K)."""
-    return data.l2_m * math.cos(math.radians(data.angle2_deg)) * dt2_c + data.l3_m * math.cos(
-        math.radians(data.angle3_deg)
-    ) * dt3_c
+    return (
+        data.l2_m * math.cos(math.radians(data.angle2_deg)) * dt2_c
+        + data.l3_m * math.cos(math.radians(data.angle3_deg)) * dt3_c
+    )
 
 
 def projection(data: PaperData, camera: str) -> float:

@@ -132,18 +132,26 @@ mod tests {
         let rig = Rig::from_toml(PAPER, "paper").unwrap();
         let v = check(&rig).unwrap();
         let a = &v.poses["A"];
-        let want = [1087.78, -48.62, 217.75];
-        for k in 0..3 {
-            assert!((a.flange_mm[k] - want[k]).abs() < 0.1, "{:?}", a.flange_mm);
-        }
+        let near =
+            |got: [f64; 3], want: [f64; 3]| got.iter().zip(want).all(|(g, w)| (g - w).abs() < 0.1);
+        assert!(
+            near(a.flange_mm, [1087.78, -48.62, 217.75]),
+            "{:?}",
+            a.flange_mm
+        );
         let b = &v.poses["B"];
-        let want = [1087.33, -38.29, 198.07];
-        for k in 0..3 {
-            assert!((b.flange_mm[k] - want[k]).abs() < 0.1, "{:?}", b.flange_mm);
-        }
+        assert!(
+            near(b.flange_mm, [1087.33, -38.29, 198.07]),
+            "{:?}",
+            b.flange_mm
+        );
         // The paper's φ, θ (Table 2 geometry): A 11.31°, 2.56°; B 10.32°, 2.02°.
-        assert!((a.elevation_deg - 11.31).abs() < 0.005 && (a.azimuth_deg.abs() - 2.56).abs() < 0.005);
-        assert!((b.elevation_deg - 10.32).abs() < 0.005 && (b.azimuth_deg.abs() - 2.02).abs() < 0.005);
+        assert!(
+            (a.elevation_deg - 11.31).abs() < 0.005 && (a.azimuth_deg.abs() - 2.56).abs() < 0.005
+        );
+        assert!(
+            (b.elevation_deg - 10.32).abs() < 0.005 && (b.azimuth_deg.abs() - 2.02).abs() < 0.005
+        );
         let spot = a.cameras["A"].spot_px.unwrap();
         assert!((spot[0] - 375.5).abs() < 1e-6 && (spot[1] - 290.5).abs() < 1e-6);
         assert!(a.cameras["A"].incidence_deg.unwrap() < 1e-4);
@@ -171,6 +179,9 @@ mod tests {
         rig.laser.direction = [d[0] / n, d[1] / n, d[2] / n];
         let e = check(&rig).unwrap_err().to_string();
         assert!(e.contains("misses camera \"A\""), "{e}");
-        assert!(Rig::from_toml(&text, "t").is_err(), "non-unit direction must fail");
+        assert!(
+            Rig::from_toml(&text, "t").is_err(),
+            "non-unit direction must fail"
+        );
     }
 }

@@ -119,14 +119,19 @@ impl ForwardModel {
             ("kappa_per_k", params.kappa_per_k),
         ] {
             if !v.is_finite() {
-                return Err(Error::Input(format!("{what} is {v}, expected a finite number")));
+                return Err(Error::Input(format!(
+                    "{what} is {v}, expected a finite number"
+                )));
             }
         }
         let lengths = rig
             .length_map()
             .into_iter()
             .map(|(l, t)| {
-                let idx = temperature_names.iter().position(|n| *n == t).expect("mapped");
+                let idx = temperature_names
+                    .iter()
+                    .position(|n| *n == t)
+                    .expect("mapped");
                 (l, idx)
             })
             .collect();
@@ -174,12 +179,15 @@ impl ForwardModel {
 
     /// Index of a camera by name, or an error naming the known ones.
     pub fn camera_index(&self, name: &str) -> Result<usize> {
-        self.camera_names.iter().position(|c| c == name).ok_or_else(|| {
-            Error::Input(format!(
-                "camera {name:?} is not in the rig (cameras: {})",
-                self.camera_names.join(", ")
-            ))
-        })
+        self.camera_names
+            .iter()
+            .position(|c| c == name)
+            .ok_or_else(|| {
+                Error::Input(format!(
+                    "camera {name:?} is not in the rig (cameras: {})",
+                    self.camera_names.join(", ")
+                ))
+            })
     }
 
     /// The DH lengths (a, d) in mm at one set of temperatures (one per temperature name).
@@ -189,7 +197,8 @@ impl ForwardModel {
         let mut d = self.chain.d_mm;
         if let Some(t) = temps {
             for &(l, ti) in &self.lengths {
-                let f = ExpansionParams::factor(self.alpha[ti], self.kappa, self.reference_c, t[ti]);
+                let f =
+                    ExpansionParams::factor(self.alpha[ti], self.kappa, self.reference_c, t[ti]);
                 match l {
                     LengthRef::A(r) => a[r] *= f,
                     LengthRef::D(r) => d[r] *= f,
@@ -243,8 +252,14 @@ impl ForwardModel {
     }
 
     /// Run `f(sample, temps_at_sample, out_row)` for every sample, in parallel for large batches.
-    fn for_samples<F>(&self, n: usize, temps: TemperatureColumns<'_>, out: &mut [f64], width: usize, f: F)
-    where
+    fn for_samples<F>(
+        &self,
+        n: usize,
+        temps: TemperatureColumns<'_>,
+        out: &mut [f64],
+        width: usize,
+        f: F,
+    ) where
         F: Fn(usize, Option<&[f64]>, &mut [f64]) + Sync,
     {
         let k = self.temperature_names.len();
@@ -281,7 +296,11 @@ impl ForwardModel {
         let n = self.batch_len(q, temps)?;
         let width = what.width();
         if out.len() != n * width {
-            return Err(Error::Input(format!("output has {} values, need {}", out.len(), n * width)));
+            return Err(Error::Input(format!(
+                "output has {} values, need {}",
+                out.len(),
+                n * width
+            )));
         }
         self.for_samples(n, temps, out, width, |i, t, row| {
             let f = self.flange(&q[6 * i..6 * i + 6], t);
@@ -311,7 +330,10 @@ impl ForwardModel {
     ) -> Result<()> {
         let n = self.batch_len(q, temps)?;
         let chip = self.chips.get(camera).ok_or_else(|| {
-            Error::Input(format!("camera index {camera} out of range ({} cameras)", self.chips.len()))
+            Error::Input(format!(
+                "camera index {camera} out of range ({} cameras)",
+                self.chips.len()
+            ))
         })?;
         if out.len() != n * SPOT_WIDTH {
             return Err(Error::Input(format!(
@@ -368,12 +390,15 @@ mod tests {
         let rig = rig();
         let m = ForwardModel::nominal(&rig).unwrap();
         let n = 20_000;
-        let q: Vec<f64> = (0..n * 6).map(|i| ((i * 7919) % 1000) as f64 / 500.0 - 1.0).collect();
+        let q: Vec<f64> = (0..n * 6)
+            .map(|i| ((i * 7919) % 1000) as f64 / 500.0 - 1.0)
+            .collect();
         let t1: Vec<f64> = (0..n).map(|i| 20.0 + (i % 17) as f64).collect();
         let t2: Vec<f64> = (0..n).map(|i| 25.0 - (i % 13) as f64).collect();
         let cols: [&[f64]; 2] = [&t1, &t2];
         let mut out = vec![0.0; n * 3];
-        m.flange_batch(&q, Some(&cols), FlangeOutput::Position, &mut out).unwrap();
+        m.flange_batch(&q, Some(&cols), FlangeOutput::Position, &mut out)
+            .unwrap();
         for i in [0, 1, 4095, 4096, 12345, n - 1] {
             let f = m.flange(&q[6 * i..6 * i + 6], Some(&[t1[i], t2[i]]));
             assert_eq!(&out[3 * i..3 * i + 3], f.translation.as_slice());
@@ -387,8 +412,10 @@ mod tests {
         let q = pose_joints_rad(&rig.pose[0].joints_deg);
         let mut cold = [0.0; SPOT_WIDTH];
         let mut warm = [0.0; SPOT_WIDTH];
-        m.spot_batch(0, &q, Some(&[&[23.0][..], &[23.0][..]]), &mut cold).unwrap();
-        m.spot_batch(0, &q, Some(&[&[28.0][..], &[23.0][..]]), &mut warm).unwrap();
+        m.spot_batch(0, &q, Some(&[&[23.0][..], &[23.0][..]]), &mut cold)
+            .unwrap();
+        m.spot_batch(0, &q, Some(&[&[28.0][..], &[23.0][..]]), &mut warm)
+            .unwrap();
         assert!((cold[0] - 375.5).abs() < 1e-6 && (cold[1] - 290.5).abs() < 1e-6);
         // 650 mm·α·5 K ≈ 75 µm of arm growth, mostly along base x = chip y.
         let dy_um = (warm[1] - cold[1]) * 8.3;
@@ -400,12 +427,23 @@ mod tests {
         let rig = rig();
         let m = ForwardModel::nominal(&rig).unwrap();
         let mut out = vec![0.0; 3];
-        assert!(m.flange_batch(&[0.0; 5], None, FlangeOutput::Position, &mut out).is_err());
+        assert!(m
+            .flange_batch(&[0.0; 5], None, FlangeOutput::Position, &mut out)
+            .is_err());
         let short: [&[f64]; 2] = [&[1.0, 2.0], &[1.0]];
         let e = m
-            .flange_batch(&[0.0; 12], Some(&short), FlangeOutput::Position, &mut vec![0.0; 6])
+            .flange_batch(
+                &[0.0; 12],
+                Some(&short),
+                FlangeOutput::Position,
+                &mut [0.0; 6],
+            )
             .unwrap_err();
         assert!(e.to_string().contains("link3"), "{e}");
-        assert!(m.camera_index("C").unwrap_err().to_string().contains("A, B"));
+        assert!(m
+            .camera_index("C")
+            .unwrap_err()
+            .to_string()
+            .contains("A, B"));
     }
 }

@@ -158,7 +158,10 @@ mod tests {
         let h = c.intersect(&ray).unwrap();
         assert!((h.x_px - 385.5).abs() < 1e-9, "{}", h.x_px);
         assert!((h.y_px - 300.5).abs() < 1e-9, "{}", h.y_px);
-        assert_eq!(c.px_to_um(385.5, 300.5).map(|v| (v * 1e6).round() / 1e6), [86.0, 83.0]);
+        assert_eq!(
+            c.px_to_um(385.5, 300.5).map(|v| (v * 1e6).round() / 1e6),
+            [86.0, 83.0]
+        );
     }
 
     #[test]

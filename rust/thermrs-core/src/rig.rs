@@ -193,8 +193,13 @@ impl Rig {
             key,
             message,
         };
-        let de = toml::Deserializer::parse(text)
-            .map_err(|e| err(e.span().map(|s| line_of(text, s.start)), String::new(), one_line(e.message())))?;
+        let de = toml::Deserializer::parse(text).map_err(|e| {
+            err(
+                e.span().map(|s| line_of(text, s.start)),
+                String::new(),
+                one_line(e.message()),
+            )
+        })?;
         let rig: Rig = serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();
             let inner = e.into_inner();
@@ -205,7 +210,8 @@ impl Rig {
                 one_line(inner.message()),
             )
         })?;
-        rig.validate().map_err(|(key, message)| err(None, key, message))?;
+        rig.validate()
+            .map_err(|(key, message)| err(None, key, message))?;
         Ok(rig)
     }
 
@@ -213,7 +219,10 @@ impl Rig {
     pub fn validate(&self) -> Result<(), (String, String)> {
         let fail = |key: &str, message: String| Err((key.to_string(), message));
         if self.format != RIG_FORMAT {
-            return fail("format", format!("is {:?}, expected {RIG_FORMAT:?}", self.format));
+            return fail(
+                "format",
+                format!("is {:?}, expected {RIG_FORMAT:?}", self.format),
+            );
         }
         // robot
         let r = &self.robot;
@@ -263,7 +272,10 @@ impl Rig {
         }
         // cameras
         if self.camera.is_empty() {
-            return fail("camera", "no [[camera]] given; at least one is needed".into());
+            return fail(
+                "camera",
+                "no [[camera]] given; at least one is needed".into(),
+            );
         }
         let cam_names: Vec<String> = self.camera.iter().map(|c| c.name.clone()).collect();
         check_names(&cam_names, "camera")?;
@@ -328,7 +340,10 @@ impl Rig {
                 }
             }
             if !(t.scale.is_finite() && t.scale != 0.0) {
-                return fail("thermal.scale", format!("is {}, expected a non-zero number", t.scale));
+                return fail(
+                    "thermal.scale",
+                    format!("is {}, expected a non-zero number", t.scale),
+                );
             }
             check_finite(t.offset_c, "thermal.offset_c")?;
             let roi_names: Vec<String> = t.roi.iter().map(|r| r.name.clone()).collect();
@@ -367,7 +382,10 @@ impl Rig {
         if e.alpha_per_k.abs() > 1e-3 {
             return fail(
                 "expansion.alpha_per_k",
-                format!("is {}, not a plausible per-kelvin coefficient (|α| > 1e-3)", e.alpha_per_k),
+                format!(
+                    "is {}, not a plausible per-kelvin coefficient (|α| > 1e-3)",
+                    e.alpha_per_k
+                ),
             );
         }
         check_finite(e.reference_c, "expansion.reference_c")?;
@@ -404,7 +422,10 @@ impl Rig {
                 };
                 return fail(
                     &format!("expansion.length[{i}].temperature"),
-                    format!("{:?} is neither a ROI nor ambient (known: {known})", l.temperature),
+                    format!(
+                        "{:?} is neither a ROI nor ambient (known: {known})",
+                        l.temperature
+                    ),
                 );
             }
         }
@@ -474,7 +495,10 @@ fn check_unit(v: &[f64; 3], key: &str) -> Result<(), (String, String)> {
     check_vec(v, key)?;
     let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
     if norm == 0.0 {
-        return Err((key.to_string(), "is a zero-length vector, expected a unit vector".into()));
+        return Err((
+            key.to_string(),
+            "is a zero-length vector, expected a unit vector".into(),
+        ));
     }
     if (norm - 1.0).abs() > UNIT_TOLERANCE {
         return Err((
@@ -530,7 +554,10 @@ mod tests {
 
     #[test]
     fn unknown_key_is_named_with_its_line() {
-        let text = PAPER.replace("topic = \"/ccd_b/image_raw\"", "tpoic = \"/ccd_b/image_raw\"");
+        let text = PAPER.replace(
+            "topic = \"/ccd_b/image_raw\"",
+            "tpoic = \"/ccd_b/image_raw\"",
+        );
         let e = parse(&text).unwrap_err();
         assert!(e.key.starts_with("camera[1]"), "{e}");
         assert!(e.message.contains("tpoic"), "{e}");

@@ -9,7 +9,9 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{
+    IntoPyArray, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+};
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
@@ -97,7 +99,12 @@ struct PyForwardModel {
     inner: ForwardModel,
 }
 
-fn report(py: Python<'_>, progress: Option<&Bound<'_, PyAny>>, done: usize, total: usize) -> PyResult<()> {
+fn report(
+    py: Python<'_>,
+    progress: Option<&Bound<'_, PyAny>>,
+    done: usize,
+    total: usize,
+) -> PyResult<()> {
     py.check_signals()?;
     if let Some(cb) = progress {
         cb.call1((done, total))?;
@@ -148,8 +155,9 @@ impl PyForwardModel {
         while start < n {
             let end = (start + CHUNK).min(n);
             let qc = &q[6 * start..6 * end];
-            let tc: Option<Vec<&[f64]>> =
-                cols.as_ref().map(|cs| cs.iter().map(|c| &c[start..end]).collect());
+            let tc: Option<Vec<&[f64]>> = cols
+                .as_ref()
+                .map(|cs| cs.iter().map(|c| &c[start..end]).collect());
             let oc = &mut out[width * start..width * end];
             py.detach(|| f(qc, tc.as_deref(), oc)).map_err(to_py)?;
             start = end;
@@ -235,9 +243,14 @@ impl PyForwardModel {
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let cam = self.inner.camera_index(camera).map_err(to_py)?;
         let n = q.shape()[0];
-        let out = self.run(py, &q, &temperatures, SPOT_WIDTH, progress.as_ref(), |q, t, o| {
-            self.inner.spot_batch(cam, q, t, o)
-        })?;
+        let out = self.run(
+            py,
+            &q,
+            &temperatures,
+            SPOT_WIDTH,
+            progress.as_ref(),
+            |q, t, o| self.inner.spot_batch(cam, q, t, o),
+        )?;
         let arr = Array2::from_shape_vec((n, SPOT_WIDTH), out).expect("shape");
         Ok(arr.into_pyarray(py))
     }
