@@ -60,7 +60,9 @@ pub struct DhRow {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Laser {
+    #[serde(deserialize_with = "exact_array")]
     pub origin_mm: [f64; 3],
+    #[serde(deserialize_with = "exact_array")]
     pub direction: [f64; 3],
 }
 
@@ -70,10 +72,15 @@ pub struct Camera {
     pub name: String,
     pub topic: String,
     pub pose: String,
+    #[serde(deserialize_with = "exact_array")]
     pub centre_mm: [f64; 3],
+    #[serde(deserialize_with = "exact_array")]
     pub x_axis: [f64; 3],
+    #[serde(deserialize_with = "exact_array")]
     pub y_axis: [f64; 3],
+    #[serde(deserialize_with = "exact_array")]
     pub pixel_pitch_um: [f64; 2],
+    #[serde(deserialize_with = "exact_array")]
     pub size_px: [i64; 2],
 }
 
@@ -81,6 +88,7 @@ pub struct Camera {
 #[serde(deny_unknown_fields)]
 pub struct Pose {
     pub name: String,
+    #[serde(deserialize_with = "exact_array")]
     pub joints_deg: [f64; 6],
 }
 
@@ -88,6 +96,7 @@ pub struct Pose {
 #[serde(deny_unknown_fields)]
 pub struct Thermal {
     pub topic: String,
+    #[serde(deserialize_with = "exact_array")]
     pub size_px: [i64; 2],
     pub scale: f64,
     pub offset_c: f64,
@@ -100,6 +109,7 @@ pub struct Thermal {
 pub struct Roi {
     pub name: String,
     /// [x0, y0, x1, y1]: columns x0..x1−1, rows y0..y1−1.
+    #[serde(deserialize_with = "exact_array")]
     pub rect_px: [i64; 4],
 }
 
@@ -166,6 +176,20 @@ impl std::fmt::Display for LengthRef {
     }
 }
 
+/// Deserialize a fixed-size array, rejecting extra entries (serde's own array support stops
+/// reading after N entries and would silently drop a typo'd 7th joint angle).
+fn exact_array<'de, D, T, const N: usize>(de: D) -> Result<[T; N], D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    let v: Vec<T> = Vec::deserialize(de)?;
+    let len = v.len();
+    v.try_into().map_err(|_| {
+        serde::de::Error::custom(format!("has {len} entries, expected an array of {N}"))
+    })
+}
+
 fn line_of(text: &str, offset: usize) -> usize {
     text[..offset.min(text.len())].matches('\n').count() + 1
 }
@@ -194,11 +218,16 @@ impl Rig {
             message,
         };
         let de = toml::Deserializer::parse(text).map_err(|e| {
-            err(
-                e.span().map(|s| line_of(text, s.start)),
-                String::new(),
-                one_line(e.message()),
-            )
+            let line = e.span().map(|s| line_of(text, s.start));
+            // Name the key of a "duplicate key" (the span covers it).
+            let key = match e.span() {
+                Some(s) if e.message().contains("duplicate") => text
+                    .get(s)
+                    .map(|k| k.trim().trim_matches(['[', ']']).trim().to_string())
+                    .unwrap_or_default(),
+                _ => String::new(),
+            };
+            err(line, key, one_line(e.message()))
         })?;
         let rig: Rig = serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();
