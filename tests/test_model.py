@@ -158,3 +158,25 @@ def test_outputs_are_owned_contiguous_arrays(paper_rig: thermrs.Rig) -> None:
     out = ForwardModel(paper_rig).flange_positions(np.zeros((10, 6)))
     assert out.dtype == np.float64 and out.flags.c_contiguous and out.flags.writeable
     assert out.shape == (10, 3)
+
+
+def test_other_robot_with_chips_placed_by_the_toolbox() -> None:
+    """fixtures/rigs/ur5-two-cameras.toml: a UR5 with a sign −1 joint, θ offsets and a tilted
+    laser; its chips were placed by the Robotics Toolbox orthogonal to the ray at 120 / 95 mm
+    (fixtures/make_ur5_rig.py). thermrs must find each spot at the chip's centre pixel."""
+    from pathlib import Path
+
+    rig = thermrs.load_rig(Path(__file__).parents[1] / "fixtures/rigs/ur5-two-cameras.toml")
+    view = rig.check()
+    for cam, pose, dist in (("near", "P1", 120.0), ("far", "P2", 95.0)):
+        p = view["poses"][pose]
+        assert p["spot_px"][cam] == pytest.approx([639.5, 511.5], abs=1e-6)
+        assert p["incidence_deg"][cam] == pytest.approx(0.0, abs=1e-6)
+        assert p["distance_mm"][cam] == pytest.approx(dist, abs=1e-9)
+    # Ambient-mapped d1 expands too: warming the room lifts the flange by d1·α·ΔT.
+    m = ForwardModel(rig)
+    q = rig.poses["P1"].joints_rad
+    t = {"upper_arm": 20.0, "forearm": 20.0}
+    lo = m.flange_positions(q, temperatures={**t, "ambient": 20.0})[0]
+    hi = m.flange_positions(q, temperatures={**t, "ambient": 30.0})[0]
+    assert hi - lo == pytest.approx([0.0, 0.0, 89.159 * 2.3e-5 * 10], abs=1e-12)

@@ -109,3 +109,20 @@ def test_cli_paper_tables_render() -> None:
     assert p.returncode == 0, p.stderr
     assert "Table 6" in p.stdout and "Table 7" in p.stdout
     assert "21.87" in p.stdout and "-8.12" in p.stdout
+
+
+def test_forward_model_generalisation(paper_rig: thermrs.Rig) -> None:
+    """The forward model on the paper's data: α per camera explains Run 1 exactly, and the
+    geometry claim printed by `thermrs paper` holds (link 3 moves the spot along chip x)."""
+    a, t = paper.forward_model_table(paper_rig)
+    assert t.height == 8
+    # Refit check: α_A reproduces Run 1's 131 µm on camera A through the model itself.
+    m = thermrs.ForwardModel(paper_rig, alpha_per_k=a["A"])
+    q = paper_rig.camera_pose("A").joints_rad
+    s = m.spots("A", q, temperatures={"link2": [23.40, 28.10], "link3": [23.35, 30.10]})
+    assert s.v_um[1] - s.v_um[0] == pytest.approx(131.0, abs=1e-6)
+    # Heating link 3 alone moves the spot along chip x (u) far more than along y (v).
+    s3 = m.spots("A", q, temperatures={"link2": [23.0, 23.0], "link3": [23.0, 33.0]})
+    du, dv = s3.u_um[1] - s3.u_um[0], s3.v_um[1] - s3.v_um[0]
+    assert abs(du) > 10 * abs(dv)
+    assert 40e-6 < a["mean"] < 50e-6
