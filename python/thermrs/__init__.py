@@ -10,7 +10,8 @@ The heavy lifting is Rust (``thermrs._native``); this package is the library API
 from importlib.metadata import PackageNotFoundError, version
 
 from thermrs import paper
-from thermrs.errors import InputError, RigError, ThermrsError
+from thermrs.errors import InputError, RecordingError, RigError, ThermrsError
+from thermrs.ingest import Extraction, extract
 from thermrs.model import ForwardModel, Spots
 from thermrs.rig import Rig, default_rig_path, load_rig
 
@@ -20,14 +21,17 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0"
 
 __all__ = [
+    "Extraction",
     "ForwardModel",
     "InputError",
+    "RecordingError",
     "Rig",
     "RigError",
     "Spots",
     "ThermrsError",
     "__version__",
     "default_rig_path",
+    "extract",
     "load_rig",
     "paper",
 ]

@@ -1,6 +1,7 @@
 """Type stubs of the compiled core bindings (``rust/thermrs-py``)."""
 
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -12,6 +13,9 @@ class ThermrsError(Exception):
 
 class RigError(ThermrsError):
     """A rig file that does not parse or does not validate; the message names the key."""
+
+class RecordingError(ThermrsError):
+    """A recording that cannot be used: not MCAP, or none of the rig's topics in it."""
 
 class InputError(ThermrsError):
     """Arguments or data that do not fit: shapes, names, values, unreadable files."""
@@ -59,3 +63,18 @@ class ForwardModel:
     ) -> npt.NDArray[np.float64]: ...
 
 def num_threads() -> int: ...
+def status_names() -> list[str]: ...
+def extract(
+    path: str,
+    rig: Rig,
+    *,
+    progress: Callable[[int, int, int], object] | None = None,
+    min_sigma_px: float | None = None,
+    threshold_sigma: float | None = None,
+) -> tuple[
+    dict[str, npt.NDArray[Any]],
+    dict[str, npt.NDArray[Any]],
+    dict[str, npt.NDArray[Any]],
+    dict[str, npt.NDArray[Any]],
+    str,
+]: ...

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+import time
 import traceback
 from pathlib import Path
 
@@ -19,6 +20,7 @@ from rich.table import Table
 from thermrs import paper as paper_mod
 from thermrs.errors import ThermrsError
 from thermrs.rig import default_rig_path, load_rig
+from thermrs.visits import DEFAULT_TOLERANCE_DEG
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_DATA_LOSS = 0, 1, 2, 3
 
@@ -179,6 +181,100 @@ def rig(rig_path: Path | None, as_json: bool) -> None:
                 "taught for this pose" if own else "",
             )
         out.print(t)
+
+
+@cli.command()
+@click.argument("recording", type=click.Path(path_type=Path))
+@click.option("--rig", "rig_path", required=True, type=click.Path(path_type=Path), help="Rig file.")
+@click.option(
+    "-o",
+    "--out",
+    "out_path",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Frames Parquet; visits, temperatures and joints are written beside it.",
+)
+@click.option(
+    "--visit-tolerance-deg",
+    default=DEFAULT_TOLERANCE_DEG,
+    show_default=True,
+    help="Joint tolerance (°) for a spot frame to count as at its camera's pose.",
+)
+@click.option("--quiet", is_flag=True, help="No progress bar or summary.")
+def extract(
+    recording: Path, rig_path: Path, out_path: Path, visit_tolerance_deg: float, quiet: bool
+) -> None:
+    """Extract a recording into Parquet tables: frames (spot centroids), visits,
+    temperatures (thermal ROI maxima and ambient) and joints.
+
+    Exits 3 (after writing every table) if part of the recording was lost: a file cut short,
+    a corrupt chunk.
+    """
+    from rich.progress import (
+        BarColumn,
+        DownloadColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    from thermrs.ingest import extract as run_extract
+
+    r = load_rig(rig_path)
+    err = Console(stderr=True, highlight=False)
+    with Progress(
+        TextColumn("[bold]extract[/bold]"),
+        BarColumn(),
+        DownloadColumn(),
+        TextColumn("{task.fields[fps]}"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=err,
+        disable=quiet,
+        transient=True,
+    ) as bar:
+        task = bar.add_task("extract", total=None, fps="")
+        t0 = time.perf_counter()
+
+        def on_progress(done: int, total: int, frames: int) -> None:
+            dt = max(time.perf_counter() - t0, 1e-9)
+            bar.update(task, completed=done, total=total, fps=f"{frames / dt:,.0f} frames/s")
+
+        ex = run_extract(
+            recording, r, progress=on_progress, visit_tolerance_deg=visit_tolerance_deg
+        )
+        elapsed = time.perf_counter() - t0
+    paths = ex.write(out_path)
+    rep = ex.report
+    if not quiet:
+        n = ex.frames.height
+        err.print(
+            f"{n:,} frames in {elapsed:.2f} s ({n / max(elapsed, 1e-9):,.0f} frames/s), "
+            f"{ex.visits.height} visits, "
+            f"{ex.temperatures.height:,} temperature rows, {ex.joints.height:,} joint states"
+        )
+        t = Table(title="Frames by status")
+        t.add_column("status")
+        t.add_column("frames", justify="right")
+        for k, v in rep.frames_by_status.items():
+            t.add_row(k, f"{v:,}")
+        err.print(t)
+        if rep.skipped:
+            s = Table(title="Skipped messages")
+            s.add_column("topic: reason (first seen)")
+            s.add_column("count", justify="right")
+            for k, v in rep.skipped.items():
+                s.add_row(rep.skipped_examples.get(k, k), f"{v:,}")
+            err.print(s)
+        for loss in rep.losses:
+            err.print(f"[red]data loss[/red]: {loss['detail']}")
+        if rep.recovered_messages:
+            err.print(f"recovered {rep.recovered_messages} complete messages from the cut chunk")
+        for name, p in paths.items():
+            err.print(f"wrote {name}: {p}")
+    if rep.data_loss:
+        sys.exit(EXIT_DATA_LOSS)
 
 
 def _debug() -> bool:

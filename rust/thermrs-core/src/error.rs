@@ -45,6 +45,12 @@ pub enum Error {
     /// Arguments that do not fit (shapes, names, values).
     #[error("{0}")]
     Input(String),
+    /// A recording that cannot be used at all (not MCAP, none of the rig's topics).
+    #[error("{0}")]
+    Recording(String),
+    /// The caller asked to stop (Ctrl-C).
+    #[error("interrupted")]
+    Interrupted,
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -5,13 +5,21 @@
 //! - [`kinematics`]: standard Denavit–Hartenberg forward kinematics with per-sample link lengths;
 //! - [`optics`]: the laser ray and its intersection with a CCD chip, in pixels (SPEC §4);
 //! - [`model`]: the thermal-expansion forward model (SPEC §4), vectorised over time series;
-//! - [`explain`]: a rig checked and explained pose by pose (`thermrs rig`).
+//! - [`explain`]: a rig checked and explained pose by pose (`thermrs rig`);
+//! - [`cdr`]: zero-copy ROS 2 CDR decoding of the recorded message types;
+//! - [`centroid`]: laser-spot detection and sub-pixel centroids on CCD frames;
+//! - [`thermal`]: thermal ROI maxima in °C;
+//! - [`ingest`]: streaming, chunk-parallel MCAP extraction into tables.
 
+pub mod cdr;
+pub mod centroid;
 pub mod error;
 pub mod explain;
+pub mod ingest;
 pub mod kinematics;
 pub mod model;
 pub mod optics;
 pub mod rig;
+pub mod thermal;
 
 pub use error::{Error, Result};

@@ -16,8 +16,12 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 
+use std::sync::Mutex;
 use thermrs_core::error::Error as CoreError;
+
+use pyo3::types::{PyDict, PyTuple};
 use thermrs_core::explain;
+use thermrs_core::ingest;
 use thermrs_core::model::{ExpansionParams, FlangeOutput, ForwardModel, SPOT_WIDTH};
 use thermrs_core::rig::Rig;
 
@@ -35,6 +39,12 @@ create_exception!(
 );
 create_exception!(
     thermrs._native,
+    RecordingError,
+    ThermrsError,
+    "A recording that cannot be used: not MCAP, or none of the rig's topics in it."
+);
+create_exception!(
+    thermrs._native,
     InputError,
     ThermrsError,
     "Arguments or data that do not fit: shapes, names, values, unreadable files."
@@ -46,6 +56,8 @@ const CHUNK: usize = 1 << 18;
 fn to_py(e: CoreError) -> PyErr {
     match e {
         CoreError::Rig(r) => RigError::new_err(r.to_string()),
+        CoreError::Recording(m) => RecordingError::new_err(m),
+        CoreError::Interrupted => pyo3::exceptions::PyKeyboardInterrupt::new_err("interrupted"),
         other => InputError::new_err(other.to_string()),
     }
 }
@@ -256,6 +268,124 @@ impl PyForwardModel {
     }
 }
 
+fn columns<'py>(
+    py: Python<'py>,
+    pairs: Vec<(&str, Bound<'py, PyAny>)>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for (k, v) in pairs {
+        d.set_item(k, v)?;
+    }
+    Ok(d)
+}
+
+/// Extract a recording: returns (frames, thermal, joints, ambient) column dicts of numpy arrays
+/// (handed over without copying) and the report as JSON. Runs without the GIL; `progress` is
+/// called as progress(bytes_done, bytes_total, frames_done); Ctrl-C stops it.
+#[pyfunction]
+#[pyo3(signature = (path, rig, *, progress = None, min_sigma_px = None, threshold_sigma = None))]
+fn extract<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    rig: &PyRig,
+    progress: Option<Py<PyAny>>,
+    min_sigma_px: Option<f64>,
+    threshold_sigma: Option<f64>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let mut opts = ingest::ExtractOptions::default();
+    if let Some(v) = min_sigma_px {
+        opts.spot.min_sigma_px = v;
+    }
+    if let Some(v) = threshold_sigma {
+        opts.spot.detect_sigmas = v;
+    }
+    let pending: Mutex<Option<PyErr>> = Mutex::new(None);
+    let cb = |done: u64, total: u64, frames: u64| -> bool {
+        Python::attach(|py| {
+            let r = py.check_signals().and_then(|_| match &progress {
+                Some(f) => f.call1(py, (done, total, frames)).map(|_| ()),
+                None => Ok(()),
+            });
+            match r {
+                Ok(()) => true,
+                Err(e) => {
+                    *pending.lock().expect("lock") = Some(e);
+                    false
+                }
+            }
+        })
+    };
+    let inner = &rig.inner;
+    let res = py.detach(|| ingest::extract(&path, inner, &opts, &cb));
+    if let Some(e) = pending.lock().expect("lock").take() {
+        return Err(e);
+    }
+    let (t, report) = res.map_err(to_py)?;
+    let f = t.frames;
+    let frames = columns(
+        py,
+        vec![
+            ("camera", f.camera.into_pyarray(py).into_any()),
+            ("t_ns", f.t_ns.into_pyarray(py).into_any()),
+            ("x_px", f.x_px.into_pyarray(py).into_any()),
+            ("y_px", f.y_px.into_pyarray(py).into_any()),
+            ("peak", f.peak.into_pyarray(py).into_any()),
+            ("signal", f.signal.into_pyarray(py).into_any()),
+            ("size_px", f.size_px.into_pyarray(py).into_any()),
+            ("background", f.background.into_pyarray(py).into_any()),
+            ("noise", f.noise.into_pyarray(py).into_any()),
+            ("status", f.status.into_pyarray(py).into_any()),
+        ],
+    )?;
+    let th = t.thermal;
+    let thermal = columns(
+        py,
+        vec![
+            ("t_ns", th.t_ns.into_pyarray(py).into_any()),
+            ("roi", th.roi.into_pyarray(py).into_any()),
+            ("max_c", th.max_c.into_pyarray(py).into_any()),
+            ("x_px", th.x_px.into_pyarray(py).into_any()),
+            ("y_px", th.y_px.into_pyarray(py).into_any()),
+        ],
+    )?;
+    let n = t.joints.t_ns.len();
+    let pos = Array2::from_shape_vec((n, 6), t.joints.position).expect("N×6");
+    let joints = columns(
+        py,
+        vec![
+            ("t_ns", t.joints.t_ns.into_pyarray(py).into_any()),
+            ("position", pos.into_pyarray(py).into_any()),
+        ],
+    )?;
+    let ambient = columns(
+        py,
+        vec![
+            ("t_ns", t.ambient.t_ns.into_pyarray(py).into_any()),
+            (
+                "temperature_c",
+                t.ambient.temperature_c.into_pyarray(py).into_any(),
+            ),
+        ],
+    )?;
+    let report = serde_json::to_string(&report).expect("report serialises");
+    PyTuple::new(
+        py,
+        [
+            frames.into_any(),
+            thermal.into_any(),
+            joints.into_any(),
+            ambient.into_any(),
+            report.into_pyobject(py)?.into_any(),
+        ],
+    )
+}
+
+/// Names of the frame status codes, in code order.
+#[pyfunction]
+fn status_names() -> Vec<&'static str> {
+    ingest::STATUS_NAMES.to_vec()
+}
+
 /// Number of threads the core's parallel loops use.
 #[pyfunction]
 fn num_threads() -> usize {
@@ -269,8 +399,11 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ThermrsError", py.get_type::<ThermrsError>())?;
     m.add("RigError", py.get_type::<RigError>())?;
     m.add("InputError", py.get_type::<InputError>())?;
+    m.add("RecordingError", py.get_type::<RecordingError>())?;
     m.add_class::<PyRig>()?;
     m.add_class::<PyForwardModel>()?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(extract, m)?)?;
+    m.add_function(wrap_pyfunction!(status_names, m)?)?;
     Ok(())
 }

@@ -1,0 +1,247 @@
+"""Extraction of recordings (SPEC §2) into polars tables.
+
+The work is Rust (``thermrs-core``'s ``ingest``, ``cdr``, ``centroid`` and ``thermal``
+modules): a memory-mapped, chunk-parallel MCAP walk, zero-copy CDR decoding, spot detection
+and sub-pixel centroids, thermal ROI maxima. This module turns the columns into tables, finds
+the visits (:mod:`thermrs.visits`) and writes Parquet atomically.
+
+Example
+-------
+>>> import thermrs
+>>> ex = thermrs.extract("kr15-sample.mcap", thermrs.load_rig())  # doctest: +SKIP
+>>> ex.frames.filter(status="ok").select("camera", "t_ns", "x_px", "y_px")  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from thermrs import _native
+from thermrs.rig import Rig
+from thermrs.visits import DEFAULT_TOLERANCE_DEG, find_visits
+
+__all__ = ["ExtractReport", "Extraction", "extract", "write_parquet_atomic"]
+
+Progress = Callable[[int, int, int], object]
+
+
+@dataclass(frozen=True)
+class ExtractReport:
+    """What an extraction read, skipped and lost."""
+
+    file_bytes: int
+    used_summary: bool
+    chunks: int
+    messages: dict[str, int]
+    other_messages: int
+    skipped: dict[str, int]
+    skipped_examples: dict[str, str]
+    losses: list[dict[str, Any]]
+    recovered_messages: int
+    frames_by_status: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def data_loss(self) -> bool:
+        """Whether any part of the file could not be used (exit code 3 for the CLI)."""
+        return bool(self.losses)
+
+
+@dataclass(frozen=True)
+class Extraction:
+    """The tables of one recording.
+
+    Attributes
+    ----------
+    frames
+        One row per CCD frame: ``camera``, ``t_ns`` (header stamp), ``x_px``, ``y_px`` (null
+        without a spot), ``u_um``, ``v_um`` (chip micrometres about the centre), ``peak``,
+        ``signal``, ``size_px``, ``background``, ``noise``, ``status`` (``ok``, ``no_spot``,
+        ``saturated``, ``at_border``, ``multiple``, ``streak``, ``invalid``), sorted by camera
+        and time.
+    visits
+        One row per visit (see :func:`thermrs.visits.find_visits`).
+    temperatures
+        Long format: ``t_ns``, ``name`` (ROI name or ``ambient``), ``temperature_c``, ``x_px``,
+        ``y_px`` (where the ROI maximum is; null for ambient).
+    joints
+        ``t_ns`` and one column per rig joint name (radians).
+    report
+        What was read, skipped and lost.
+    """
+
+    frames: pl.DataFrame
+    visits: pl.DataFrame
+    temperatures: pl.DataFrame
+    joints: pl.DataFrame
+    report: ExtractReport
+
+    def write(self, out: str | Path) -> dict[str, Path]:
+        """Write the frames to ``out`` and the other tables beside it
+        (``<stem>.visits.parquet``, ``.temperatures.parquet``, ``.joints.parquet``), each
+        atomically. Returns the paths written."""
+        out = Path(out)
+        stem = out.name[: -len(".parquet")] if out.name.endswith(".parquet") else out.name
+        paths = {
+            "frames": out,
+            "visits": out.with_name(f"{stem}.visits.parquet"),
+            "temperatures": out.with_name(f"{stem}.temperatures.parquet"),
+            "joints": out.with_name(f"{stem}.joints.parquet"),
+        }
+        for name, path in paths.items():
+            write_parquet_atomic(getattr(self, name), path)
+        return paths
+
+
+def write_parquet_atomic(df: pl.DataFrame, path: str | Path) -> None:
+    """Write ``df`` to ``path`` through a temporary file in the same folder, then rename: a
+    reader never sees a half-written file, and a failure leaves the old file in place."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        df.write_parquet(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def extract(
+    path: str | Path,
+    rig: Rig,
+    *,
+    progress: Progress | None = None,
+    visit_tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
+    min_sigma_px: float | None = None,
+    threshold_sigma: float | None = None,
+) -> Extraction:
+    """Extract every table of a recording.
+
+    Parameters
+    ----------
+    path
+        The MCAP recording.
+    rig
+        The rig that names its topics, cameras, ROIs and poses.
+    progress
+        Called as ``progress(bytes_done, bytes_total, frames_done)`` between windows.
+    visit_tolerance_deg
+        How far (degrees, every joint) the joint states may be from a camera's taught pose for
+        a spot frame to count as part of a visit.
+    min_sigma_px, threshold_sigma
+        Spot detection: smallest spot σ to be sure to find, threshold in noise σ.
+
+    Raises
+    ------
+    RecordingError
+        Not an MCAP file, or none of the rig's topics in it.
+    InputError
+        The file cannot be read.
+    KeyboardInterrupt
+        Ctrl-C (checked between windows of chunks).
+    """
+    frames_c, thermal_c, joints_c, ambient_c, report_json = _native.extract(
+        str(path),
+        rig._native,
+        progress=progress,
+        min_sigma_px=min_sigma_px,
+        threshold_sigma=threshold_sigma,
+    )
+    statuses = _native.status_names()
+    cam_names = [c.name for c in rig.cameras]
+    frames = pl.DataFrame(
+        {k: v for k, v in frames_c.items() if k not in ("camera", "status")}
+    ).with_columns(
+        camera=pl.Series(np.asarray(cam_names, dtype=object)[frames_c["camera"]], dtype=pl.String)
+        if len(frames_c["camera"])
+        else pl.Series([], dtype=pl.String),
+        status=pl.Series(np.asarray(statuses, dtype=object)[frames_c["status"]], dtype=pl.String)
+        if len(frames_c["status"])
+        else pl.Series([], dtype=pl.String),
+    )
+    frames = frames.with_columns(pl.col(c).fill_nan(None) for c in ("x_px", "y_px"))
+    frames = _with_chip_um(frames, rig).sort("camera", "t_ns")
+    frames = frames.select(
+        "camera",
+        "t_ns",
+        "x_px",
+        "y_px",
+        "u_um",
+        "v_um",
+        "status",
+        "peak",
+        "signal",
+        "size_px",
+        "background",
+        "noise",
+    )
+
+    roi_names = [r.name for r in rig.rois]
+    thermal = pl.DataFrame(
+        {
+            "t_ns": thermal_c["t_ns"],
+            "name": pl.Series(
+                np.asarray(roi_names, dtype=object)[thermal_c["roi"]]
+                if len(thermal_c["roi"])
+                else [],
+                dtype=pl.String,
+            ),
+            "temperature_c": thermal_c["max_c"],
+            "x_px": thermal_c["x_px"].astype(np.int32),
+            "y_px": thermal_c["y_px"].astype(np.int32),
+        },
+        schema_overrides={"t_ns": pl.Int64},
+    )
+    ambient = pl.DataFrame(
+        {
+            "t_ns": ambient_c["t_ns"],
+            "name": pl.Series(["ambient"] * len(ambient_c["t_ns"]), dtype=pl.String),
+            "temperature_c": ambient_c["temperature_c"],
+            "x_px": pl.Series([None] * len(ambient_c["t_ns"]), dtype=pl.Int32),
+            "y_px": pl.Series([None] * len(ambient_c["t_ns"]), dtype=pl.Int32),
+        },
+        schema_overrides={"t_ns": pl.Int64},
+    )
+    temperatures = pl.concat([thermal, ambient]).sort("t_ns", "name")
+
+    pos = joints_c["position"]
+    joints = pl.DataFrame(
+        {"t_ns": joints_c["t_ns"], **{n: pos[:, i] for i, n in enumerate(rig.joint_names)}},
+        schema_overrides={"t_ns": pl.Int64},
+    ).sort("t_ns")
+
+    rep = json.loads(report_json)
+    counts = frames.group_by("status").len().sort("status")
+    report = ExtractReport(
+        **rep,
+        frames_by_status=dict(zip(counts["status"], counts["len"], strict=True)),
+    )
+    visits = find_visits(frames, joints, rig, tolerance_deg=visit_tolerance_deg)
+    return Extraction(
+        frames=frames, visits=visits, temperatures=temperatures, joints=joints, report=report
+    )
+
+
+def _with_chip_um(frames: pl.DataFrame, rig: Rig) -> pl.DataFrame:
+    """Add u_um, v_um (SPEC §4 chip micrometres about the centre) per camera."""
+    cx = {c.name: (c.size_px[0] - 1) / 2 for c in rig.cameras}
+    cy = {c.name: (c.size_px[1] - 1) / 2 for c in rig.cameras}
+    px = {c.name: c.pixel_pitch_um[0] for c in rig.cameras}
+    py = {c.name: c.pixel_pitch_um[1] for c in rig.cameras}
+    cam = pl.col("camera")
+    return frames.with_columns(
+        u_um=(pl.col("x_px") - cam.replace_strict(cx, return_dtype=pl.Float64))
+        * cam.replace_strict(px, return_dtype=pl.Float64),
+        v_um=(pl.col("y_px") - cam.replace_strict(cy, return_dtype=pl.Float64))
+        * cam.replace_strict(py, return_dtype=pl.Float64),
+    )

@@ -1,0 +1,122 @@
+"""Visits: one dwell of the robot at a camera's taught pose (SPEC §1).
+
+A frame belongs to a visit when it holds a spot (any status but ``no_spot`` and ``invalid``)
+and the latest joint state at or before it is within ``tolerance_deg`` of the camera's taught
+pose on every joint. Consecutive such frames of one camera form one visit; any other frame of
+that camera in between ends it. Without any joint states in the recording, every spot frame
+counts as at the pose (the spot itself says where the robot is).
+
+Per visit: its time span, frame counts, the mean centroid over ``ok`` frames and its scatter
+(sample standard deviation), in pixels and chip micrometres, and the drift from the camera's
+first visit in the run (SPEC §1: drift is anchored at the first visit).
+"""
+
+from __future__ import annotations
+
+import math
+
+import polars as pl
+
+from thermrs.rig import Rig
+
+__all__ = ["DEFAULT_TOLERANCE_DEG", "find_visits"]
+
+#: Default joint tolerance (degrees): well above controller jitter, far below a pose change.
+DEFAULT_TOLERANCE_DEG = 0.05
+
+VISIT_SCHEMA = {
+    "camera": pl.String,
+    "visit": pl.Int64,
+    "t_start_ns": pl.Int64,
+    "t_end_ns": pl.Int64,
+    "t_ns": pl.Int64,
+    "n_frames": pl.UInt32,
+    "n_ok": pl.UInt32,
+    "x_px": pl.Float64,
+    "y_px": pl.Float64,
+    "x_std_px": pl.Float64,
+    "y_std_px": pl.Float64,
+    "u_um": pl.Float64,
+    "v_um": pl.Float64,
+    "u_std_um": pl.Float64,
+    "v_std_um": pl.Float64,
+    "drift_u_um": pl.Float64,
+    "drift_v_um": pl.Float64,
+}
+
+
+def find_visits(
+    frames: pl.DataFrame,
+    joints: pl.DataFrame,
+    rig: Rig,
+    *,
+    tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
+) -> pl.DataFrame:
+    """Group spot frames into visits (see the module docstring).
+
+    Parameters
+    ----------
+    frames
+        The frames table of :func:`thermrs.extract` (``camera``, ``t_ns``, ``x_px``, ``y_px``,
+        ``u_um``, ``v_um``, ``status``).
+    joints
+        ``t_ns`` and one column per rig joint name, radians.
+    rig
+        Gives each camera's taught pose.
+    tolerance_deg
+        Largest joint deviation from the taught pose, degrees.
+    """
+    if frames.height == 0:
+        return pl.DataFrame(schema=VISIT_SCHEMA)
+    f = frames.sort("t_ns")
+    names = rig.joint_names
+    if joints.height:
+        f = f.join_asof(joints.sort("t_ns"), on="t_ns", strategy="backward")
+        dev = []
+        for i, n in enumerate(names):
+            taught = {c.name: rig.camera_pose(c.name).joints_deg[i] for c in rig.cameras}
+            dev.append(
+                (
+                    pl.col(n) * (180.0 / math.pi)
+                    - pl.col("camera").replace_strict(taught, return_dtype=pl.Float64)
+                ).abs()
+            )
+        at_pose = pl.max_horizontal(dev).fill_null(math.inf) <= tolerance_deg
+    else:
+        at_pose = pl.lit(True)
+    spot = ~pl.col("status").is_in(["no_spot", "invalid"])
+    f = (
+        f.with_columns(cand=spot & at_pose)
+        .sort("camera", "t_ns")
+        .with_columns(
+            start=pl.col("cand") & ~pl.col("cand").shift(1, fill_value=False).over("camera")
+        )
+        .with_columns(visit=pl.col("start").cast(pl.Int64).cum_sum().over("camera") - 1)
+        .filter("cand")
+    )
+    ok = pl.col("status") == "ok"
+    v = (
+        f.group_by("camera", "visit")
+        .agg(
+            t_start_ns=pl.col("t_ns").min(),
+            t_end_ns=pl.col("t_ns").max(),
+            t_ns=pl.col("t_ns").filter(ok).mean().cast(pl.Int64),
+            n_frames=pl.len().cast(pl.UInt32),
+            n_ok=ok.sum().cast(pl.UInt32),
+            x_px=pl.col("x_px").filter(ok).mean(),
+            y_px=pl.col("y_px").filter(ok).mean(),
+            x_std_px=pl.col("x_px").filter(ok).std(),
+            y_std_px=pl.col("y_px").filter(ok).std(),
+            u_um=pl.col("u_um").filter(ok).mean(),
+            v_um=pl.col("v_um").filter(ok).mean(),
+            u_std_um=pl.col("u_um").filter(ok).std(),
+            v_std_um=pl.col("v_um").filter(ok).std(),
+        )
+        .sort("camera", "visit")
+    )
+    first = pl.col("camera")
+    v = v.with_columns(
+        drift_u_um=pl.col("u_um") - pl.col("u_um").drop_nulls().first().over(first),
+        drift_v_um=pl.col("v_um") - pl.col("v_um").drop_nulls().first().over(first),
+    )
+    return v.select(list(VISIT_SCHEMA)).cast(VISIT_SCHEMA)  # type: ignore[arg-type]

@@ -1,0 +1,1068 @@
+//! Streaming MCAP ingest: a recording (SPEC §2) to per-frame tables, in constant memory.
+//!
+//! The file is memory-mapped and walked record by record at the top level; message payloads
+//! are never copied. Chunks (compressed with zstd or lz4, or not) are decompressed into a
+//! per-thread buffer that is reused, and windows of chunks are processed in parallel on the
+//! rayon pool; loose (unchunked) messages are batched likewise. Record bodies are parsed with
+//! the `mcap` crate's `parse_record`; channels and schemas come from the summary where the file
+//! has one, else from the records as they are met (a chunk whose channels were defined in a
+//! chunk processed beside it is retried once the window's channels are known).
+//!
+//! Nothing is lost silently: a file cut short yields every complete message before the cut,
+//! including those in the intact part of a cut chunk, and the loss is reported; a chunk that
+//! does not decompress or parse is skipped and reported; a frame whose encoding, size or
+//! payload is wrong becomes a row with status `invalid` and is counted with its reason.
+//! Pages already processed are released from the mapping, so the resident set does not grow
+//! with the file.
+
+use std::collections::{BTreeMap, HashMap};
+use std::io::Read;
+use std::path::Path;
+
+use mcap::records::{op, ChunkHeader, MessageHeader, Record};
+use rayon::prelude::*;
+
+use crate::cdr;
+use crate::centroid::{self, FrameView, SpotParams, SpotStatus};
+use crate::error::{Error, Result};
+use crate::rig::Rig;
+use crate::thermal::{roi_maxima, ThermalFormat, ThermalView};
+
+const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+const IMAGE: &str = "sensor_msgs/msg/Image";
+const COMPRESSED: &str = "sensor_msgs/msg/CompressedImage";
+const JOINT_STATE: &str = "sensor_msgs/msg/JointState";
+const TEMPERATURE: &str = "sensor_msgs/msg/Temperature";
+
+/// Frame statuses in the order of their codes in [`FrameTable::status`].
+pub const STATUS_NAMES: [&str; 7] = [
+    "ok",
+    "no_spot",
+    "saturated",
+    "at_border",
+    "multiple",
+    "streak",
+    "invalid",
+];
+const STATUS_INVALID: u8 = 6;
+
+fn status_code(s: SpotStatus) -> u8 {
+    match s {
+        SpotStatus::Ok => 0,
+        SpotStatus::NoSpot => 1,
+        SpotStatus::Saturated => 2,
+        SpotStatus::AtBorder => 3,
+        SpotStatus::Multiple => 4,
+        SpotStatus::Streak => 5,
+    }
+}
+
+/// Options of an extraction.
+#[derive(Debug, Clone)]
+pub struct ExtractOptions {
+    /// Spot detection and centroid parameters.
+    pub spot: SpotParams,
+    /// Compressed bytes of chunks processed per parallel window (bounds memory).
+    pub window_bytes: usize,
+}
+
+impl Default for ExtractOptions {
+    fn default() -> Self {
+        ExtractOptions {
+            spot: SpotParams::default(),
+            window_bytes: 64 << 20,
+        }
+    }
+}
+
+/// One row per CCD frame.
+#[derive(Debug, Default, Clone)]
+pub struct FrameTable {
+    /// Index of the camera in the rig.
+    pub camera: Vec<u32>,
+    /// Header stamp (ns), or the log time where the stamp is zero.
+    pub t_ns: Vec<i64>,
+    pub x_px: Vec<f64>,
+    pub y_px: Vec<f64>,
+    pub peak: Vec<f64>,
+    pub signal: Vec<f64>,
+    pub size_px: Vec<f64>,
+    pub background: Vec<f64>,
+    pub noise: Vec<f64>,
+    /// Index into [`STATUS_NAMES`].
+    pub status: Vec<u8>,
+}
+
+/// One row per (thermal frame, ROI).
+#[derive(Debug, Default, Clone)]
+pub struct ThermalTable {
+    pub t_ns: Vec<i64>,
+    /// Index of the ROI in the rig.
+    pub roi: Vec<u32>,
+    pub max_c: Vec<f64>,
+    pub x_px: Vec<u32>,
+    pub y_px: Vec<u32>,
+}
+
+/// One row per joint-state message, positions in the rig's joint order (radians).
+#[derive(Debug, Default, Clone)]
+pub struct JointTable {
+    pub t_ns: Vec<i64>,
+    /// N × 6, row-major.
+    pub position: Vec<f64>,
+}
+
+/// One row per ambient reading.
+#[derive(Debug, Default, Clone)]
+pub struct AmbientTable {
+    pub t_ns: Vec<i64>,
+    pub temperature_c: Vec<f64>,
+}
+
+/// All tables of one recording.
+#[derive(Debug, Default, Clone)]
+pub struct Tables {
+    pub frames: FrameTable,
+    pub thermal: ThermalTable,
+    pub joints: JointTable,
+    pub ambient: AmbientTable,
+}
+
+macro_rules! append_all {
+    ($dst:expr, $src:expr, $($f:ident),*) => { $( $dst.$f.extend_from_slice(&$src.$f); )* };
+}
+
+impl Tables {
+    fn append(&mut self, o: &Tables) {
+        append_all!(
+            self.frames,
+            o.frames,
+            camera,
+            t_ns,
+            x_px,
+            y_px,
+            peak,
+            signal,
+            size_px,
+            background,
+            noise,
+            status
+        );
+        append_all!(self.thermal, o.thermal, t_ns, roi, max_c, x_px, y_px);
+        append_all!(self.joints, o.joints, t_ns, position);
+        append_all!(self.ambient, o.ambient, t_ns, temperature_c);
+    }
+}
+
+/// Data that could not be read.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Loss {
+    /// `truncated` (file cut short) or `corrupt_chunk`.
+    pub kind: &'static str,
+    /// Byte offset of the damaged record.
+    pub offset: u64,
+    /// Bytes not used.
+    pub bytes: u64,
+    /// One line: what happened and what was recovered.
+    pub detail: String,
+}
+
+/// What an extraction read, skipped and lost.
+#[derive(Debug, Default, Clone, serde::Serialize)]
+pub struct Report {
+    pub file_bytes: u64,
+    pub used_summary: bool,
+    pub chunks: u64,
+    /// Messages read per rig topic.
+    pub messages: BTreeMap<String, u64>,
+    /// Messages on topics the rig does not name.
+    pub other_messages: u64,
+    /// Skipped messages per reason ("topic: reason", numbers as `N`).
+    pub skipped: BTreeMap<String, u64>,
+    /// The first full reason of each group of `skipped`.
+    pub skipped_examples: BTreeMap<String, String>,
+    pub losses: Vec<Loss>,
+    /// Complete messages recovered from a chunk the file was cut inside.
+    pub recovered_messages: u64,
+}
+
+impl Report {
+    /// Count a skipped message. Reasons are grouped with their numbers replaced by `N` (byte
+    /// counts and sizes vary frame to frame); the first full reason of each group is kept.
+    fn skip(&mut self, topic: &str, reason: impl AsRef<str>) {
+        let reason = reason.as_ref();
+        let mut key = format!("{topic}: ");
+        // A number is a digit run not glued to letters ("100x50" → "NxN"; "rgb8", "16UC1" stay).
+        let c: Vec<char> = reason.chars().collect();
+        let mut i = 0;
+        while i < c.len() {
+            if c[i].is_ascii_digit() {
+                let mut j = i;
+                while j < c.len() && c[j].is_ascii_digit() {
+                    j += 1;
+                }
+                let glued_before = i > 0
+                    && c[i - 1].is_alphabetic()
+                    && !(c[i - 1] == 'x' && i > 1 && c[i - 2].is_ascii_digit());
+                let glued_after = j < c.len()
+                    && c[j].is_alphabetic()
+                    && !(c[j] == 'x' && j + 1 < c.len() && c[j + 1].is_ascii_digit());
+                if glued_before || glued_after {
+                    key.extend(&c[i..j]);
+                } else {
+                    key.push('N');
+                }
+                i = j;
+            } else {
+                key.push(c[i]);
+                i += 1;
+            }
+        }
+        self.skipped_examples
+            .entry(key.clone())
+            .or_insert_with(|| format!("{topic}: {reason}"));
+        *self.skipped.entry(key).or_insert(0) += 1;
+    }
+
+    fn merge(&mut self, o: &Report) {
+        self.chunks += o.chunks;
+        for (k, v) in &o.messages {
+            *self.messages.entry(k.clone()).or_insert(0) += v;
+        }
+        self.other_messages += o.other_messages;
+        for (k, v) in &o.skipped {
+            *self.skipped.entry(k.clone()).or_insert(0) += v;
+        }
+        for (k, v) in &o.skipped_examples {
+            self.skipped_examples
+                .entry(k.clone())
+                .or_insert_with(|| v.clone());
+        }
+        self.losses.extend(o.losses.iter().cloned());
+        self.recovered_messages += o.recovered_messages;
+    }
+}
+
+/// Progress: bytes of the file done, total bytes, CCD frames so far. Return `false` to stop.
+pub type ProgressFn<'a> = dyn Fn(u64, u64, u64) -> bool + Sync + 'a;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Role {
+    Camera(usize),
+    Thermal,
+    Joints,
+    Ambient,
+}
+
+#[derive(Debug, Clone)]
+struct ChannelInfo {
+    topic: String,
+    schema_id: u16,
+    encoding: String,
+}
+
+/// Channels and schemas known so far, and the roles the rig gives their topics.
+#[derive(Debug, Clone, Default)]
+struct Registry {
+    schemas: HashMap<u16, String>,
+    channels: HashMap<u16, ChannelInfo>,
+}
+
+impl Registry {
+    fn absorb(&mut self, record: &Record<'_>) {
+        match record {
+            Record::Schema { header, .. } => {
+                self.schemas.insert(header.id, header.name.clone());
+            }
+            Record::Channel(c) => {
+                self.channels.insert(
+                    c.id,
+                    ChannelInfo {
+                        topic: c.topic.clone(),
+                        schema_id: c.schema_id,
+                        encoding: c.message_encoding.clone(),
+                    },
+                );
+            }
+            _ => {}
+        }
+    }
+
+    fn merge(&mut self, o: &Registry) {
+        self.schemas
+            .extend(o.schemas.iter().map(|(k, v)| (*k, v.clone())));
+        self.channels
+            .extend(o.channels.iter().map(|(k, v)| (*k, v.clone())));
+    }
+}
+
+/// What the rig needs to interpret messages.
+struct Context<'r> {
+    rig: &'r Rig,
+    roles: HashMap<&'r str, Role>,
+    rois: Vec<[i64; 4]>,
+    spot: SpotParams,
+}
+
+impl<'r> Context<'r> {
+    fn new(rig: &'r Rig, spot: SpotParams) -> Context<'r> {
+        let mut roles = HashMap::new();
+        for (i, c) in rig.camera.iter().enumerate() {
+            roles.insert(c.topic.as_str(), Role::Camera(i));
+        }
+        if let Some(t) = &rig.thermal {
+            roles.insert(t.topic.as_str(), Role::Thermal);
+        }
+        roles.insert(rig.robot.joint_states_topic.as_str(), Role::Joints);
+        if let Some(a) = &rig.ambient {
+            roles.insert(a.topic.as_str(), Role::Ambient);
+        }
+        let rois = rig
+            .thermal
+            .iter()
+            .flat_map(|t| t.roi.iter().map(|r| r.rect_px))
+            .collect();
+        Context {
+            rig,
+            roles,
+            rois,
+            spot,
+        }
+    }
+
+    fn rig_topics(&self) -> Vec<&str> {
+        let mut t: Vec<&str> = self.roles.keys().copied().collect();
+        t.sort_unstable();
+        t
+    }
+}
+
+/// Output of one unit of work.
+#[derive(Default)]
+struct Part {
+    tables: Tables,
+    report: Report,
+    registry: Registry,
+    /// The chunk used a channel nobody had defined yet: run it again later.
+    retry: bool,
+}
+
+/// A unit of parallel work.
+enum Work<'a> {
+    Chunk {
+        offset: u64,
+        header: ChunkHeader,
+        data: &'a [u8],
+        /// The chunk was cut short: decode what is there.
+        partial: bool,
+    },
+    Loose(Vec<(MessageHeader, &'a [u8])>),
+}
+
+thread_local! {
+    static CHUNK_BUF: std::cell::RefCell<Vec<u8>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Decompress a chunk's records into `out`. For a cut chunk, decode as much as there is.
+fn decompress(
+    header: &ChunkHeader,
+    data: &[u8],
+    partial: bool,
+    out: &mut Vec<u8>,
+) -> std::result::Result<(), String> {
+    out.clear();
+    let want = usize::try_from(header.uncompressed_size).unwrap_or(usize::MAX);
+    match header.compression.as_str() {
+        "" => out.extend_from_slice(data),
+        "zstd" if !partial => {
+            out.reserve(want);
+            zstd::bulk::Decompressor::new()
+                .and_then(|mut d| d.decompress_to_buffer(data, out))
+                .map_err(|e| format!("zstd: {e}"))?;
+        }
+        "zstd" => {
+            let dec =
+                zstd::stream::read::Decoder::with_buffer(data).map_err(|e| format!("zstd: {e}"))?;
+            read_until_error(dec, out, want);
+        }
+        "lz4" => {
+            let dec = lz4::Decoder::new(data).map_err(|e| format!("lz4: {e}"))?;
+            if partial {
+                read_until_error(dec, out, want);
+            } else {
+                let mut dec = dec;
+                out.reserve(want);
+                dec.read_to_end(out).map_err(|e| format!("lz4: {e}"))?;
+            }
+        }
+        other => return Err(format!("unsupported chunk compression {other:?}")),
+    }
+    if !partial && out.len() as u64 != header.uncompressed_size {
+        return Err(format!(
+            "decompressed to {} bytes, header says {}",
+            out.len(),
+            header.uncompressed_size
+        ));
+    }
+    Ok(())
+}
+
+/// Read a stream until it ends or fails, keeping what came out.
+fn read_until_error(mut r: impl Read, out: &mut Vec<u8>, limit: usize) {
+    let mut buf = vec![0u8; 1 << 16];
+    while out.len() < limit {
+        match r.read(&mut buf) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => out.extend_from_slice(&buf[..n]),
+        }
+    }
+}
+
+/// Walk the records of a buffer: `(offset, opcode, body)`; stops at the first incomplete one,
+/// returning its offset.
+fn walk<'a>(buf: &'a [u8], mut f: impl FnMut(usize, u8, &'a [u8]) -> bool) -> Option<usize> {
+    let mut pos = 0;
+    while pos < buf.len() {
+        if buf.len() - pos < 9 {
+            return Some(pos);
+        }
+        let opcode = buf[pos];
+        let len = u64::from_le_bytes(buf[pos + 1..pos + 9].try_into().expect("8 bytes"));
+        let Some(end) = usize::try_from(len)
+            .ok()
+            .and_then(|l| (pos + 9).checked_add(l))
+        else {
+            return Some(pos);
+        };
+        if end > buf.len() {
+            return Some(pos);
+        }
+        if !f(pos, opcode, &buf[pos + 9..end]) {
+            return None;
+        }
+        pos = end;
+    }
+    None
+}
+
+impl<'r> Context<'r> {
+    /// Interpret one message into `part`. Returns false if its channel is unknown.
+    fn message(
+        &self,
+        reg: &Registry,
+        local: &Registry,
+        h: &MessageHeader,
+        data: &[u8],
+        part: &mut Part,
+    ) -> bool {
+        let Some(ch) = local
+            .channels
+            .get(&h.channel_id)
+            .or_else(|| reg.channels.get(&h.channel_id))
+        else {
+            return false;
+        };
+        let Some(&role) = self.roles.get(ch.topic.as_str()) else {
+            part.report.other_messages += 1;
+            return true;
+        };
+        let topic = ch.topic.as_str();
+        *part.report.messages.entry(topic.to_string()).or_insert(0) += 1;
+        let schema = local
+            .schemas
+            .get(&ch.schema_id)
+            .or_else(|| reg.schemas.get(&ch.schema_id))
+            .map(String::as_str)
+            .unwrap_or("");
+        if ch.encoding != "cdr" {
+            part.report.skip(
+                topic,
+                format!("message encoding {:?} is not cdr", ch.encoding),
+            );
+            if let Role::Camera(i) = role {
+                invalid_frame(&mut part.tables.frames, i, h.log_time as i64);
+            }
+            return true;
+        }
+        let stamp = |ns: i64| if ns == 0 { h.log_time as i64 } else { ns };
+        match role {
+            Role::Camera(i) => self.camera_frame(i, topic, schema, data, h, part),
+            Role::Thermal => self.thermal_frame(topic, schema, data, h, part),
+            Role::Joints => match (schema, cdr::parse_joint_state(data)) {
+                (JOINT_STATE, Ok(js)) => {
+                    let mut row = [f64::NAN; 6];
+                    for (k, name) in self.rig.robot.joint_names.iter().enumerate() {
+                        match js.names.iter().position(|n| n == name) {
+                            Some(j) if j < js.position.len() => row[k] = js.position[j],
+                            _ => {
+                                part.report.skip(topic, format!("joint {name:?} missing"));
+                                return true;
+                            }
+                        }
+                    }
+                    part.tables.joints.t_ns.push(stamp(js.stamp_ns));
+                    part.tables.joints.position.extend_from_slice(&row);
+                }
+                (JOINT_STATE, Err(e)) => part.report.skip(topic, format!("bad JointState: {e}")),
+                (s, _) => part
+                    .report
+                    .skip(topic, format!("schema {s:?} is not {JOINT_STATE}")),
+            },
+            Role::Ambient => match (schema, cdr::parse_temperature(data)) {
+                (TEMPERATURE, Ok(t)) => {
+                    part.tables.ambient.t_ns.push(stamp(t.stamp_ns));
+                    part.tables.ambient.temperature_c.push(t.temperature);
+                }
+                (TEMPERATURE, Err(e)) => part.report.skip(topic, format!("bad Temperature: {e}")),
+                (s, _) => part
+                    .report
+                    .skip(topic, format!("schema {s:?} is not {TEMPERATURE}")),
+            },
+        }
+        true
+    }
+
+    fn camera_frame(
+        &self,
+        cam: usize,
+        topic: &str,
+        schema: &str,
+        data: &[u8],
+        h: &MessageHeader,
+        part: &mut Part,
+    ) {
+        let c = &self.rig.camera[cam];
+        let (w, hgt) = (c.size_px[0] as usize, c.size_px[1] as usize);
+        let log_t = h.log_time as i64;
+        let res: std::result::Result<(i64, centroid::Spot), String> = match schema {
+            IMAGE => cdr::parse_image(data)
+                .map_err(|e| format!("bad Image: {e}"))
+                .and_then(|im| {
+                    let t = if im.stamp_ns == 0 { log_t } else { im.stamp_ns };
+                    let bpp = match im.encoding {
+                        "mono8" | "8UC1" => 1,
+                        "mono16" | "16UC1" => 2,
+                        e => return Err(format!("encoding {e:?} is not mono8/8UC1/mono16/16UC1")),
+                    };
+                    if (im.width as usize, im.height as usize) != (w, hgt) {
+                        return Err(format!(
+                            "frame is {}x{}, the rig says {w}x{hgt}",
+                            im.width, im.height
+                        ));
+                    }
+                    let view =
+                        FrameView::new(im.data, w, hgt, im.step as usize, bpp, im.is_bigendian)?;
+                    Ok((t, centroid::find_spot(&view, &self.spot)))
+                }),
+            COMPRESSED => cdr::parse_compressed_image(data)
+                .map_err(|e| format!("bad CompressedImage: {e}"))
+                .and_then(|im| {
+                    let t = if im.stamp_ns == 0 { log_t } else { im.stamp_ns };
+                    let (pixels, pw, ph, bpp) = decode_png(im.format, im.data)?;
+                    if (pw, ph) != (w, hgt) {
+                        return Err(format!("frame is {pw}x{ph}, the rig says {w}x{hgt}"));
+                    }
+                    let view =
+                        FrameView::new(&pixels, w, hgt, w * bpp, bpp, cfg!(target_endian = "big"))?;
+                    Ok((t, centroid::find_spot(&view, &self.spot)))
+                }),
+            s => Err(format!("schema {s:?} is not an image")),
+        };
+        let f = &mut part.tables.frames;
+        match res {
+            Ok((t, s)) => {
+                f.camera.push(cam as u32);
+                f.t_ns.push(t);
+                f.x_px.push(s.x_px);
+                f.y_px.push(s.y_px);
+                f.peak.push(s.peak);
+                f.signal.push(s.signal);
+                f.size_px.push(s.size_px);
+                f.background.push(s.background);
+                f.noise.push(s.noise);
+                f.status.push(status_code(s.status));
+            }
+            Err(reason) => {
+                part.report.skip(topic, reason);
+                invalid_frame(f, cam, log_t);
+            }
+        }
+    }
+
+    fn thermal_frame(
+        &self,
+        topic: &str,
+        schema: &str,
+        data: &[u8],
+        h: &MessageHeader,
+        part: &mut Part,
+    ) {
+        let Some(th) = &self.rig.thermal else { return };
+        let (w, hgt) = (th.size_px[0] as usize, th.size_px[1] as usize);
+        let log_t = h.log_time as i64;
+        let res: std::result::Result<(i64, Vec<crate::thermal::RoiMax>), String> = match schema {
+            IMAGE => cdr::parse_image(data)
+                .map_err(|e| format!("bad Image: {e}"))
+                .and_then(|im| {
+                    let t = if im.stamp_ns == 0 { log_t } else { im.stamp_ns };
+                    let fmt = ThermalFormat::from_encoding(im.encoding).ok_or_else(|| {
+                        format!("encoding {:?} is not 16UC1/mono16/32FC1", im.encoding)
+                    })?;
+                    if (im.width as usize, im.height as usize) != (w, hgt) {
+                        return Err(format!(
+                            "frame is {}x{}, the rig says {w}x{hgt}",
+                            im.width, im.height
+                        ));
+                    }
+                    let v =
+                        ThermalView::new(im.data, w, hgt, im.step as usize, fmt, im.is_bigendian)?;
+                    Ok((t, roi_maxima(&v, &self.rois, th.scale, th.offset_c)))
+                }),
+            COMPRESSED => cdr::parse_compressed_image(data)
+                .map_err(|e| format!("bad CompressedImage: {e}"))
+                .and_then(|im| {
+                    let t = if im.stamp_ns == 0 { log_t } else { im.stamp_ns };
+                    let (pixels, pw, ph, bpp) = decode_png(im.format, im.data)?;
+                    if bpp != 2 {
+                        return Err("thermal PNG must be 16-bit grey".into());
+                    }
+                    if (pw, ph) != (w, hgt) {
+                        return Err(format!("frame is {pw}x{ph}, the rig says {w}x{hgt}"));
+                    }
+                    let v = ThermalView::new(
+                        &pixels,
+                        w,
+                        hgt,
+                        w * 2,
+                        ThermalFormat::U16,
+                        cfg!(target_endian = "big"),
+                    )?;
+                    Ok((t, roi_maxima(&v, &self.rois, th.scale, th.offset_c)))
+                }),
+            s => Err(format!("schema {s:?} is not an image")),
+        };
+        match res {
+            Ok((t, maxima)) => {
+                let tt = &mut part.tables.thermal;
+                for (i, m) in maxima.iter().enumerate() {
+                    tt.t_ns.push(t);
+                    tt.roi.push(i as u32);
+                    tt.max_c.push(m.max_c);
+                    tt.x_px.push(m.x_px);
+                    tt.y_px.push(m.y_px);
+                }
+            }
+            Err(reason) => part.report.skip(topic, reason),
+        }
+    }
+
+    /// Process one unit of work.
+    fn run(&self, reg: &Registry, work: &Work<'_>) -> Part {
+        let mut part = Part::default();
+        match work {
+            Work::Loose(msgs) => {
+                let local = Registry::default();
+                for (h, d) in msgs {
+                    if !self.message(reg, &local, h, d, &mut part) {
+                        part.report
+                            .skip("?", format!("message on unknown channel {}", h.channel_id));
+                    }
+                }
+            }
+            Work::Chunk {
+                offset,
+                header,
+                data,
+                partial,
+            } => {
+                part.report.chunks = 1;
+                CHUNK_BUF.with(|cell| {
+                    let mut buf = cell.borrow_mut();
+                    if let Err(e) = decompress(header, data, *partial, &mut buf) {
+                        part.report.losses.push(Loss {
+                            kind: "corrupt_chunk",
+                            offset: *offset,
+                            bytes: data.len() as u64,
+                            detail: format!("chunk at byte {offset} skipped: {e}"),
+                        });
+                        return;
+                    }
+                    let mut local = Registry::default();
+                    let mut err: Option<String> = None;
+                    let mut n = 0u64;
+                    let stop = walk(&buf, |_, opcode, body| match opcode {
+                        op::SCHEMA | op::CHANNEL => match mcap::read::parse_record(opcode, body) {
+                            Ok(r) => {
+                                local.absorb(&r);
+                                true
+                            }
+                            Err(e) => {
+                                err = Some(format!("bad record: {e}"));
+                                false
+                            }
+                        },
+                        op::MESSAGE => match mcap::read::parse_record(opcode, body) {
+                            Ok(Record::Message { header, data }) => {
+                                n += 1;
+                                if self.message(reg, &local, &header, &data, &mut part) {
+                                    true
+                                } else {
+                                    part.retry = true;
+                                    false
+                                }
+                            }
+                            Ok(_) => true,
+                            Err(e) => {
+                                err = Some(format!("bad message record: {e}"));
+                                false
+                            }
+                        },
+                        _ => true,
+                    });
+                    part.registry = local;
+                    if part.retry {
+                        return;
+                    }
+                    if let Some(e) = err {
+                        part.report.losses.push(Loss {
+                            kind: "corrupt_chunk",
+                            offset: *offset,
+                            bytes: data.len() as u64,
+                            detail: format!("chunk at byte {offset}: {e}; {n} messages before it kept"),
+                        });
+                    } else if stop.is_some() && !*partial {
+                        part.report.losses.push(Loss {
+                            kind: "corrupt_chunk",
+                            offset: *offset,
+                            bytes: (buf.len() - stop.unwrap_or(0)) as u64,
+                            detail: format!("chunk at byte {offset} ends inside a record; {n} messages before it kept"),
+                        });
+                    } else if *partial {
+                        part.report.recovered_messages = n;
+                    }
+                });
+            }
+        }
+        part
+    }
+}
+
+fn invalid_frame(f: &mut FrameTable, cam: usize, t: i64) {
+    f.camera.push(cam as u32);
+    f.t_ns.push(t);
+    for col in [
+        &mut f.x_px,
+        &mut f.y_px,
+        &mut f.peak,
+        &mut f.signal,
+        &mut f.size_px,
+        &mut f.background,
+        &mut f.noise,
+    ] {
+        col.push(f64::NAN);
+    }
+    f.status.push(STATUS_INVALID);
+}
+
+/// Decode a lossless PNG (8- or 16-bit grey) to native-endian pixel bytes: (bytes, w, h, bpp).
+fn decode_png(
+    format: &str,
+    data: &[u8],
+) -> std::result::Result<(Vec<u8>, usize, usize, usize), String> {
+    use image::ImageDecoder;
+    if !format.to_ascii_lowercase().contains("png") {
+        return Err(format!("compressed format {format:?} is not PNG"));
+    }
+    let dec = image::codecs::png::PngDecoder::new(std::io::Cursor::new(data))
+        .map_err(|e| format!("PNG: {e}"))?;
+    let (w, h) = dec.dimensions();
+    let bpp = match dec.color_type() {
+        image::ColorType::L8 => 1,
+        image::ColorType::L16 => 2,
+        c => return Err(format!("PNG colour type {c:?} is not 8- or 16-bit grey")),
+    };
+    let mut buf =
+        vec![0u8; usize::try_from(dec.total_bytes()).map_err(|_| "PNG too large".to_string())?];
+    dec.read_image(&mut buf).map_err(|e| format!("PNG: {e}"))?;
+    Ok((buf, w as usize, h as usize, bpp))
+}
+
+/// Parse the fixed part of a chunk record that was cut short: its header and whatever records
+/// bytes are present.
+fn partial_chunk(body: &[u8]) -> Option<(ChunkHeader, &[u8])> {
+    let u64_at = |p: usize| {
+        body.get(p..p + 8)
+            .map(|b| u64::from_le_bytes(b.try_into().expect("8")))
+    };
+    let start = u64_at(0)?;
+    let end = u64_at(8)?;
+    let size = u64_at(16)?;
+    let crc = u32::from_le_bytes(body.get(24..28)?.try_into().ok()?);
+    let clen = u32::from_le_bytes(body.get(28..32)?.try_into().ok()?) as usize;
+    let comp = std::str::from_utf8(body.get(32..32 + clen)?)
+        .ok()?
+        .to_string();
+    let p = 32 + clen + 8; // skip records_length
+    let data = body.get(p..)?;
+    Some((
+        ChunkHeader {
+            message_start_time: start,
+            message_end_time: end,
+            uncompressed_size: size,
+            uncompressed_crc: crc,
+            compression: comp,
+            compressed_size: data.len() as u64,
+        },
+        data,
+    ))
+}
+
+/// Extract every table of a recording.
+pub fn extract(
+    path: &Path,
+    rig: &Rig,
+    opts: &ExtractOptions,
+    progress: &ProgressFn<'_>,
+) -> Result<(Tables, Report)> {
+    let file = std::fs::File::open(path).map_err(|source| Error::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    let len = file
+        .metadata()
+        .map_err(|source| Error::Io {
+            path: path.display().to_string(),
+            source,
+        })?
+        .len();
+    if len < MAGIC.len() as u64 {
+        return Err(Error::Recording(format!(
+            "{}: not an MCAP file ({len} bytes)",
+            path.display()
+        )));
+    }
+    // SAFETY: the map is read-only; a file truncated by another process while mapped would
+    // fault, which no safe API can prevent; recordings are not written while being read.
+    let mmap = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| Error::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    let _ = mmap.advise(memmap2::Advice::Sequential);
+    extract_bytes(
+        &mmap,
+        &path.display().to_string(),
+        rig,
+        opts,
+        progress,
+        |from, to| {
+            // Release pages already processed so the resident set stays flat.
+            // SAFETY: read-only private mapping; DONTNEED only drops our view of the pages.
+            let _ = unsafe {
+                mmap.unchecked_advise_range(memmap2::UncheckedAdvice::DontNeed, from, to - from)
+            };
+        },
+    )
+}
+
+/// [`extract`] over bytes already in memory; `release(from, to)` is told which byte ranges are done.
+pub fn extract_bytes(
+    buf: &[u8],
+    name: &str,
+    rig: &Rig,
+    opts: &ExtractOptions,
+    progress: &ProgressFn<'_>,
+    release: impl Fn(usize, usize),
+) -> Result<(Tables, Report)> {
+    if buf.len() < MAGIC.len() || &buf[..MAGIC.len()] != MAGIC {
+        return Err(Error::Recording(format!(
+            "{name}: not an MCAP file (no MCAP magic at the start)"
+        )));
+    }
+    let ctx = Context::new(rig, opts.spot.clone());
+    let mut report = Report {
+        file_bytes: buf.len() as u64,
+        ..Report::default()
+    };
+    let mut reg = Registry::default();
+    if let Ok(Some(summary)) = mcap::read::Summary::read(buf) {
+        report.used_summary = true;
+        for (id, s) in &summary.schemas {
+            reg.schemas.insert(*id, s.name.clone());
+        }
+        for (id, c) in &summary.channels {
+            reg.channels.insert(
+                *id,
+                ChannelInfo {
+                    topic: c.topic.clone(),
+                    schema_id: c.schema.as_ref().map(|s| s.id).unwrap_or(0),
+                    encoding: c.message_encoding.clone(),
+                },
+            );
+        }
+    }
+    let mut tables = Tables::default();
+    let body = &buf[MAGIC.len()..];
+    let mut window: Vec<Work<'_>> = Vec::new();
+    let mut window_bytes = 0usize;
+    let mut window_start = 0usize;
+    let mut loose: Vec<(MessageHeader, &[u8])> = Vec::new();
+    let mut interrupted = false;
+    let mut frames_done = 0u64;
+
+    let mut flush = |window: &mut Vec<Work<'_>>,
+                     reg: &mut Registry,
+                     tables: &mut Tables,
+                     report: &mut Report,
+                     upto: usize|
+     -> bool {
+        let parts: Vec<Part> = window.par_iter().map(|w| ctx.run(reg, w)).collect();
+        let mut retry = Vec::new();
+        let mut done: Vec<Option<Part>> = Vec::with_capacity(parts.len());
+        for (i, p) in parts.into_iter().enumerate() {
+            reg.merge(&p.registry);
+            if p.retry {
+                retry.push(i);
+                done.push(None);
+            } else {
+                done.push(Some(p));
+            }
+        }
+        let again: Vec<(usize, Part)> = retry
+            .par_iter()
+            .map(|&i| (i, ctx.run(reg, &window[i])))
+            .collect();
+        for (i, mut p) in again {
+            if p.retry {
+                // Still unknown: count the chunk's messages as skipped rather than loop.
+                p.report
+                    .skip("?", "message on a channel the file never defines");
+                p.retry = false;
+            }
+            done[i] = Some(p);
+        }
+        for p in done.into_iter().flatten() {
+            frames_done += p.tables.frames.t_ns.len() as u64;
+            tables.append(&p.tables);
+            report.merge(&p.report);
+        }
+        window.clear();
+        release(window_start.min(upto), upto);
+        window_start = upto;
+        progress((upto + MAGIC.len()) as u64, buf.len() as u64, frames_done)
+    };
+
+    let cut = walk(body, |pos, opcode, rec| {
+        match opcode {
+            op::SCHEMA | op::CHANNEL => {
+                if let Ok(r) = mcap::read::parse_record(opcode, rec) {
+                    reg.absorb(&r);
+                }
+            }
+            op::MESSAGE => {
+                if let Ok(Record::Message { header, data }) = mcap::read::parse_record(opcode, rec)
+                {
+                    let data: &[u8] = match data {
+                        std::borrow::Cow::Borrowed(b) => b,
+                        std::borrow::Cow::Owned(_) => return true,
+                    };
+                    window_bytes += data.len();
+                    loose.push((header, data));
+                    if loose.len() >= 256 {
+                        window.push(Work::Loose(std::mem::take(&mut loose)));
+                    }
+                }
+            }
+            op::CHUNK => match mcap::read::parse_record(opcode, rec) {
+                Ok(Record::Chunk { header, data }) => {
+                    let data: &[u8] = match data {
+                        std::borrow::Cow::Borrowed(b) => b,
+                        std::borrow::Cow::Owned(_) => return true,
+                    };
+                    window_bytes += data.len();
+                    window.push(Work::Chunk {
+                        offset: (pos + MAGIC.len()) as u64,
+                        header,
+                        data,
+                        partial: false,
+                    });
+                }
+                _ => report.losses.push(Loss {
+                    kind: "corrupt_chunk",
+                    offset: (pos + MAGIC.len()) as u64,
+                    bytes: rec.len() as u64,
+                    detail: format!(
+                        "chunk record at byte {} does not parse; skipped",
+                        pos + MAGIC.len()
+                    ),
+                }),
+            },
+            op::DATA_END | op::FOOTER => return false,
+            _ => {}
+        }
+        if window_bytes >= opts.window_bytes
+            || window.len() >= 4 * rayon::current_num_threads().max(1)
+        {
+            if !loose.is_empty() {
+                window.push(Work::Loose(std::mem::take(&mut loose)));
+            }
+            window_bytes = 0;
+            if !flush(&mut window, &mut reg, &mut tables, &mut report, pos) {
+                interrupted = true;
+                return false;
+            }
+        }
+        true
+    });
+    if interrupted {
+        return Err(Error::Interrupted);
+    }
+    if let Some(pos) = cut {
+        let rest = &body[pos..];
+        let offset = (pos + MAGIC.len()) as u64;
+        let mut detail = format!(
+            "the file is cut short: the record at byte {offset} is incomplete ({} of its bytes present)",
+            rest.len()
+        );
+        if rest.first() == Some(&op::CHUNK) && rest.len() > 9 {
+            if let Some((header, data)) = partial_chunk(&rest[9..]) {
+                window.push(Work::Chunk {
+                    offset,
+                    header,
+                    data,
+                    partial: true,
+                });
+                detail.push_str("; complete messages in the cut chunk are recovered");
+            }
+        }
+        report.losses.push(Loss {
+            kind: "truncated",
+            offset,
+            bytes: rest.len() as u64,
+            detail,
+        });
+    }
+    if !loose.is_empty() {
+        window.push(Work::Loose(std::mem::take(&mut loose)));
+    }
+    if !window.is_empty() && !flush(&mut window, &mut reg, &mut tables, &mut report, body.len()) {
+        return Err(Error::Interrupted);
+    }
+    // A recording with none of the rig's topics is an error naming them.
+    let present: Vec<&str> = reg.channels.values().map(|c| c.topic.as_str()).collect();
+    let wanted = ctx.rig_topics();
+    if !wanted.iter().any(|t| present.contains(t)) {
+        let mut have: Vec<&str> = present.clone();
+        have.sort_unstable();
+        have.dedup();
+        return Err(Error::Recording(format!(
+            "{name}: none of the rig's topics ({}) is in the recording (it has: {})",
+            wanted.join(", "),
+            if have.is_empty() {
+                "no channels".to_string()
+            } else {
+                have.join(", ")
+            }
+        )));
+    }
+    Ok((tables, report))
+}
