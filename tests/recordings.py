@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import zlib
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -145,39 +146,57 @@ class Recording:
         chunked: bool = True,
         summary: bool = True,
     ) -> Path:
-        comp = {
-            "none": CompressionType.NONE,
-            "zstd": CompressionType.ZSTD,
-            "lz4": CompressionType.LZ4,
-        }[compression]
-        buf = io.BytesIO()
-        w = Writer(
-            buf,
-            chunk_size=chunk_size,
-            compression=comp,
-            use_chunking=chunked,
-            index_types=IndexType.ALL if summary else IndexType.NONE,
-            repeat_channels=summary,
-            repeat_schemas=summary,
-            use_statistics=summary,
-            use_summary_offsets=summary,
-        )
-        w.start(profile="ros2", library="thermrs-tests")
-        schemas: dict[str, int] = {}
-        channels: dict[str, int] = {}
-        for seq, (topic, schema, t_ns, msg) in enumerate(self.messages):
-            if schema not in schemas:
-                schemas[schema] = w.register_schema(schema, "ros2msg", MSGDEFS[schema].encode())
-            if topic not in channels:
-                channels[topic] = w.register_channel(topic, "cdr", schemas[schema])
-            data = ENCODERS[schema](msg)
-            w.add_message(
-                channels[topic],
-                log_time=t_ns + 2_000_000,
-                data=data,
-                publish_time=t_ns,
-                sequence=seq,
+        with open(path, "wb") as fh:
+            write_messages(
+                fh,
+                self.messages,
+                compression=compression,
+                chunk_size=chunk_size,
+                chunked=chunked,
+                summary=summary,
             )
-        w.finish()
-        path.write_bytes(buf.getvalue())
         return path
+
+
+def write_messages(
+    out: io.BufferedIOBase | io.BytesIO | object,
+    messages: Iterable[tuple[str, str, int, dict[str, object]]],
+    *,
+    compression: str = "zstd",
+    chunk_size: int = 1 << 20,
+    chunked: bool = True,
+    summary: bool = True,
+) -> None:
+    """Stream messages (topic, schema, t_ns, message) into an MCAP file object."""
+    comp = {
+        "none": CompressionType.NONE,
+        "zstd": CompressionType.ZSTD,
+        "lz4": CompressionType.LZ4,
+    }[compression]
+    w = Writer(
+        out,  # type: ignore[arg-type]
+        chunk_size=chunk_size,
+        compression=comp,
+        use_chunking=chunked,
+        index_types=IndexType.ALL if summary else IndexType.NONE,
+        repeat_channels=summary,
+        repeat_schemas=summary,
+        use_statistics=summary,
+        use_summary_offsets=summary,
+    )
+    w.start(profile="ros2", library="thermrs-tests")
+    schemas: dict[str, int] = {}
+    channels: dict[str, int] = {}
+    for seq, (topic, schema, t_ns, msg) in enumerate(messages):
+        if schema not in schemas:
+            schemas[schema] = w.register_schema(schema, "ros2msg", MSGDEFS[schema].encode())
+        if topic not in channels:
+            channels[topic] = w.register_channel(topic, "cdr", schemas[schema])
+        w.add_message(
+            channels[topic],
+            log_time=t_ns + 2_000_000,
+            data=ENCODERS[schema](msg),
+            publish_time=t_ns,
+            sequence=seq,
+        )
+    w.finish()
