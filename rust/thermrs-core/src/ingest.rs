@@ -1077,7 +1077,8 @@ pub fn extract_bytes(
     if !loose.is_empty() {
         window.push(Work::Loose(std::mem::take(&mut loose)));
     }
-    if !window.is_empty() && !flush(&mut window, &mut reg, &mut tables, &mut report, body.len()) {
+    // Always: the last call reports the whole file done.
+    if !flush(&mut window, &mut reg, &mut tables, &mut report, body.len()) {
         return Err(Error::Interrupted);
     }
     // A recording with none of the rig's topics is an error naming them.
