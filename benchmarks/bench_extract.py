@@ -40,7 +40,7 @@ def messages(frames: int, spot_fraction: float):  # type: ignore[no-untyped-def]
     """The benchmark recording's messages, generated lazily (constant memory)."""
     import thermrs
 
-    from tests.recordings import dark_image, image_msg, spot_image
+    from tests.recordings import dark_image, header, image_msg, spot_image
 
     rig = thermrs.load_rig()
     rng = np.random.default_rng(0)
@@ -62,10 +62,7 @@ def messages(frames: int, spot_fraction: float):  # type: ignore[no-untyped-def]
                 "sensor_msgs/msg/JointState",
                 t - 1,
                 {
-                    "header": {
-                        "stamp": {"sec": (t - 1) // 10**9, "nanosec": (t - 1) % 10**9},
-                        "frame_id": "base",
-                    },
+                    "header": header(t - 1, "base"),
                     "name": rig.joint_names,
                     "position": q,
                     "velocity": [],
@@ -83,10 +80,7 @@ def messages(frames: int, spot_fraction: float):  # type: ignore[no-untyped-def]
                 "sensor_msgs/msg/Temperature",
                 t,
                 {
-                    "header": {
-                        "stamp": {"sec": t // 10**9, "nanosec": t % 10**9},
-                        "frame_id": "ambient",
-                    },
+                    "header": header(t, "ambient"),
                     "temperature": 22.0,
                     "variance": 0.0,
                 },

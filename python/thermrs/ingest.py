@@ -169,7 +169,8 @@ def extract(
         if len(frames_c["status"])
         else pl.Series([], dtype=pl.String),
     )
-    frames = frames.with_columns(pl.col(c).fill_nan(None) for c in ("x_px", "y_px"))
+    # No spot (or an invalid frame): null, not NaN, in every measured column.
+    frames = frames.with_columns(pl.col(pl.Float64).fill_nan(None))
     frames = _with_chip_um(frames, rig).sort("camera", "t_ns")
     frames = frames.select(
         "camera",
