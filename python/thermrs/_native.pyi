@@ -40,6 +40,9 @@ class ForwardModel:
         reference_c: float | None = None,
         alpha_by_temperature: dict[str, float] | None = None,
         kappa_per_k: float = 0.0,
+        extra_lengths: list[tuple[str, str]] | None = None,
+        joint_offsets: list[tuple[int, str, float]] | None = None,
+        laser_tilt: tuple[float, float] | None = None,
     ) -> None: ...
     def temperature_names(self) -> list[str]: ...
     def flange_positions(

@@ -20,7 +20,7 @@ True
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -104,6 +104,19 @@ class ForwardModel:
         ``alpha_per_link``).
     kappa_per_k
         Quadratic strain term: strain = α·ΔT·(1 + κ·ΔT) (SPEC §6 ``nonlinear_alpha``).
+    extra_lengths
+        ``{length: temperature}``: DH lengths (``a<i>``/``d<i>``) the rig does not list that
+        expand too (SPEC §6 ``unmodelled_length``).
+    joint_offsets
+        ``[(joint, temperature, µrad_per_k)]``: a joint (rig joint name or 1-based number)
+        whose zero moves by that much per kelvin above ``reference_c`` (``joint_offset``).
+    laser_tilt_deg
+        The laser's true direction is the rig's turned by this angle (``laser_tilt``); a pair
+        ``(tilt, azimuth)`` also turns the tilt axis about the ray (see the Rust
+        ``model::LaserTilt``).
+
+    The temperatures the model needs (:attr:`temperature_names`) are the rig's mapped ones
+    followed by those the effects add.
     """
 
     def __init__(
@@ -114,15 +127,42 @@ class ForwardModel:
         reference_c: float | None = None,
         alpha_by_temperature: Mapping[str, float] | None = None,
         kappa_per_k: float = 0.0,
+        extra_lengths: Mapping[str, str] | None = None,
+        joint_offsets: Sequence[tuple[str | int, str, float]] | None = None,
+        laser_tilt_deg: float | tuple[float, float] | None = None,
     ) -> None:
         self.rig = rig
+        offsets = []
+        for joint, temperature, urad_per_k in joint_offsets or ():
+            offsets.append((self._joint_index(joint), temperature, urad_per_k * 1e-6))
+        tilt: tuple[float, float] | None
+        if laser_tilt_deg is None:
+            tilt = None
+        elif isinstance(laser_tilt_deg, tuple):
+            tilt = (float(laser_tilt_deg[0]), float(laser_tilt_deg[1]))
+        else:
+            tilt = (float(laser_tilt_deg), 0.0)
         self._native = _native.ForwardModel(
             rig._native,
             alpha_per_k=alpha_per_k,
             reference_c=reference_c,
             alpha_by_temperature=dict(alpha_by_temperature) if alpha_by_temperature else None,
             kappa_per_k=kappa_per_k,
+            extra_lengths=list((extra_lengths or {}).items()),
+            joint_offsets=offsets,
+            laser_tilt=tilt,
         )
+
+    def _joint_index(self, joint: str | int) -> int:
+        """0-based index of a joint given by rig name or 1-based number."""
+        if isinstance(joint, str):
+            if joint not in self.rig.joint_names:
+                known = ", ".join(self.rig.joint_names)
+                raise InputError(f"joint_offset: {joint!r} is not a rig joint ({known})")
+            return self.rig.joint_names.index(joint)
+        if not 1 <= int(joint) <= 6:
+            raise InputError(f"joint_offset: joint {joint} is not 1..6")
+        return int(joint) - 1
 
     @property
     def temperature_names(self) -> list[str]:

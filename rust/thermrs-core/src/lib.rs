@@ -9,12 +9,14 @@
 //! - [`cdr`]: zero-copy ROS 2 CDR decoding of the recorded message types;
 //! - [`centroid`]: laser-spot detection and sub-pixel centroids on CCD frames;
 //! - [`thermal`]: thermal ROI maxima in °C;
-//! - [`ingest`]: streaming, chunk-parallel MCAP extraction into tables.
+//! - [`ingest`]: streaming, chunk-parallel MCAP extraction into tables;
+//! - [`heat`]: the lumped thermal model of the links (warm-up, cool-down, lag).
 
 pub mod cdr;
 pub mod centroid;
 pub mod error;
 pub mod explain;
+pub mod heat;
 pub mod ingest;
 pub mod kinematics;
 pub mod model;

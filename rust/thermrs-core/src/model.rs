@@ -2,10 +2,22 @@
 //!
 //! A DH length L listed in the rig's `[expansion]` expands to
 //! `L·(1 + α_T·ΔT·(1 + κ·ΔT))`, ΔT = T − reference_c, with T the temperature mapped to it at
-//! that sample. The nominal model has one α and κ = 0; `alpha_by_temperature` (one α per mapped
-//! temperature) and `kappa_per_k` are the SPEC §6 effects `alpha_per_link` and `nonlinear_alpha`.
-//! The flange pose is the DH product with the expanded lengths at the sample's joints; the laser
-//! ray is mapped through it and meets the chip plane (see [`crate::optics`]).
+//! that sample. The flange pose is the DH product with the expanded lengths at the sample's
+//! joints; the laser ray is mapped through it and meets the chip plane (see [`crate::optics`]).
+//!
+//! The nominal model has one α and nothing else. [`ModelParams`] adds the SPEC §6 effects that
+//! act on geometry, each in one place here:
+//! - `alpha_per_link`: one α per mapped temperature (`alpha_by_temperature`);
+//! - `nonlinear_alpha`: strain α·ΔT·(1 + κ·ΔT) (`kappa_per_k`);
+//! - `unmodelled_length`: a DH length the rig does not list expands too (`extra_lengths`);
+//! - `joint_offset`: a joint's zero moves by k·ΔT of a temperature (`joint_offsets`);
+//! - `laser_tilt`: the true laser direction is tilted from the rig's (`laser_tilt`).
+//!
+//! The effects that move a chip rather than the ray, `fixture_drift` (with ambient) and
+//! `sensor_drift` (with time since the run began), are [`fixture_drift_um`] and
+//! [`sensor_drift_um`]: apparent spot shifts on the chip to add to the model's spots. The
+//! remaining effect, `thermal_lag`, acts on the temperature series before they reach this
+//! model ([`crate::heat::first_order_lag`]).
 //!
 //! Everything is vectorised over samples: joints are an `N×6` row-major slice (radians),
 //! temperatures one `N`-long column per mapped name. Work over 8,192 samples is spread over the
@@ -26,9 +38,45 @@ const PARALLEL_THRESHOLD: usize = 8192;
 /// Samples per parallel work item.
 const PARALLEL_CHUNK: usize = 4096;
 
-/// Parameters of the expansion law.
+/// A joint whose zero moves with a temperature (`joint_offset`).
 #[derive(Debug, Clone, PartialEq)]
-pub struct ExpansionParams {
+pub struct JointOffset {
+    /// 0-based joint index.
+    pub joint: usize,
+    /// ROI name or `ambient`.
+    pub temperature: String,
+    /// Offset per kelvin above `reference_c`, radians (SPEC reports µrad/K).
+    pub rad_per_k: f64,
+}
+
+/// A tilt of the laser direction in the flange frame (`laser_tilt`): the direction is turned by
+/// `tilt_deg` about an axis perpendicular to it. With `azimuth_deg` = 0 that axis is
+/// direction × flange z (flange x where the laser runs along z); `azimuth_deg` turns the axis
+/// about the direction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LaserTilt {
+    pub tilt_deg: f64,
+    pub azimuth_deg: f64,
+}
+
+impl LaserTilt {
+    /// The tilted unit direction.
+    pub fn apply(&self, d: &Vector3<f64>) -> Vector3<f64> {
+        let d = d.normalize();
+        let mut axis = d.cross(&Vector3::z());
+        if axis.norm() < 1e-9 {
+            axis = Vector3::x();
+        }
+        let axis = nalgebra::Unit::new_normalize(axis);
+        let du = nalgebra::Unit::new_normalize(d);
+        let axis = nalgebra::Rotation3::from_axis_angle(&du, self.azimuth_deg.to_radians()) * axis;
+        (nalgebra::Rotation3::from_axis_angle(&axis, self.tilt_deg.to_radians()) * d).normalize()
+    }
+}
+
+/// Parameters of the forward model: the expansion law and the geometric effects.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelParams {
     /// α (1/K) for every mapped temperature without its own entry.
     pub alpha_per_k: f64,
     /// The temperature at which the rig's lengths are exact (°C).
@@ -37,16 +85,25 @@ pub struct ExpansionParams {
     pub alpha_by_temperature: BTreeMap<String, f64>,
     /// Quadratic strain term κ (1/K): strain = α·ΔT·(1 + κ·ΔT) (`nonlinear_alpha`).
     pub kappa_per_k: f64,
+    /// DH lengths the rig does not list that expand too (`unmodelled_length`).
+    pub extra_lengths: Vec<(LengthRef, String)>,
+    /// Joints whose zero moves with a temperature (`joint_offset`).
+    pub joint_offsets: Vec<JointOffset>,
+    /// The laser's true direction differs from the rig's (`laser_tilt`).
+    pub laser_tilt: Option<LaserTilt>,
 }
 
-impl ExpansionParams {
-    /// The rig's nominal α and reference temperature.
-    pub fn nominal(rig: &Rig) -> ExpansionParams {
-        ExpansionParams {
+impl ModelParams {
+    /// The rig's nominal α and reference temperature, no effects.
+    pub fn nominal(rig: &Rig) -> ModelParams {
+        ModelParams {
             alpha_per_k: rig.expansion.alpha_per_k,
             reference_c: rig.expansion.reference_c,
             alpha_by_temperature: BTreeMap::new(),
             kappa_per_k: 0.0,
+            extra_lengths: Vec::new(),
+            joint_offsets: Vec::new(),
+            laser_tilt: None,
         }
     }
 
@@ -93,6 +150,8 @@ pub struct ForwardModel {
     lengths: Vec<(LengthRef, usize)>,
     /// α per temperature name.
     alpha: Vec<f64>,
+    /// (joint, index into temperature_names, rad per K)
+    joint_offsets: Vec<(usize, usize, f64)>,
     kappa: f64,
     reference_c: f64,
 }
@@ -103,16 +162,7 @@ pub type TemperatureColumns<'a> = Option<&'a [&'a [f64]]>;
 
 impl ForwardModel {
     /// Build the model of a validated rig.
-    pub fn new(rig: &Rig, params: &ExpansionParams) -> Result<ForwardModel> {
-        let temperature_names = rig.mapped_temperatures();
-        for name in params.alpha_by_temperature.keys() {
-            if !temperature_names.contains(name) {
-                return Err(Error::Input(format!(
-                    "alpha for temperature {name:?}: the rig maps no length to it (mapped: {})",
-                    temperature_names.join(", ")
-                )));
-            }
-        }
+    pub fn new(rig: &Rig, params: &ModelParams) -> Result<ForwardModel> {
         for (what, v) in [
             ("alpha_per_k", params.alpha_per_k),
             ("reference_c", params.reference_c),
@@ -124,17 +174,68 @@ impl ForwardModel {
                 )));
             }
         }
-        let lengths = rig
-            .length_map()
-            .into_iter()
-            .map(|(l, t)| {
-                let idx = temperature_names
-                    .iter()
-                    .position(|n| *n == t)
-                    .expect("mapped");
-                (l, idx)
-            })
+        // Temperatures: the rig's mapped ones, then those the effects add, first use first.
+        let mut temperature_names = rig.mapped_temperatures();
+        let known: Vec<String> = rig
+            .rois()
+            .into_keys()
+            .chain(rig.ambient.iter().map(|_| crate::rig::AMBIENT.to_string()))
             .collect();
+        let mut need = |name: &str, what: &str| -> Result<usize> {
+            if !known.iter().any(|k| k == name) {
+                return Err(Error::Input(format!(
+                    "{what}: temperature {name:?} is neither a ROI of the rig nor ambient (known: {})",
+                    known.join(", ")
+                )));
+            }
+            Ok(match temperature_names.iter().position(|n| n == name) {
+                Some(i) => i,
+                None => {
+                    temperature_names.push(name.to_string());
+                    temperature_names.len() - 1
+                }
+            })
+        };
+        let mut lengths: Vec<(LengthRef, usize)> = Vec::new();
+        for (l, t) in rig.length_map() {
+            lengths.push((l, need(&t, "expansion")?));
+        }
+        for (l, t) in &params.extra_lengths {
+            if lengths.iter().any(|(m, _)| m == l) {
+                return Err(Error::Input(format!(
+                    "unmodelled_length {l}: the rig already expands it"
+                )));
+            }
+            let row = &rig.robot.dh[l.row()];
+            let v = match l {
+                LengthRef::A(_) => row.a_mm,
+                LengthRef::D(_) => row.d_mm,
+            };
+            if v == 0.0 {
+                return Err(Error::Input(format!(
+                    "unmodelled_length {l}: it is 0 mm in robot.dh, so it cannot expand"
+                )));
+            }
+            lengths.push((*l, need(t, "unmodelled_length")?));
+        }
+        let mut joint_offsets = Vec::new();
+        for o in &params.joint_offsets {
+            if o.joint >= 6 || !o.rad_per_k.is_finite() {
+                return Err(Error::Input(format!(
+                    "joint_offset: joint index {} (0-based) or {} rad/K is out of range",
+                    o.joint, o.rad_per_k
+                )));
+            }
+            joint_offsets.push((o.joint, need(&o.temperature, "joint_offset")?, o.rad_per_k));
+        }
+        for name in params.alpha_by_temperature.keys() {
+            if !temperature_names.contains(name) {
+                return Err(Error::Input(format!(
+                    "alpha for temperature {name:?}: no length expands with it (temperatures: {})",
+                    temperature_names.join(", ")
+                )));
+            }
+        }
         let alpha = temperature_names
             .iter()
             .map(|n| {
@@ -145,15 +246,24 @@ impl ForwardModel {
             })
             .collect();
         let l = &rig.laser;
+        let direction = Vector3::from(l.direction);
+        let laser_direction = match &params.laser_tilt {
+            Some(t) if t.tilt_deg.is_finite() && t.azimuth_deg.is_finite() => t.apply(&direction),
+            Some(t) => {
+                return Err(Error::Input(format!("laser_tilt: {t:?} is not finite")));
+            }
+            None => direction,
+        };
         Ok(ForwardModel {
             chain: Chain::new(&rig.robot.dh),
             laser_origin: Vector3::from(l.origin_mm),
-            laser_direction: Vector3::from(l.direction),
+            laser_direction,
             chips: rig.camera.iter().map(Chip::from_camera).collect(),
             camera_names: rig.camera.iter().map(|c| c.name.clone()).collect(),
             temperature_names,
             lengths,
             alpha,
+            joint_offsets,
             kappa: params.kappa_per_k,
             reference_c: params.reference_c,
         })
@@ -161,7 +271,7 @@ impl ForwardModel {
 
     /// The nominal model of a rig (its own α, no effects).
     pub fn nominal(rig: &Rig) -> Result<ForwardModel> {
-        ForwardModel::new(rig, &ExpansionParams::nominal(rig))
+        ForwardModel::new(rig, &ModelParams::nominal(rig))
     }
 
     pub fn chain(&self) -> &Chain {
@@ -197,8 +307,7 @@ impl ForwardModel {
         let mut d = self.chain.d_mm;
         if let Some(t) = temps {
             for &(l, ti) in &self.lengths {
-                let f =
-                    ExpansionParams::factor(self.alpha[ti], self.kappa, self.reference_c, t[ti]);
+                let f = ModelParams::factor(self.alpha[ti], self.kappa, self.reference_c, t[ti]);
                 match l {
                     LengthRef::A(r) => a[r] *= f,
                     LengthRef::D(r) => d[r] *= f,
@@ -212,7 +321,17 @@ impl ForwardModel {
     #[inline]
     pub fn flange(&self, q: &[f64], temps: Option<&[f64]>) -> Frame {
         let (a, d) = self.lengths_at(temps);
-        self.chain.flange_with(q, &a, &d)
+        match (temps, self.joint_offsets.is_empty()) {
+            (Some(t), false) => {
+                let mut qq = [0.0; 6];
+                qq.copy_from_slice(&q[..6]);
+                for &(j, ti, k) in &self.joint_offsets {
+                    qq[j] += k * (t[ti] - self.reference_c);
+                }
+                self.chain.flange_with(&qq, &a, &d)
+            }
+            _ => self.chain.flange_with(q, &a, &d),
+        }
     }
 
     /// The laser ray in the base frame for a flange frame.
@@ -351,6 +470,36 @@ impl ForwardModel {
         });
         Ok(())
     }
+}
+
+/// `fixture_drift`: the apparent spot shift (u, v) in µm on a chip whose mount moves with the
+/// ambient temperature, `um_per_k` per kelvin above `reference_c`.
+pub fn fixture_drift_um(um_per_k: [f64; 2], reference_c: f64, ambient_c: &[f64]) -> Vec<[f64; 2]> {
+    ambient_c
+        .iter()
+        .map(|t| {
+            [
+                um_per_k[0] * (t - reference_c),
+                um_per_k[1] * (t - reference_c),
+            ]
+        })
+        .collect()
+}
+
+/// `sensor_drift`: the apparent spot shift (u, v) in µm of a chip drifting on its own, first
+/// order with time since the run began: `um`·(1 − e^(−t/τ)).
+pub fn sensor_drift_um(um: [f64; 2], tau_min: f64, t_since_start_s: &[f64]) -> Vec<[f64; 2]> {
+    t_since_start_s
+        .iter()
+        .map(|t| {
+            let f = if tau_min > 0.0 {
+                1.0 - (-t.max(0.0) / (tau_min * 60.0)).exp()
+            } else {
+                1.0
+            };
+            [um[0] * f, um[1] * f]
+        })
+        .collect()
 }
 
 /// Number of threads the parallel loops use (rayon's pool; `RAYON_NUM_THREADS` sets it).

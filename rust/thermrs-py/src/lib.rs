@@ -22,8 +22,10 @@ use thermrs_core::error::Error as CoreError;
 use pyo3::types::{PyDict, PyTuple};
 use thermrs_core::explain;
 use thermrs_core::ingest;
-use thermrs_core::model::{ExpansionParams, FlangeOutput, ForwardModel, SPOT_WIDTH};
-use thermrs_core::rig::Rig;
+use thermrs_core::model::{
+    FlangeOutput, ForwardModel, JointOffset, LaserTilt, ModelParams, SPOT_WIDTH,
+};
+use thermrs_core::rig::{LengthRef, Rig};
 
 create_exception!(
     thermrs._native,
@@ -182,15 +184,19 @@ impl PyForwardModel {
 #[pymethods]
 impl PyForwardModel {
     #[new]
-    #[pyo3(signature = (rig, *, alpha_per_k = None, reference_c = None, alpha_by_temperature = None, kappa_per_k = 0.0))]
+    #[pyo3(signature = (rig, *, alpha_per_k = None, reference_c = None, alpha_by_temperature = None, kappa_per_k = 0.0, extra_lengths = None, joint_offsets = None, laser_tilt = None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         rig: &PyRig,
         alpha_per_k: Option<f64>,
         reference_c: Option<f64>,
         alpha_by_temperature: Option<BTreeMap<String, f64>>,
         kappa_per_k: f64,
+        extra_lengths: Option<Vec<(String, String)>>,
+        joint_offsets: Option<Vec<(usize, String, f64)>>,
+        laser_tilt: Option<(f64, f64)>,
     ) -> PyResult<PyForwardModel> {
-        let mut params = ExpansionParams::nominal(&rig.inner);
+        let mut params = ModelParams::nominal(&rig.inner);
         if let Some(a) = alpha_per_k {
             params.alpha_per_k = a;
         }
@@ -199,6 +205,27 @@ impl PyForwardModel {
         }
         params.alpha_by_temperature = alpha_by_temperature.unwrap_or_default();
         params.kappa_per_k = kappa_per_k;
+        for (name, temperature) in extra_lengths.unwrap_or_default() {
+            let l = LengthRef::parse(&name).ok_or_else(|| {
+                InputError::new_err(format!(
+                    "unmodelled_length: {name:?} is not a DH length (a1..a6, d1..d6)"
+                ))
+            })?;
+            params.extra_lengths.push((l, temperature));
+        }
+        params.joint_offsets = joint_offsets
+            .unwrap_or_default()
+            .into_iter()
+            .map(|(joint, temperature, rad_per_k)| JointOffset {
+                joint,
+                temperature,
+                rad_per_k,
+            })
+            .collect();
+        params.laser_tilt = laser_tilt.map(|(tilt_deg, azimuth_deg)| LaserTilt {
+            tilt_deg,
+            azimuth_deg,
+        });
         let inner = ForwardModel::new(&rig.inner, &params).map_err(to_py)?;
         Ok(PyForwardModel { inner })
     }
