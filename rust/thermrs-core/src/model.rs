@@ -595,4 +595,38 @@ mod tests {
             .to_string()
             .contains("A, B"));
     }
+
+    #[test]
+    fn chip_drifts_have_their_closed_forms() {
+        let f = fixture_drift_um([0.5, -2.0], 23.0, &[23.0, 25.0, 20.0]);
+        assert_eq!(f, vec![[0.0, -0.0], [1.0, -4.0], [-1.5, 6.0]]);
+        let tau_min = 30.0;
+        let s = sensor_drift_um([3.0, -1.0], tau_min, &[0.0, 1800.0, 1e9, -5.0]);
+        let e1 = 1.0 - (-1.0f64).exp();
+        assert_eq!(s[0], [0.0, -0.0]);
+        assert!((s[1][0] - 3.0 * e1).abs() < 1e-12 && (s[1][1] + e1).abs() < 1e-12);
+        assert!((s[2][0] - 3.0).abs() < 1e-12);
+        assert_eq!(s[3], [0.0, -0.0], "before the run began: no drift");
+    }
+
+    #[test]
+    fn laser_tilt_turns_by_its_angle_and_stays_unit() {
+        let d = Vector3::new(0.3, -0.2, 0.9).normalize();
+        for (tilt, az) in [(0.0, 0.0), (1.0, 0.0), (2.5, 90.0), (10.0, 217.0)] {
+            let t = LaserTilt {
+                tilt_deg: tilt,
+                azimuth_deg: az,
+            }
+            .apply(&d);
+            assert!((t.norm() - 1.0).abs() < 1e-12);
+            assert!((t.dot(&d).clamp(-1.0, 1.0).acos().to_degrees() - tilt).abs() < 1e-9);
+        }
+        // Along flange z the axis falls back to flange x.
+        let z = LaserTilt {
+            tilt_deg: 90.0,
+            azimuth_deg: 0.0,
+        }
+        .apply(&Vector3::z());
+        assert!((z - Vector3::new(0.0, -1.0, 0.0)).norm() < 1e-12, "{z}");
+    }
 }
