@@ -10,7 +10,8 @@
 //! - [`centroid`]: laser-spot detection and sub-pixel centroids on CCD frames;
 //! - [`thermal`]: thermal ROI maxima in °C;
 //! - [`ingest`]: streaming, chunk-parallel MCAP extraction into tables;
-//! - [`heat`]: the lumped thermal model of the links (warm-up, cool-down, lag).
+//! - [`heat`]: the lumped thermal model of the links (warm-up, cool-down, lag);
+//! - [`scenario`]: scenario files, what the simulator makes a rig do.
 
 pub mod cdr;
 pub mod centroid;
@@ -22,6 +23,7 @@ pub mod kinematics;
 pub mod model;
 pub mod optics;
 pub mod rig;
+pub mod scenario;
 pub mod thermal;
 
 pub use error::{Error, Result};

@@ -1,0 +1,535 @@
+//! Scenario files (`format = "thermrs-scenario/1"`): what the simulator makes a rig do.
+//!
+//! A scenario names runs (speed, duration, cycle period, how each starts), the ambient profile,
+//! the cameras' and sensors' noise and timing, and the unmodelled effects (SPEC §6) to switch
+//! on. Parsing is as strict as for rig files: unknown keys, missing keys, wrong types and
+//! impossible values are one-line errors naming the key.
+//!
+//! ```toml
+//! format = "thermrs-scenario/1"
+//! seed = 1
+//!
+//! [[run]]
+//! name = "run1"
+//! speed_pct = 30
+//! duration_min = 900
+//! cycle_s = 60
+//! start = "ambient"            # or "continue": no cool-down after the previous run
+//! idle_before_min = 0          # robot idle (cooling) before this run starts
+//!
+//! [ambient]
+//! start_c = 23.38
+//! drift_c_per_h = 0.0          # linear drift
+//! swing_c = 0.0                # daily sine, amplitude
+//! noise_c = 0.02               # thermometer noise
+//!
+//! [[effect]]
+//! name = "thermal_lag"
+//! tau_min = 25.0
+//! ```
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::RigError;
+
+/// The format string every scenario file must carry.
+pub const SCENARIO_FORMAT: &str = "thermrs-scenario/1";
+
+/// Effect names of SPEC §6 (the contract).
+pub const EFFECT_NAMES: [&str; 8] = [
+    "alpha_per_link",
+    "thermal_lag",
+    "unmodelled_length",
+    "fixture_drift",
+    "laser_tilt",
+    "joint_offset",
+    "nonlinear_alpha",
+    "sensor_drift",
+];
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub format: String,
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Seed of every random draw: the same seed gives byte-identical recordings.
+    #[serde(default)]
+    pub seed: u64,
+    pub run: Vec<Run>,
+    #[serde(default)]
+    pub ambient: AmbientProfile,
+    #[serde(default)]
+    pub camera: CameraModel,
+    #[serde(default)]
+    pub ir: IrModel,
+    #[serde(default)]
+    pub motion: Motion,
+    #[serde(default)]
+    pub output: Output,
+    /// Thermal nodes (default: the KR 15/2 calibration of `heat::kr15_paper_nodes`).
+    #[serde(default)]
+    pub node: Vec<Node>,
+    #[serde(default)]
+    pub effect: Vec<Effect>,
+}
+
+/// How a run starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Start {
+    /// Every node at ambient.
+    Ambient,
+    /// Where the previous run (and `idle_before_min` of cooling) left it; the first run of a
+    /// scenario has nothing to continue from and starts at ambient.
+    Continue,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Run {
+    pub name: String,
+    /// Robot speed, % of maximum (0 < speed ≤ 100).
+    pub speed_pct: f64,
+    pub duration_min: f64,
+    /// One cycle visits every camera pose once.
+    pub cycle_s: f64,
+    #[serde(default = "default_start")]
+    pub start: Start,
+    /// Minutes of idling (cooling) before the run.
+    #[serde(default)]
+    pub idle_before_min: f64,
+}
+
+fn default_start() -> Start {
+    Start::Continue
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AmbientProfile {
+    pub start_c: f64,
+    pub drift_c_per_h: f64,
+    /// Amplitude of a 24-hour sine (°C).
+    pub swing_c: f64,
+    /// Thermometer noise (°C rms).
+    pub noise_c: f64,
+    /// Ambient readings per cycle.
+    pub readings_per_cycle: u32,
+}
+
+impl Default for AmbientProfile {
+    fn default() -> Self {
+        AmbientProfile {
+            start_c: 23.38,
+            drift_c_per_h: 0.0,
+            swing_c: 0.0,
+            noise_c: 0.02,
+            readings_per_cycle: 1,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraModel {
+    /// `visits`: frames only while the robot dwells at the camera's pose; `continuous`:
+    /// frames all the time at `frame_rate_hz` (most of them dark).
+    pub mode: String,
+    pub frame_rate_hz: f64,
+    /// Frames per visit (visit mode).
+    pub frames_per_visit: u32,
+    pub bits: u32,
+    pub sigma_px: f64,
+    pub peak_dn: f64,
+    pub background_dn: f64,
+    pub read_noise_dn: f64,
+    pub dn_per_electron: f64,
+}
+
+impl Default for CameraModel {
+    fn default() -> Self {
+        CameraModel {
+            mode: "visits".into(),
+            frame_rate_hz: 25.0,
+            frames_per_visit: 2,
+            bits: 8,
+            sigma_px: 4.0,
+            peak_dn: 170.0,
+            background_dn: 8.0,
+            read_noise_dn: 1.5,
+            dn_per_electron: 0.5,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IrModel {
+    /// `16UC1` (centi-kelvin counts with the rig's scale/offset) or `32FC1` (°C).
+    pub encoding: String,
+    /// IR frames per cycle.
+    pub frames_per_cycle: u32,
+    pub noise_c: f64,
+    /// The hot distractor outside the ROIs (the paper's laser power supply), °C; 0 = none.
+    pub distractor_c: f64,
+}
+
+impl Default for IrModel {
+    fn default() -> Self {
+        IrModel {
+            encoding: "16UC1".into(),
+            frames_per_cycle: 1,
+            noise_c: 0.05,
+            distractor_c: 35.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Motion {
+    /// Seconds the robot dwells at each camera pose.
+    pub dwell_s: f64,
+    /// Pose repeatability: joint-angle noise per visit (µrad rms).
+    pub repeatability_urad: f64,
+    /// Joint states per second while moving and dwelling.
+    pub joint_rate_hz: f64,
+}
+
+impl Default for Motion {
+    fn default() -> Self {
+        Motion {
+            dwell_s: 5.0,
+            repeatability_urad: 2.0,
+            joint_rate_hz: 2.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Output {
+    /// `none`, `zstd` or `lz4`.
+    pub compression: String,
+    pub chunk_size: u64,
+}
+
+impl Default for Output {
+    fn default() -> Self {
+        Output {
+            compression: "zstd".into(),
+            chunk_size: 4 << 20,
+        }
+    }
+}
+
+/// A thermal node (see `heat::NodeParams`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Node {
+    /// A ROI name of the rig.
+    pub name: String,
+    pub tau_min: f64,
+    /// Steady rise over ambient: r0 + r1·s + r2·s² (s = speed fraction).
+    pub rise_k: [f64; 3],
+}
+
+/// One effect of SPEC §6 with its parameters (the SPEC's JSON keys).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Effect {
+    pub name: String,
+    #[serde(default)]
+    pub alpha_per_k: Option<std::collections::BTreeMap<String, f64>>,
+    #[serde(default)]
+    pub tau_min: Option<f64>,
+    #[serde(default)]
+    pub length: Option<String>,
+    #[serde(default)]
+    pub temperature: Option<String>,
+    #[serde(default)]
+    pub camera: Option<String>,
+    #[serde(default)]
+    pub um_per_k: Option<[f64; 2]>,
+    #[serde(default)]
+    pub tilt_deg: Option<f64>,
+    #[serde(default)]
+    pub joint: Option<String>,
+    #[serde(default)]
+    pub urad_per_k: Option<f64>,
+    #[serde(default)]
+    pub kappa_per_k: Option<f64>,
+    #[serde(default)]
+    pub um: Option<[f64; 2]>,
+}
+
+impl Effect {
+    /// The parameter keys each effect requires (SPEC §6).
+    pub fn required_keys(name: &str) -> Option<&'static [&'static str]> {
+        Some(match name {
+            "alpha_per_link" => &["alpha_per_k"],
+            "thermal_lag" => &["tau_min"],
+            "unmodelled_length" => &["length", "temperature"],
+            "fixture_drift" => &["camera", "um_per_k"],
+            "laser_tilt" => &["tilt_deg"],
+            "joint_offset" => &["joint", "temperature", "urad_per_k"],
+            "nonlinear_alpha" => &["kappa_per_k"],
+            "sensor_drift" => &["camera", "tau_min", "um"],
+            _ => return None,
+        })
+    }
+
+    fn present_keys(&self) -> Vec<&'static str> {
+        let mut k = Vec::new();
+        macro_rules! has {
+            ($($f:ident),*) => { $( if self.$f.is_some() { k.push(stringify!($f)); } )* };
+        }
+        has!(
+            alpha_per_k,
+            tau_min,
+            length,
+            temperature,
+            camera,
+            um_per_k,
+            tilt_deg,
+            joint,
+            urad_per_k,
+            kappa_per_k,
+            um
+        );
+        k
+    }
+}
+
+fn line_of(text: &str, offset: usize) -> usize {
+    text[..offset.min(text.len())].matches('\n').count() + 1
+}
+
+impl Scenario {
+    /// Parse and validate scenario TOML text; `source_name` names it in errors.
+    pub fn from_toml(text: &str, source_name: &str) -> Result<Scenario, RigError> {
+        let err = |line: Option<usize>, key: String, message: String| RigError {
+            source_name: source_name.to_string(),
+            line,
+            key,
+            message,
+        };
+        let de = toml::Deserializer::parse(text).map_err(|e| {
+            err(
+                e.span().map(|s| line_of(text, s.start)),
+                String::new(),
+                e.message().split_whitespace().collect::<Vec<_>>().join(" "),
+            )
+        })?;
+        let sc: Scenario = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            let inner = e.into_inner();
+            err(
+                inner.span().map(|s| line_of(text, s.start)),
+                if path == "." { String::new() } else { path },
+                inner
+                    .message()
+                    .split_whitespace()
+                    .collect::<Vec<_>>()
+                    .join(" "),
+            )
+        })?;
+        sc.validate().map_err(|(k, m)| err(None, k, m))?;
+        Ok(sc)
+    }
+
+    /// The checks types cannot express. Returns (key, message) of the first problem.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        let fail = |k: &str, m: String| Err((k.to_string(), m));
+        let pos = |v: f64, k: &str| -> Result<(), (String, String)> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err((k.to_string(), format!("is {v}, expected a positive number")))
+            }
+        };
+        if self.format != SCENARIO_FORMAT {
+            return fail(
+                "format",
+                format!("is {:?}, expected {SCENARIO_FORMAT:?}", self.format),
+            );
+        }
+        if self.run.is_empty() {
+            return fail("run", "no [[run]] given; at least one is needed".into());
+        }
+        let mut names = std::collections::HashSet::new();
+        for (i, r) in self.run.iter().enumerate() {
+            let k = |f: &str| format!("run[{i}].{f}");
+            if r.name.trim().is_empty() || !names.insert(r.name.as_str()) {
+                return fail(&k("name"), format!("{:?} is empty or used twice", r.name));
+            }
+            if !(r.speed_pct > 0.0 && r.speed_pct <= 100.0) {
+                return fail(
+                    &k("speed_pct"),
+                    format!("is {}, expected 0 < speed ≤ 100", r.speed_pct),
+                );
+            }
+            pos(r.duration_min, &k("duration_min"))?;
+            pos(r.cycle_s, &k("cycle_s"))?;
+            if !(r.idle_before_min.is_finite() && r.idle_before_min >= 0.0) {
+                return fail(
+                    &k("idle_before_min"),
+                    format!("is {}, expected ≥ 0", r.idle_before_min),
+                );
+            }
+        }
+        let a = &self.ambient;
+        for (k, v) in [
+            ("ambient.start_c", a.start_c),
+            ("ambient.drift_c_per_h", a.drift_c_per_h),
+            ("ambient.swing_c", a.swing_c),
+        ] {
+            if !v.is_finite() {
+                return fail(k, format!("is {v}, expected a finite number"));
+            }
+        }
+        if !(a.noise_c.is_finite() && a.noise_c >= 0.0) {
+            return fail("ambient.noise_c", format!("is {}, expected ≥ 0", a.noise_c));
+        }
+        let c = &self.camera;
+        if c.mode != "visits" && c.mode != "continuous" {
+            return fail(
+                "camera.mode",
+                format!("is {:?}, expected \"visits\" or \"continuous\"", c.mode),
+            );
+        }
+        pos(c.frame_rate_hz, "camera.frame_rate_hz")?;
+        if c.frames_per_visit == 0 {
+            return fail(
+                "camera.frames_per_visit",
+                "is 0, expected at least 1".into(),
+            );
+        }
+        if c.bits != 8 && c.bits != 16 {
+            return fail("camera.bits", format!("is {}, expected 8 or 16", c.bits));
+        }
+        pos(c.sigma_px, "camera.sigma_px")?;
+        pos(c.peak_dn, "camera.peak_dn")?;
+        pos(c.dn_per_electron, "camera.dn_per_electron")?;
+        for (k, v) in [
+            ("camera.background_dn", c.background_dn),
+            ("camera.read_noise_dn", c.read_noise_dn),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return fail(k, format!("is {v}, expected ≥ 0"));
+            }
+        }
+        if self.ir.encoding != "16UC1" && self.ir.encoding != "32FC1" {
+            return fail(
+                "ir.encoding",
+                format!("is {:?}, expected \"16UC1\" or \"32FC1\"", self.ir.encoding),
+            );
+        }
+        pos(self.motion.dwell_s, "motion.dwell_s")?;
+        pos(self.motion.joint_rate_hz, "motion.joint_rate_hz")?;
+        if !matches!(self.output.compression.as_str(), "none" | "zstd" | "lz4") {
+            return fail(
+                "output.compression",
+                format!(
+                    "is {:?}, expected none, zstd or lz4",
+                    self.output.compression
+                ),
+            );
+        }
+        for (i, n) in self.node.iter().enumerate() {
+            pos(n.tau_min, &format!("node[{i}].tau_min"))?;
+        }
+        for (i, e) in self.effect.iter().enumerate() {
+            let k = format!("effect[{i}]");
+            let Some(req) = Effect::required_keys(&e.name) else {
+                return fail(
+                    &format!("{k}.name"),
+                    format!(
+                        "{:?} is not a SPEC §6 effect ({})",
+                        e.name,
+                        EFFECT_NAMES.join(", ")
+                    ),
+                );
+            };
+            let present = e.present_keys();
+            for r in req {
+                if !present.contains(r) {
+                    return fail(&k, format!("effect {:?} needs `{r}`", e.name));
+                }
+            }
+            for p in &present {
+                if !req.contains(p) {
+                    return fail(
+                        &format!("{k}.{p}"),
+                        format!(
+                            "is not a parameter of {:?} (it takes {})",
+                            e.name,
+                            req.join(", ")
+                        ),
+                    );
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MIN: &str = "format = \"thermrs-scenario/1\"\n[[run]]\nname = \"r\"\nspeed_pct = 30\nduration_min = 60\ncycle_s = 60\n";
+
+    #[test]
+    fn minimal_scenario_gets_defaults() {
+        let s = Scenario::from_toml(MIN, "s.toml").unwrap();
+        assert_eq!(s.run[0].start, Start::Continue);
+        assert_eq!(s.camera.mode, "visits");
+        assert_eq!(s.output.compression, "zstd");
+    }
+
+    #[test]
+    fn bad_scenarios_name_the_key() {
+        let cases = [
+            (
+                MIN.replace("speed_pct = 30", "speed_pct = 130"),
+                "run[0].speed_pct",
+            ),
+            (MIN.replace("speed_pct", "sped_pct"), "run[0]"),
+            (format!("{MIN}[camera]\nbits = 12\n"), "camera.bits"),
+            (
+                format!("{MIN}[camera]\nmode = \"sometimes\"\n"),
+                "camera.mode",
+            ),
+            (
+                format!("{MIN}[[effect]]\nname = \"thermal_lag\"\n"),
+                "effect[0]",
+            ),
+            (
+                format!("{MIN}[[effect]]\nname = \"thermal_lag\"\ntau_min = 3\num = [1, 2]\n"),
+                "effect[0].um",
+            ),
+            (
+                format!("{MIN}[[effect]]\nname = \"gremlins\"\n"),
+                "effect[0].name",
+            ),
+            (
+                format!("{MIN}[output]\ncompression = \"gzip\"\n"),
+                "output.compression",
+            ),
+        ];
+        for (text, key) in cases {
+            let e = Scenario::from_toml(&text, "s.toml").unwrap_err();
+            assert!(e.key.starts_with(key), "{key}: {e}");
+            assert!(!e.to_string().contains('\n'));
+        }
+    }
+
+    #[test]
+    fn every_effect_has_its_keys() {
+        for name in EFFECT_NAMES {
+            assert!(Effect::required_keys(name).is_some(), "{name}");
+        }
+    }
+}
