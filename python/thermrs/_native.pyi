@@ -17,6 +17,9 @@ class RigError(ThermrsError):
 class RecordingError(ThermrsError):
     """A recording that cannot be used: not MCAP, or none of the rig's topics in it."""
 
+class ScenarioError(ThermrsError):
+    """A scenario file that does not parse or does not validate; the message names the key."""
+
 class InputError(ThermrsError):
     """Arguments or data that do not fit: shapes, names, values, unreadable files."""
 
@@ -82,3 +85,11 @@ def extract(
     dict[str, npt.NDArray[Any]],
     str,
 ]: ...
+def simulate(
+    rig: Rig,
+    scenario_toml: str,
+    out_path: str,
+    *,
+    source_name: str = "<string>",
+    seed: int | None = None,
+) -> tuple[dict[str, Any], str]: ...

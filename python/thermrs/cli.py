@@ -277,6 +277,41 @@ def extract(
         sys.exit(EXIT_DATA_LOSS)
 
 
+@cli.command()
+@click.option("--rig", "rig_path", required=True, type=click.Path(path_type=Path), help="Rig file.")
+@click.option(
+    "--scenario",
+    "scenario_path",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Scenario file (thermrs-scenario/1).",
+)
+@click.option(
+    "-o",
+    "--out",
+    "out_path",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Recording to write (MCAP); the truth is written beside it.",
+)
+@click.option("--seed", type=int, default=None, help="Override the scenario's seed.")
+def simulate(rig_path: Path, scenario_path: Path, out_path: Path, seed: int | None) -> None:
+    """Simulate a rig at work: write a recording in the rig's own format and its truth
+    (OUT.truth.parquet, OUT.truth-samples.parquet, OUT.truth.json)."""
+    from thermrs.simulate import simulate as run_simulate
+
+    r = load_rig(rig_path)
+    t0 = time.perf_counter()
+    sim = run_simulate(r, scenario_path, out_path, seed=seed)
+    dt = time.perf_counter() - t0
+    err = Console(stderr=True, highlight=False)
+    size = sim.recording.stat().st_size / 1e6
+    err.print(
+        f"wrote {sim.recording} ({size:,.1f} MB): {sim.frames.height:,} CCD frames, "
+        f"{sim.samples.height:,} thermal samples in {dt:.1f} s"
+    )
+
+
 def _debug() -> bool:
     return os.environ.get("THERMRS_DEBUG", "") not in ("", "0")
 

@@ -4,6 +4,6 @@ Every one derives from :class:`ThermrsError`; the CLI turns them into one line o
 exit code 2 (bad input), see SPEC §7.
 """
 
-from thermrs._native import InputError, RecordingError, RigError, ThermrsError
+from thermrs._native import InputError, RecordingError, RigError, ScenarioError, ThermrsError
 
-__all__ = ["InputError", "RecordingError", "RigError", "ThermrsError"]
+__all__ = ["InputError", "RecordingError", "RigError", "ScenarioError", "ThermrsError"]

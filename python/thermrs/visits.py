@@ -3,8 +3,10 @@
 A frame belongs to a visit when it holds a spot (any status but ``no_spot`` and ``invalid``)
 and the latest joint state at or before it is within ``tolerance_deg`` of the camera's taught
 pose on every joint. Consecutive such frames of one camera form one visit; any other frame of
-that camera in between ends it. Without any joint states in the recording, every spot frame
-counts as at the pose (the spot itself says where the robot is).
+that camera in between ends it, and so does a gap of more than ``max_gap_s`` between two of
+its frames (cameras that record only at visits have no dark frames between them). Without
+any joint states in the recording, every spot frame counts as at the pose (the spot itself
+says where the robot is).
 
 Per visit: its time span, frame counts, the mean centroid over ``ok`` frames and its scatter
 (sample standard deviation), in pixels and chip micrometres, and the drift from the camera's
@@ -19,10 +21,12 @@ import polars as pl
 
 from thermrs.rig import Rig
 
-__all__ = ["DEFAULT_TOLERANCE_DEG", "find_visits"]
+__all__ = ["DEFAULT_MAX_GAP_S", "DEFAULT_TOLERANCE_DEG", "find_visits"]
 
 #: Default joint tolerance (degrees): well above controller jitter, far below a pose change.
 DEFAULT_TOLERANCE_DEG = 0.05
+#: Default longest pause inside one visit (seconds): frames of a visit come at video rate.
+DEFAULT_MAX_GAP_S = 2.0
 
 VISIT_SCHEMA = {
     "camera": pl.String,
@@ -51,6 +55,7 @@ def find_visits(
     rig: Rig,
     *,
     tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
+    max_gap_s: float = DEFAULT_MAX_GAP_S,
 ) -> pl.DataFrame:
     """Group spot frames into visits (see the module docstring).
 
@@ -65,6 +70,8 @@ def find_visits(
         Gives each camera's taught pose.
     tolerance_deg
         Largest joint deviation from the taught pose, degrees.
+    max_gap_s
+        Longest pause between two frames of one visit, seconds.
     """
     if frames.height == 0:
         return pl.DataFrame(schema=VISIT_SCHEMA)
@@ -89,7 +96,11 @@ def find_visits(
         f.with_columns(cand=spot & at_pose)
         .sort("camera", "t_ns")
         .with_columns(
-            start=pl.col("cand") & ~pl.col("cand").shift(1, fill_value=False).over("camera")
+            start=pl.col("cand")
+            & (
+                ~pl.col("cand").shift(1, fill_value=False).over("camera")
+                | (pl.col("t_ns").diff().over("camera") > int(max_gap_s * 1e9))
+            )
         )
         .with_columns(visit=pl.col("start").cast(pl.Int64).cum_sum().over("camera") - 1)
         .filter("cand")

@@ -2,9 +2,11 @@
 
 use std::fmt;
 
-/// A rig file that is not valid: which file, which key, what is wrong.
+/// A rig (or scenario) file that is not valid: which file, which key, what is wrong.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RigError {
+    /// `rig` or `scenario`.
+    pub kind: &'static str,
     /// The file (or `<string>`) the rig came from.
     pub source_name: String,
     /// 1-based line in the file, where the TOML parser could tell.
@@ -17,7 +19,7 @@ pub struct RigError {
 
 impl fmt::Display for RigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "rig {}", self.source_name)?;
+        write!(f, "{} {}", self.kind, self.source_name)?;
         if let Some(line) = self.line {
             write!(f, " line {line}")?;
         }

@@ -11,7 +11,9 @@
 //! - [`thermal`]: thermal ROI maxima in °C;
 //! - [`ingest`]: streaming, chunk-parallel MCAP extraction into tables;
 //! - [`heat`]: the lumped thermal model of the links (warm-up, cool-down, lag);
-//! - [`scenario`]: scenario files, what the simulator makes a rig do.
+//! - [`scenario`]: scenario files, what the simulator makes a rig do;
+//! - [`record`]: a streaming writer of recordings (CDR encoders, MCAP);
+//! - [`simulate`]: the simulator, a rig at work written as a recording with its truth.
 
 pub mod cdr;
 pub mod centroid;
@@ -22,8 +24,10 @@ pub mod ingest;
 pub mod kinematics;
 pub mod model;
 pub mod optics;
+pub mod record;
 pub mod rig;
 pub mod scenario;
+pub mod simulate;
 pub mod thermal;
 
 pub use error::{Error, Result};

@@ -804,7 +804,12 @@ impl<W: Write + Seek> RecordingWriter<W> {
         const T: MsgType = MsgType::CompressedImage;
         self.channel(topic, T)?;
         check_stamp(topic, stamp_ns)?;
-        check_len(topic, "CompressedImage.header.frame_id", frame_id.len(), true)?;
+        check_len(
+            topic,
+            "CompressedImage.header.frame_id",
+            frame_id.len(),
+            true,
+        )?;
         check_len(topic, "CompressedImage.format", format.len(), true)?;
         check_len(topic, "CompressedImage.data", data.len(), false)?;
         encode_compressed_image(&mut self.buf, stamp_ns, frame_id, format, data);
@@ -1190,7 +1195,15 @@ mod tests {
 
     #[test]
     fn image_in_place_variants_agree() {
-        let m = img(1_700_000_000_000_000_001, "ccd_a", 5, 3, "mono16", false, 11);
+        let m = img(
+            1_700_000_000_000_000_001,
+            "ccd_a",
+            5,
+            3,
+            "mono16",
+            false,
+            11,
+        );
         let data: Vec<u8> = (0..33).map(|i| (i * 7) as u8).collect();
         let mut a = Vec::new();
         encode_image(&mut a, &m, &data);
@@ -1238,7 +1251,10 @@ mod tests {
                 "uint8[] data"
             ]
         );
-        assert_eq!(MsgType::JointState.to_string(), "sensor_msgs/msg/JointState");
+        assert_eq!(
+            MsgType::JointState.to_string(),
+            "sensor_msgs/msg/JointState"
+        );
     }
 
     // ---- recordings ----
@@ -1432,7 +1448,10 @@ mod tests {
         let dir = std::env::temp_dir();
         let files: Vec<Vec<u8>> = (0..2)
             .map(|i| {
-                let path = dir.join(format!("thermrs-record-det-{}-{i}.mcap", std::process::id()));
+                let path = dir.join(format!(
+                    "thermrs-record-det-{}-{i}.mcap",
+                    std::process::id()
+                ));
                 let f = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
                 let mut w = RecordingWriter::new(f, &RecordOptions::default()).unwrap();
                 w.add_channel("/t", MsgType::Temperature).unwrap();
@@ -1470,7 +1489,10 @@ mod tests {
         let e = w
             .write_joint_state("/nope", 0, 0, "", &JOINTS, &[0.0; 3])
             .unwrap_err();
-        assert!(matches!(e, RecordError::UnknownTopic(ref t) if t == "/nope"), "{e}");
+        assert!(
+            matches!(e, RecordError::UnknownTopic(ref t) if t == "/nope"),
+            "{e}"
+        );
         let e = w.add_channel("/t", MsgType::Image).unwrap_err();
         assert_eq!(
             e.to_string(),

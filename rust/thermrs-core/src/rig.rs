@@ -212,6 +212,7 @@ impl Rig {
     /// Parse and validate rig TOML text; `source_name` names it in errors.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Rig, RigError> {
         let err = |line: Option<usize>, key: String, message: String| RigError {
+            kind: "rig",
             source_name: source_name.to_string(),
             line,
             key,

@@ -310,6 +310,7 @@ impl Scenario {
     /// Parse and validate scenario TOML text; `source_name` names it in errors.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Scenario, RigError> {
         let err = |line: Option<usize>, key: String, message: String| RigError {
+            kind: "scenario",
             source_name: source_name.to_string(),
             line,
             key,

@@ -41,6 +41,12 @@ create_exception!(
 );
 create_exception!(
     thermrs._native,
+    ScenarioError,
+    ThermrsError,
+    "A scenario file that does not parse or does not validate; the message names the key."
+);
+create_exception!(
+    thermrs._native,
     RecordingError,
     ThermrsError,
     "A recording that cannot be used: not MCAP, or none of the rig's topics in it."
@@ -57,6 +63,7 @@ const CHUNK: usize = 1 << 18;
 
 fn to_py(e: CoreError) -> PyErr {
     match e {
+        CoreError::Rig(r) if r.kind == "scenario" => ScenarioError::new_err(r.to_string()),
         CoreError::Rig(r) => RigError::new_err(r.to_string()),
         CoreError::Recording(m) => RecordingError::new_err(m),
         CoreError::Interrupted => pyo3::exceptions::PyKeyboardInterrupt::new_err("interrupted"),
@@ -417,6 +424,66 @@ fn decompress_chunks(py: Python<'_>, path: PathBuf) -> PyResult<(u64, u64, u64)>
     Ok((s.chunks, s.compressed_bytes, s.uncompressed_bytes))
 }
 
+/// Simulate a scenario on a rig, writing the recording to `out_path`; returns the truth as a
+/// dict of numpy columns and the parsed scenario as JSON. Runs without the GIL.
+#[pyfunction]
+#[pyo3(signature = (rig, scenario_toml, out_path, *, source_name = "<string>", seed = None))]
+fn simulate<'py>(
+    py: Python<'py>,
+    rig: &PyRig,
+    scenario_toml: &str,
+    out_path: PathBuf,
+    source_name: &str,
+    seed: Option<u64>,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    let mut sc = thermrs_core::scenario::Scenario::from_toml(scenario_toml, source_name)
+        .map_err(|e| to_py(e.into()))?;
+    if let Some(s) = seed {
+        sc.seed = s;
+    }
+    let inner = &rig.inner;
+    let path = out_path.clone();
+    let truth = py
+        .detach(|| -> Result<_, CoreError> {
+            let f = std::fs::File::create(&path).map_err(|source| CoreError::Io {
+                path: path.display().to_string(),
+                source,
+            })?;
+            let (w, truth) =
+                thermrs_core::simulate::simulate(inner, &sc, std::io::BufWriter::new(f))?;
+            drop(w);
+            Ok(truth)
+        })
+        .map_err(to_py)?;
+    let n = truth.sample_t_ns.len();
+    let k = truth.node_names.len();
+    let surface = Array2::from_shape_vec((n, k), truth.surface_c).expect("N×nodes");
+    let structure = Array2::from_shape_vec((n, k), truth.structure_c).expect("N×nodes");
+    let d = columns(
+        py,
+        vec![
+            (
+                "frame_camera",
+                truth.frame_camera.into_pyarray(py).into_any(),
+            ),
+            ("frame_t_ns", truth.frame_t_ns.into_pyarray(py).into_any()),
+            ("frame_run", truth.frame_run.into_pyarray(py).into_any()),
+            ("frame_x_px", truth.frame_x_px.into_pyarray(py).into_any()),
+            ("frame_y_px", truth.frame_y_px.into_pyarray(py).into_any()),
+            ("sample_t_ns", truth.sample_t_ns.into_pyarray(py).into_any()),
+            ("sample_run", truth.sample_run.into_pyarray(py).into_any()),
+            (
+                "sample_ambient_c",
+                truth.sample_ambient_c.into_pyarray(py).into_any(),
+            ),
+            ("surface_c", surface.into_pyarray(py).into_any()),
+            ("structure_c", structure.into_pyarray(py).into_any()),
+        ],
+    )?;
+    d.set_item("node_names", truth.node_names)?;
+    Ok((d, serde_json::to_string(&sc).expect("scenario serialises")))
+}
+
 /// Names of the frame status codes, in code order.
 #[pyfunction]
 fn status_names() -> Vec<&'static str> {
@@ -437,11 +504,13 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("RigError", py.get_type::<RigError>())?;
     m.add("InputError", py.get_type::<InputError>())?;
     m.add("RecordingError", py.get_type::<RecordingError>())?;
+    m.add("ScenarioError", py.get_type::<ScenarioError>())?;
     m.add_class::<PyRig>()?;
     m.add_class::<PyForwardModel>()?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(extract, m)?)?;
     m.add_function(wrap_pyfunction!(status_names, m)?)?;
     m.add_function(wrap_pyfunction!(decompress_chunks, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
     Ok(())
 }

@@ -1,0 +1,563 @@
+//! The simulator: a rig at work under a scenario, written as a real recording (SPEC §2).
+//!
+//! Per run and cycle the robot visits every camera's pose in turn: it moves (joint states),
+//! dwells (joint states with repeatability noise, CCD frames of that camera), then the thermal
+//! camera and the ambient thermometer report. Temperatures come from the lumped thermal model
+//! ([`crate::heat`]) stepped exactly cycle by cycle; the structure may lag the surface
+//! (`thermal_lag`); the spot comes from the one forward model ([`crate::model`]) with every
+//! geometric effect, plus the chip shifts (`fixture_drift`, `sensor_drift`). Frames are made
+//! and written one at a time (memory does not grow with the run), and every random draw comes
+//! from one seeded generator, so the same seed gives byte-identical files.
+//!
+//! CCD frames: a pixel-integrated Gaussian spot (erf differences) of σ `sigma_px` and peak
+//! `peak_dn` above background; within ±5σ of the spot every pixel gets Poisson shot noise on
+//! signal + background electrons plus Gaussian read noise; elsewhere the background's Poisson
+//! noise (mean ≥ 16 e⁻ by default) is drawn as its Gaussian equivalent for speed. Rounded and
+//! clipped to 8 or 16 bits. IR frames: ambient plus a Gaussian hot region per ROI whose peak is
+//! the node's surface temperature, a hot distractor outside every ROI, Gaussian noise.
+
+use std::io::{Seek, Write};
+
+use rand::rngs::StdRng;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal, Poisson, StandardNormal};
+
+use crate::error::{Error, Result};
+use crate::heat::{self, NodeParams};
+use crate::model::{
+    fixture_drift_um, pose_joints_rad, sensor_drift_um, ForwardModel, JointOffset, LaserTilt,
+    ModelParams,
+};
+use crate::record::{ImageFields, MsgType, RecordCompression, RecordOptions, RecordingWriter};
+use crate::rig::{LengthRef, Rig, AMBIENT};
+use crate::scenario::{Scenario, Start};
+
+/// Transport delay between a message's stamp and its log time.
+const LOG_DELAY_NS: i64 = 2_000_000;
+/// The epoch the first run starts at (2025-06-15T15:06:40Z), like the sample recording.
+pub const T0_NS: i64 = 1_750_000_000_000_000_000;
+
+/// Ground truth of a simulation, column by column.
+#[derive(Debug, Default, Clone)]
+pub struct Truth {
+    /// Per CCD frame: camera index, stamp, run index, true spot (px, SPEC §4).
+    pub frame_camera: Vec<u32>,
+    pub frame_t_ns: Vec<i64>,
+    pub frame_run: Vec<u32>,
+    pub frame_x_px: Vec<f64>,
+    pub frame_y_px: Vec<f64>,
+    /// Per thermal sample (one per IR frame): stamp, run, ambient, then per node the surface
+    /// and structure temperatures (`node_names` order, row-major N × nodes).
+    pub sample_t_ns: Vec<i64>,
+    pub sample_run: Vec<u32>,
+    pub sample_ambient_c: Vec<f64>,
+    pub node_names: Vec<String>,
+    pub surface_c: Vec<f64>,
+    pub structure_c: Vec<f64>,
+}
+
+/// Effects of a scenario turned into model parameters and chip shifts.
+struct EffectSet {
+    params: ModelParams,
+    lag_tau_s: f64,
+    /// (camera, µm per K)
+    fixture: Vec<(usize, [f64; 2])>,
+    /// (camera, τ min, µm)
+    sensor: Vec<(usize, f64, [f64; 2])>,
+}
+
+fn effects(rig: &Rig, sc: &Scenario) -> Result<EffectSet> {
+    let mut params = ModelParams::nominal(rig);
+    let mut set = EffectSet {
+        params: ModelParams::nominal(rig),
+        lag_tau_s: 0.0,
+        fixture: Vec::new(),
+        sensor: Vec::new(),
+    };
+    let camera = |name: &Option<String>| -> Result<usize> {
+        let n = name.as_deref().unwrap_or("");
+        rig.camera_index(n)
+            .ok_or_else(|| Error::Input(format!("effect names camera {n:?}, not in the rig")))
+    };
+    for e in &sc.effect {
+        match e.name.as_str() {
+            "alpha_per_link" => {
+                params.alpha_by_temperature = e.alpha_per_k.clone().unwrap_or_default();
+            }
+            "nonlinear_alpha" => params.kappa_per_k = e.kappa_per_k.unwrap_or(0.0),
+            "thermal_lag" => set.lag_tau_s = e.tau_min.unwrap_or(0.0) * 60.0,
+            "unmodelled_length" => {
+                let name = e.length.clone().unwrap_or_default();
+                let l = LengthRef::parse(&name).ok_or_else(|| {
+                    Error::Input(format!("unmodelled_length: {name:?} is not a DH length"))
+                })?;
+                params
+                    .extra_lengths
+                    .push((l, e.temperature.clone().unwrap_or_default()));
+            }
+            "joint_offset" => {
+                let j = e.joint.clone().unwrap_or_default();
+                let joint = rig
+                    .robot
+                    .joint_names
+                    .iter()
+                    .position(|n| *n == j)
+                    .ok_or_else(|| {
+                        Error::Input(format!("joint_offset: {j:?} is not a joint of the rig"))
+                    })?;
+                params.joint_offsets.push(JointOffset {
+                    joint,
+                    temperature: e.temperature.clone().unwrap_or_default(),
+                    rad_per_k: e.urad_per_k.unwrap_or(0.0) * 1e-6,
+                });
+            }
+            "laser_tilt" => {
+                params.laser_tilt = Some(LaserTilt {
+                    tilt_deg: e.tilt_deg.unwrap_or(0.0),
+                    azimuth_deg: 0.0,
+                })
+            }
+            "fixture_drift" => set
+                .fixture
+                .push((camera(&e.camera)?, e.um_per_k.unwrap_or([0.0; 2]))),
+            "sensor_drift" => set.sensor.push((
+                camera(&e.camera)?,
+                e.tau_min.unwrap_or(1.0),
+                e.um.unwrap_or([0.0; 2]),
+            )),
+            other => return Err(Error::Input(format!("unknown effect {other:?}"))),
+        }
+    }
+    set.params = params;
+    Ok(set)
+}
+
+/// Thermal nodes: the scenario's, else the KR 15/2 calibration; each must be a ROI of the rig.
+fn nodes(rig: &Rig, sc: &Scenario) -> Result<Vec<NodeParams>> {
+    let nodes: Vec<NodeParams> = if sc.node.is_empty() {
+        heat::kr15_paper_nodes()
+    } else {
+        sc.node
+            .iter()
+            .map(|n| NodeParams::new(n.name.clone(), n.tau_min, n.rise_k).map_err(Error::Input))
+            .collect::<Result<_>>()?
+    };
+    let rois = rig.rois();
+    for n in &nodes {
+        if !rois.contains_key(&n.name) {
+            return Err(Error::Input(format!(
+                "thermal node {:?} is not a ROI of the rig ({})",
+                n.name,
+                rois.keys().cloned().collect::<Vec<_>>().join(", ")
+            )));
+        }
+    }
+    Ok(nodes)
+}
+
+/// A CCD frame's pixels: spot at (x, y) px plus noise, written into `out` (row-major, `bpp`
+/// bytes per pixel little-endian).
+#[allow(clippy::too_many_arguments)]
+fn render_ccd(
+    out: &mut [u8],
+    w: usize,
+    h: usize,
+    bpp: usize,
+    x: f64,
+    y: f64,
+    cam: &crate::scenario::CameraModel,
+    rng: &mut StdRng,
+) {
+    let gain = cam.dn_per_electron;
+    let bg_e = cam.background_dn / gain;
+    let read_e = cam.read_noise_dn / gain;
+    let max = if bpp == 1 { 255.0 } else { 65535.0 };
+    let sd_dn = (bg_e + read_e * read_e).sqrt() * gain;
+    let put = |out: &mut [u8], i: usize, dn: f64| {
+        let v = dn.round().clamp(0.0, max) as u32;
+        if bpp == 1 {
+            out[i] = v as u8;
+        } else {
+            out[2 * i..2 * i + 2].copy_from_slice(&(v as u16).to_le_bytes());
+        }
+    };
+    for i in 0..w * h {
+        let z: f64 = StandardNormal.sample(rng);
+        put(out, i, cam.background_dn + sd_dn * z);
+    }
+    if !(x.is_finite() && y.is_finite()) {
+        return;
+    }
+    let s = cam.sigma_px;
+    let r = (5.0 * s).ceil() as i64;
+    let (x0, x1) = (
+        (x.round() as i64 - r).max(0),
+        (x.round() as i64 + r).min(w as i64 - 1),
+    );
+    let (y0, y1) = (
+        (y.round() as i64 - r).max(0),
+        (y.round() as i64 + r).min(h as i64 - 1),
+    );
+    if x0 > x1 || y0 > y1 {
+        return;
+    }
+    let total_e = cam.peak_dn * 2.0 * std::f64::consts::PI * s * s / gain;
+    let k = 1.0 / (s * std::f64::consts::SQRT_2);
+    let frac = |c: i64, mu: f64| {
+        0.5 * (libm::erf((c as f64 + 0.5 - mu) * k) - libm::erf((c as f64 - 0.5 - mu) * k))
+    };
+    let fx: Vec<f64> = (x0..=x1).map(|c| frac(c, x)).collect();
+    let fy: Vec<f64> = (y0..=y1).map(|c| frac(c, y)).collect();
+    let read = Normal::new(0.0, read_e.max(1e-12)).expect("finite");
+    for (j, row) in (y0..=y1).enumerate() {
+        for (i, col) in (x0..=x1).enumerate() {
+            let lam = total_e * fx[i] * fy[j] + bg_e;
+            let e = if lam > 0.0 {
+                Poisson::new(lam).map(|p| p.sample(rng)).unwrap_or(lam)
+            } else {
+                0.0
+            };
+            let dn = (e + read.sample(rng)) * gain;
+            put(out, row as usize * w + col as usize, dn);
+        }
+    }
+}
+
+/// An IR frame in °C: ambient, a hot Gaussian region per ROI peaking at its node's surface
+/// temperature, a distractor outside the ROIs, noise.
+fn render_ir(
+    rig: &Rig,
+    sc: &Scenario,
+    ambient: f64,
+    roi_c: &[(usize, f64)],
+    rng: &mut StdRng,
+) -> Vec<f64> {
+    let th = rig.thermal.as_ref().expect("checked");
+    let (w, h) = (th.size_px[0] as usize, th.size_px[1] as usize);
+    let mut img = vec![ambient; w * h];
+    let blob = |cx: f64, cy: f64, sx: f64, sy: f64, peak: f64, img: &mut Vec<f64>| {
+        for yy in 0..h {
+            let dy = (yy as f64 - cy) / sy;
+            for xx in 0..w {
+                let dx = (xx as f64 - cx) / sx;
+                let g = (-(dx * dx + dy * dy) / 2.0).exp();
+                if g > 1e-4 {
+                    let v = ambient + (peak - ambient) * g;
+                    let p = &mut img[yy * w + xx];
+                    if v > *p {
+                        *p = v;
+                    }
+                }
+            }
+        }
+    };
+    for &(ri, t) in roi_c {
+        let [x0, y0, x1, y1] = th.roi[ri].rect_px;
+        let (cx, cy) = ((x0 + x1) as f64 / 2.0 - 0.5, (y0 + y1) as f64 / 2.0 - 0.5);
+        blob(
+            cx,
+            cy,
+            (x1 - x0) as f64 / 6.0,
+            (y1 - y0) as f64 / 6.0,
+            t,
+            &mut img,
+        );
+    }
+    if sc.ir.distractor_c > 0.0 {
+        // The first 4×4 block, scanning from the top right, that touches no ROI.
+        let clear = |x: i64, y: i64| {
+            th.roi.iter().all(|r| {
+                let [x0, y0, x1, y1] = r.rect_px;
+                x + 6 < x0 || x - 6 >= x1 || y + 6 < y0 || y - 6 >= y1
+            })
+        };
+        let spot = (0..h as i64)
+            .flat_map(|y| (0..w as i64).rev().map(move |x| (x, y)))
+            .find(|&(x, y)| {
+                x >= 6 && y >= 6 && x + 6 < w as i64 && y + 6 < h as i64 && clear(x, y)
+            });
+        if let Some((x, y)) = spot {
+            blob(x as f64, y as f64, 1.5, 1.5, sc.ir.distractor_c, &mut img);
+        }
+    }
+    if sc.ir.noise_c > 0.0 {
+        for v in img.iter_mut() {
+            let z: f64 = StandardNormal.sample(rng);
+            *v += sc.ir.noise_c * z;
+        }
+    }
+    img
+}
+
+/// Simulate `scenario` on `rig`, writing the recording to `out`; returns the truth.
+pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W, Truth)> {
+    if sc.camera.mode != "visits" {
+        return Err(Error::Input(
+            "camera.mode = \"continuous\" is not simulated yet; use \"visits\"".into(),
+        ));
+    }
+    let th = rig
+        .thermal
+        .as_ref()
+        .ok_or_else(|| Error::Input("the rig has no [thermal] camera to simulate".into()))?;
+    let fx = effects(rig, sc)?;
+    let model = ForwardModel::new(rig, &fx.params)?;
+    let nodes = nodes(rig, sc)?;
+    let roi_names: Vec<String> = th.roi.iter().map(|r| r.name.clone()).collect();
+    let node_roi: Vec<usize> = nodes
+        .iter()
+        .map(|n| {
+            roi_names
+                .iter()
+                .position(|r| *r == n.name)
+                .expect("checked")
+        })
+        .collect();
+    // For every temperature the model needs: which node, or ambient.
+    let temp_src: Vec<Option<usize>> = model
+        .temperature_names()
+        .iter()
+        .map(|t| {
+            if t == AMBIENT {
+                Ok(None)
+            } else {
+                nodes
+                    .iter()
+                    .position(|n| n.name == *t)
+                    .map(Some)
+                    .ok_or_else(|| {
+                        Error::Input(format!(
+                            "the model needs temperature {t:?} but no thermal node simulates it"
+                        ))
+                    })
+            }
+        })
+        .collect::<Result<_>>()?;
+    let opts = RecordOptions {
+        compression: sc
+            .output
+            .compression
+            .parse::<RecordCompression>()
+            .map_err(|e| Error::Input(e.to_string()))?,
+        chunk_size: sc.output.chunk_size,
+        ..RecordOptions::default()
+    };
+    let mut wr = RecordingWriter::new(out, &opts).map_err(|e| Error::Input(e.to_string()))?;
+    let werr = |e: crate::record::RecordError| Error::Input(format!("writing the recording: {e}"));
+    wr.add_channel(&rig.robot.joint_states_topic, MsgType::JointState)
+        .map_err(werr)?;
+    for c in &rig.camera {
+        wr.add_channel(&c.topic, MsgType::Image).map_err(werr)?;
+    }
+    wr.add_channel(&th.topic, MsgType::Image).map_err(werr)?;
+    if let Some(a) = &rig.ambient {
+        wr.add_channel(&a.topic, MsgType::Temperature)
+            .map_err(werr)?;
+    }
+    // Independent streams, so that what one sensor draws never shifts another's noise (an
+    // effect on one camera leaves every other truth unchanged).
+    let stream = |k: u64| StdRng::seed_from_u64(sc.seed ^ k.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    let mut rng = stream(1); // motion
+    let mut ccd_rng = stream(2);
+    let mut ir_rng = stream(3);
+    let mut truth = Truth {
+        node_names: nodes.iter().map(|n| n.name.clone()).collect(),
+        ..Truth::default()
+    };
+    let amb = &sc.ambient;
+    let ambient_at = |t_s: f64| {
+        amb.start_c
+            + amb.drift_c_per_h * t_s / 3600.0
+            + amb.swing_c * (2.0 * std::f64::consts::PI * t_s / 86_400.0).sin()
+    };
+    let mut surface: Vec<f64> = nodes.iter().map(|_| ambient_at(0.0)).collect();
+    let mut structure = surface.clone();
+    let mut t_s = 0.0f64; // seconds since T0
+    let cam = &sc.camera;
+    let bpp = if cam.bits == 8 { 1 } else { 2 };
+    let enc = if bpp == 1 { "mono8" } else { "mono16" };
+    let joint_names = &rig.robot.joint_names;
+    let frame_dt = 1.0 / cam.frame_rate_hz;
+    let lag_step = |x_prev: f64, x_now: f64, y_prev: f64, dt: f64, tau: f64| -> f64 {
+        if tau <= 0.0 || dt <= 0.0 {
+            return x_now;
+        }
+        let u = dt / tau;
+        let a = (-u).exp();
+        let phi = -(-u).exp_m1() / u;
+        x_now - (x_now - x_prev) * phi + a * (y_prev - x_prev)
+    };
+    for (ri, run) in sc.run.iter().enumerate() {
+        // Idle (cooling) before the run; a run that starts at ambient resets every node.
+        if run.start == Start::Ambient || ri == 0 {
+            let a = ambient_at(t_s + run.idle_before_min * 60.0);
+            surface.iter_mut().for_each(|s| *s = a);
+            structure = surface.clone();
+            t_s += run.idle_before_min * 60.0;
+        } else if run.idle_before_min > 0.0 {
+            let dt = run.idle_before_min * 60.0;
+            let a = ambient_at(t_s + dt / 2.0);
+            for (k, n) in nodes.iter().enumerate() {
+                let before = surface[k];
+                surface[k] = n.step(before, a, None, dt);
+                structure[k] = lag_step(before, surface[k], structure[k], dt, fx.lag_tau_s);
+            }
+            t_s += dt;
+        }
+        let run_start_s = t_s;
+        let speed = run.speed_pct / 100.0;
+        let cycles = (run.duration_min * 60.0 / run.cycle_s).floor() as usize;
+        let slot = run.cycle_s / (rig.camera.len() as f64 + 1.0);
+        for _ in 0..cycles {
+            let cycle_t = t_s;
+            for (ci, c) in rig.camera.iter().enumerate() {
+                let pose = rig.pose_by_name(&c.pose).expect("validated");
+                let t_visit = cycle_t + ci as f64 * slot;
+                let ambient = ambient_at(t_visit);
+                // Joint state at arrival: taught pose plus repeatability noise.
+                let mut q = pose_joints_rad(&pose.joints_deg);
+                for v in q.iter_mut() {
+                    let z: f64 = StandardNormal.sample(&mut rng);
+                    *v += sc.motion.repeatability_urad * 1e-6 * z;
+                }
+                let tq = T0_NS + (t_visit * 1e9) as i64;
+                wr.write_joint_state(
+                    &rig.robot.joint_states_topic,
+                    (tq + LOG_DELAY_NS) as u64,
+                    tq,
+                    "base",
+                    joint_names,
+                    &q,
+                )
+                .map_err(werr)?;
+                // True spot from the structure temperatures.
+                let temps: Vec<f64> = temp_src
+                    .iter()
+                    .map(|s| s.map(|k| structure[k]).unwrap_or(ambient))
+                    .collect();
+                let mut spot = [0.0; crate::model::SPOT_WIDTH];
+                model.spot_batch(
+                    ci,
+                    &q,
+                    Some(&temps.iter().map(std::slice::from_ref).collect::<Vec<_>>()),
+                    &mut spot,
+                )?;
+                let (mut x, mut y) = (spot[0], spot[1]);
+                for &(fc, k) in &fx.fixture {
+                    if fc == ci {
+                        let d = fixture_drift_um(k, rig.expansion.reference_c, &[ambient])[0];
+                        x += d[0] / c.pixel_pitch_um[0];
+                        y += d[1] / c.pixel_pitch_um[1];
+                    }
+                }
+                for &(sc_i, tau, um) in &fx.sensor {
+                    if sc_i == ci {
+                        let d = sensor_drift_um(um, tau, &[t_visit - run_start_s])[0];
+                        x += d[0] / c.pixel_pitch_um[0];
+                        y += d[1] / c.pixel_pitch_um[1];
+                    }
+                }
+                let (w, h) = (c.size_px[0] as usize, c.size_px[1] as usize);
+                for f in 0..cam.frames_per_visit {
+                    let tf_s = t_visit + 0.5 + f as f64 * frame_dt;
+                    let tf = T0_NS + (tf_s * 1e9).round() as i64;
+                    let fields = ImageFields {
+                        stamp_ns: tf,
+                        frame_id: &c.name,
+                        width: w as u32,
+                        height: h as u32,
+                        encoding: enc,
+                        is_bigendian: false,
+                        step: (w * bpp) as u32,
+                    };
+                    let rng_ref = &mut ccd_rng;
+                    wr.write_image_with(
+                        &c.topic,
+                        (tf + LOG_DELAY_NS) as u64,
+                        &fields,
+                        w * h * bpp,
+                        |buf| render_ccd(buf, w, h, bpp, x, y, cam, rng_ref),
+                    )
+                    .map_err(werr)?;
+                    truth.frame_camera.push(ci as u32);
+                    truth.frame_t_ns.push(tf);
+                    truth.frame_run.push(ri as u32);
+                    truth.frame_x_px.push(x);
+                    truth.frame_y_px.push(y);
+                }
+            }
+            // The thermal camera and the thermometer close the cycle.
+            let t_ir = cycle_t + rig.camera.len() as f64 * slot;
+            let ambient = ambient_at(t_ir);
+            for _ in 0..sc.ir.frames_per_cycle.max(1) {
+                let roi_c: Vec<(usize, f64)> = node_roi
+                    .iter()
+                    .zip(&surface)
+                    .map(|(&r, &t)| (r, t))
+                    .collect();
+                let img = render_ir(rig, sc, ambient, &roi_c, &mut ir_rng);
+                let ti = T0_NS + (t_ir * 1e9) as i64;
+                let (w, h) = (th.size_px[0] as u32, th.size_px[1] as u32);
+                let (encoding, data): (&str, Vec<u8>) = if sc.ir.encoding == "32FC1" {
+                    (
+                        "32FC1",
+                        img.iter().flat_map(|v| (*v as f32).to_le_bytes()).collect(),
+                    )
+                } else {
+                    (
+                        "16UC1",
+                        img.iter()
+                            .flat_map(|v| {
+                                (((v - th.offset_c) / th.scale).round().clamp(0.0, 65535.0) as u16)
+                                    .to_le_bytes()
+                            })
+                            .collect(),
+                    )
+                };
+                let fields = ImageFields {
+                    stamp_ns: ti,
+                    frame_id: "thermal",
+                    width: w,
+                    height: h,
+                    encoding,
+                    is_bigendian: false,
+                    step: w * if encoding == "32FC1" { 4 } else { 2 },
+                };
+                wr.write_image(&th.topic, (ti + LOG_DELAY_NS) as u64, &fields, &data)
+                    .map_err(werr)?;
+            }
+            if let Some(a) = &rig.ambient {
+                let ti = T0_NS + (t_ir * 1e9) as i64;
+                for r in 0..sc.ambient.readings_per_cycle {
+                    let z: f64 = StandardNormal.sample(&mut ir_rng);
+                    let tr = ti + r as i64 * 1_000_000;
+                    wr.write_temperature(
+                        &a.topic,
+                        (tr + LOG_DELAY_NS) as u64,
+                        tr,
+                        "ambient",
+                        ambient + sc.ambient.noise_c * z,
+                        sc.ambient.noise_c.powi(2),
+                    )
+                    .map_err(werr)?;
+                }
+            }
+            truth.sample_t_ns.push(T0_NS + (t_ir * 1e9) as i64);
+            truth.sample_run.push(ri as u32);
+            truth.sample_ambient_c.push(ambient);
+            truth.surface_c.extend_from_slice(&surface);
+            truth.structure_c.extend_from_slice(&structure);
+            // Advance the thermal state over the cycle (running at the run's speed).
+            let a_mid = ambient_at(cycle_t + run.cycle_s / 2.0);
+            for (k, n) in nodes.iter().enumerate() {
+                let before = surface[k];
+                surface[k] = n.step(before, a_mid, Some(speed), run.cycle_s);
+                structure[k] =
+                    lag_step(before, surface[k], structure[k], run.cycle_s, fx.lag_tau_s);
+            }
+            t_s = cycle_t + run.cycle_s;
+        }
+    }
+    let out = wr.finish().map_err(werr)?;
+    Ok((out, truth))
+}

@@ -1,0 +1,148 @@
+"""The simulator: round trip through extraction against its own truth, reproducibility, the
+paper runs' temperatures, and its error contract."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import polars as pl
+import pytest
+import thermrs
+from thermrs.simulate import simulate
+
+REPO = Path(__file__).resolve().parents[1]
+SHORT = """
+format = "thermrs-scenario/1"
+seed = 7
+[[run]]
+name = "warm"
+speed_pct = 75
+duration_min = 60
+cycle_s = 300
+start = "ambient"
+[[run]]
+name = "cool"
+speed_pct = 10
+duration_min = 30
+cycle_s = 300
+[camera]
+frames_per_visit = 2
+[output]
+compression = "{compression}"
+"""
+
+
+def short(tmp_path: Path, compression: str = "zstd", extra: str = "") -> Path:
+    p = tmp_path / "short.toml"
+    p.write_text(SHORT.format(compression=compression) + extra)
+    return p
+
+
+@pytest.mark.parametrize("compression", ["zstd", "none"])
+def test_extraction_recovers_the_simulated_truth(
+    tmp_path: Path, paper_rig: thermrs.Rig, compression: str
+) -> None:
+    sim = simulate(paper_rig, short(tmp_path, compression), tmp_path / "sim.mcap")
+    assert sim.frames.height == (12 + 6) * 2 * 2  # cycles × cameras × frames per visit
+    ex = thermrs.extract(sim.recording, paper_rig)
+    assert not ex.report.data_loss and ex.report.skipped == {}
+    j = ex.frames.join(sim.frames, on=["camera", "t_ns"], suffix="_true")
+    assert j.height == sim.frames.height
+    assert (j["status"] == "ok").all()
+    err = np.concatenate(
+        [(j["x_px"] - j["x_px_true"]).to_numpy(), (j["y_px"] - j["y_px_true"]).to_numpy()]
+    )
+    # Extraction accuracy on the simulator's spot (σ 4 px, 8-bit): CRB 0.027 px.
+    assert np.sqrt(np.mean(err**2)) < 1.3 * 0.0273 and abs(err.mean()) < 0.01
+    # One visit per camera and cycle, two frames each.
+    assert ex.visits.height == 36 and (ex.visits["n_ok"] == 2).all()
+    # IR ROI maxima follow the true surface temperature (max of noisy pixels: a small bias up).
+    t = ex.temperatures.filter(pl.col("name") == "link2").sort("t_ns")
+    assert t.height == sim.samples.height
+    d = t["temperature_c"].to_numpy() - sim.samples.sort("t_ns")["link2_surface_c"].to_numpy()
+    assert np.all(d > -0.02) and np.all(d < 0.25), d
+    # The first run warms link 2 first order from ambient: 23.38 + ΔT_ss(75 %)·(1 − e^{−t/τ})
+    # with the calibration's ΔT_ss = 5.467 K and τ = 391.6 min (heat::kr15_paper_nodes).
+    s = sim.samples.filter(run="warm")["link2_surface_c"].to_numpy()
+    t_min = np.arange(len(s)) * 5.0
+    assert s == pytest.approx(23.38 + 5.467 * (1 - np.exp(-t_min / 391.6)), abs=0.005)
+
+
+def test_same_seed_same_bytes(tmp_path: Path, paper_rig: thermrs.Rig) -> None:
+    sc = short(tmp_path)
+    a = simulate(paper_rig, sc, tmp_path / "a.mcap").recording.read_bytes()
+    b = simulate(paper_rig, sc, tmp_path / "b.mcap").recording.read_bytes()
+    c = simulate(paper_rig, sc, tmp_path / "c.mcap", seed=8).recording.read_bytes()
+    assert a == b
+    assert a != c
+
+
+def test_effect_moves_the_truth_by_its_parameters(tmp_path: Path, paper_rig: thermrs.Rig) -> None:
+    """sensor_drift on camera B: B's true spot moves by um·(1 − e^{-t/τ}); A's does not."""
+    base = simulate(paper_rig, short(tmp_path), tmp_path / "n.mcap").frames
+    eff = short(
+        tmp_path,
+        extra='[[effect]]\nname = "sensor_drift"\ncamera = "B"\ntau_min = 20\num = [5.0, -3.0]\n',
+    )
+    drift = simulate(paper_rig, eff, tmp_path / "d.mcap").frames
+    j = base.join(drift, on=["camera", "t_ns"], suffix="_e")
+    a = j.filter(camera="A")
+    assert np.allclose(a["x_px"], a["x_px_e"]) and np.allclose(a["y_px"], a["y_px_e"])
+    b = j.filter(camera="B", run="warm")
+    t = (b["t_ns"].to_numpy() - b["t_ns"].min()) / 1e9 + 300.0 / 3 + 0.5  # since the run began
+    want_u = 5.0 * (1 - np.exp(-t / (20 * 60)))
+    got_u = (b["x_px_e"] - b["x_px"]).to_numpy() * 8.6
+    assert np.allclose(got_u, want_u, atol=0.05)
+
+
+def test_paper_runs_land_on_table4(tmp_path: Path, paper_rig: thermrs.Rig) -> None:
+    """fixtures/scenarios/paper-runs.toml (coarsened to 30-minute cycles to stay small):
+    link 2 and link 3 start and end every run near Table 4."""
+    text = (REPO / "fixtures/scenarios/paper-runs.toml").read_text()
+    text = text.replace("cycle_s = 60", "cycle_s = 1800").replace(
+        "frames_per_visit = 2", "frames_per_visit = 1"
+    )
+    p = tmp_path / "paper.toml"
+    p.write_text(text)
+    s = simulate(paper_rig, p, tmp_path / "paper.mcap").samples
+    table4 = {  # run: (start link2, start link3, end link2, end link3)
+        "run1": (23.40, 23.35, 28.10, 30.10),
+        "run2": (24.40, 24.34, 28.40, 30.65),
+        "run3": (28.40, 30.65, 27.20, 28.45),
+    }
+    for run, (s2, s3, e2, e3) in table4.items():
+        r = s.filter(run=run).sort("t_ns")
+        assert r["link2_surface_c"][0] == pytest.approx(s2, abs=0.1), run
+        assert r["link3_surface_c"][0] == pytest.approx(s3, abs=0.1), run
+        # The last sample is taken one cycle (30 min) before the run's end.
+        assert r["link2_surface_c"][-1] == pytest.approx(e2, abs=0.4), run
+        assert r["link3_surface_c"][-1] == pytest.approx(e3, abs=0.4), run
+
+
+def test_bad_scenario_exits_2_naming_the_key(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text(SHORT.format(compression="gzip"))
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "thermrs",
+            "simulate",
+            "--rig",
+            str(thermrs.default_rig_path()),
+            "--scenario",
+            str(bad),
+            "-o",
+            str(tmp_path / "x.mcap"),
+        ],
+        capture_output=True,
+        text=True,
+    )
+    assert p.returncode == 2, p.stderr
+    assert "output.compression" in p.stderr and "Traceback" not in p.stderr
+    assert not (tmp_path / "x.mcap").exists()
+    with pytest.raises(thermrs.errors.ScenarioError, match=r"output\.compression"):
+        simulate(thermrs.load_rig(), bad, tmp_path / "y.mcap")
