@@ -146,3 +146,22 @@ def test_bad_scenario_exits_2_naming_the_key(tmp_path: Path) -> None:
     assert not (tmp_path / "x.mcap").exists()
     with pytest.raises(thermrs.errors.ScenarioError, match=r"output\.compression"):
         simulate(thermrs.load_rig(), bad, tmp_path / "y.mcap")
+
+
+def test_sixteen_bit_frames_and_float_thermal(tmp_path: Path, paper_rig: thermrs.Rig) -> None:
+    extra = (
+        "[camera]\nbits = 16\npeak_dn = 16000\nbackground_dn = 100\nread_noise_dn = 12\n"
+        'dn_per_electron = 8\n[ir]\nencoding = "32FC1"\n'
+    )
+    text = SHORT.format(compression="lz4").replace("[camera]\nframes_per_visit = 2\n", "")
+    p = tmp_path / "s16.toml"
+    p.write_text(text + extra)
+    sim = simulate(paper_rig, p, tmp_path / "s16.mcap")
+    ex = thermrs.extract(sim.recording, paper_rig)
+    j = ex.frames.join(sim.frames, on=["camera", "t_ns"], suffix="_true")
+    assert j.height == sim.frames.height and (j["status"] == "ok").all()
+    err = (j["x_px"] - j["x_px_true"]).to_numpy()
+    assert np.sqrt(np.mean(err**2)) < 1.3 * 0.0094  # the 16-bit camera's bound
+    t = ex.temperatures.filter(pl.col("name") == "link3").sort("t_ns")["temperature_c"]
+    d = t.to_numpy() - sim.samples.sort("t_ns")["link3_surface_c"].to_numpy()
+    assert np.all(np.abs(d) < 0.25)
