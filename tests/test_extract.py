@@ -224,6 +224,13 @@ def test_bad_frames_are_skipped_with_reasons(tmp_path: Path, paper_rig: thermrs.
     )
 
 
+def cli_extract(recording: Path, out: Path) -> subprocess.CompletedProcess[str]:
+    """`thermrs extract RECORDING --rig <embedded paper rig> -o OUT` in a fresh process."""
+    rig = str(thermrs.default_rig_path())
+    cmd = [sys.executable, "-m", "thermrs", "extract", str(recording), "--rig", rig]
+    return subprocess.run([*cmd, "-o", str(out)], capture_output=True, text=True)
+
+
 def _message_ends(data: bytes) -> list[int]:
     """Byte offsets where each top-level Message record ends (unchunked file)."""
     ends, pos = [], 8
@@ -252,21 +259,7 @@ def test_cut_short_unchunked_yields_every_intact_message(
     got = sum(ex.report.messages.values())
     assert got == intact
     assert ex.report.data_loss and ex.report.losses[0]["kind"] == "truncated"
-    p = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "thermrs",
-            "extract",
-            str(path),
-            "--rig",
-            str(thermrs.default_rig_path()),
-            "-o",
-            str(tmp_path / "o.parquet"),
-        ],
-        capture_output=True,
-        text=True,
-    )
+    p = cli_extract(path, tmp_path / "o.parquet")
     assert p.returncode == 3, p.stderr
     assert pl.read_parquet(tmp_path / "o.parquet").height == ex.frames.height
 
@@ -311,21 +304,7 @@ def test_corrupt_chunk_is_skipped_and_counted(tmp_path: Path, paper_rig: thermrs
     assert [loss["kind"] for loss in ex.report.losses] == ["corrupt_chunk"]
     assert 0 < ex.frames.height < clean.frames.height
     assert ex.report.chunks == clean.report.chunks
-    p = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "thermrs",
-            "extract",
-            str(bad),
-            "--rig",
-            str(thermrs.default_rig_path()),
-            "-o",
-            str(tmp_path / "o.parquet"),
-        ],
-        capture_output=True,
-        text=True,
-    )
+    p = cli_extract(bad, tmp_path / "o.parquet")
     assert p.returncode == 3, p.stderr
     assert "chunk" in p.stderr, p.stderr
 
@@ -375,21 +354,7 @@ def test_cli_writes_every_table_atomically(tmp_path: Path, paper_rig: thermrs.Ri
     sc = scenario(paper_rig)
     path = sc.rec.write(tmp_path / "r.mcap")
     out = tmp_path / "out" / "run1.parquet"
-    p = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "thermrs",
-            "extract",
-            str(path),
-            "--rig",
-            str(thermrs.default_rig_path()),
-            "-o",
-            str(out),
-        ],
-        capture_output=True,
-        text=True,
-    )
+    p = cli_extract(path, out)
     assert p.returncode == 0, p.stderr
     frames = pl.read_parquet(out)
     assert frames.schema["camera"] == pl.String and frames.schema["t_ns"] == pl.Int64

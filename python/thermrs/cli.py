@@ -11,7 +11,9 @@ import os
 import sys
 import time
 import traceback
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import click
 from rich.console import Console
@@ -25,6 +27,18 @@ from thermrs.visits import DEFAULT_TOLERANCE_DEG
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_DATA_LOSS = 0, 1, 2, 3
 
 out = Console(highlight=False)
+
+#: ``--rig RIG``, shared by the commands that read recordings.
+rig_option = click.option(
+    "--rig", "rig_path", required=True, type=click.Path(path_type=Path), help="Rig file."
+)
+
+
+def out_option(what: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """``-o/--out PATH`` with its help text."""
+    return click.option(
+        "-o", "--out", "out_path", required=True, type=click.Path(path_type=Path), help=what
+    )
 
 
 def _fmt(x: float | None, digits: int = 2) -> str:
@@ -185,15 +199,8 @@ def rig(rig_path: Path | None, as_json: bool) -> None:
 
 @cli.command()
 @click.argument("recording", type=click.Path(path_type=Path))
-@click.option("--rig", "rig_path", required=True, type=click.Path(path_type=Path), help="Rig file.")
-@click.option(
-    "-o",
-    "--out",
-    "out_path",
-    required=True,
-    type=click.Path(path_type=Path),
-    help="Frames Parquet; visits, temperatures and joints are written beside it.",
-)
+@rig_option
+@out_option("Frames Parquet; visits, temperatures and joints are written beside it.")
 @click.option(
     "--visit-tolerance-deg",
     default=DEFAULT_TOLERANCE_DEG,
@@ -278,7 +285,7 @@ def extract(
 
 
 @cli.command()
-@click.option("--rig", "rig_path", required=True, type=click.Path(path_type=Path), help="Rig file.")
+@rig_option
 @click.option(
     "--scenario",
     "scenario_path",
@@ -286,14 +293,7 @@ def extract(
     type=click.Path(path_type=Path),
     help="Scenario file (thermrs-scenario/1).",
 )
-@click.option(
-    "-o",
-    "--out",
-    "out_path",
-    required=True,
-    type=click.Path(path_type=Path),
-    help="Recording to write (MCAP); the truth is written beside it.",
-)
+@out_option("Recording to write (MCAP); the truth is written beside it.")
 @click.option("--seed", type=int, default=None, help="Override the scenario's seed.")
 def simulate(rig_path: Path, scenario_path: Path, out_path: Path, seed: int | None) -> None:
     """Simulate a rig at work: write a recording in the rig's own format and its truth

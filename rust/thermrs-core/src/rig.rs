@@ -198,6 +198,48 @@ fn one_line(message: &str) -> String {
     message.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
+/// Parse TOML strictly into `T` and validate it: every error one line naming the file, the
+/// line where the parser can tell, and the key (`kind` is `rig` or `scenario`). Shared by rig
+/// and scenario files.
+pub(crate) fn parse_strict<T: serde::de::DeserializeOwned>(
+    text: &str,
+    source_name: &str,
+    kind: &'static str,
+    validate: impl Fn(&T) -> Result<(), (String, String)>,
+) -> Result<T, RigError> {
+    let err = |line: Option<usize>, key: String, message: String| RigError {
+        kind,
+        source_name: source_name.to_string(),
+        line,
+        key,
+        message,
+    };
+    let de = toml::Deserializer::parse(text).map_err(|e| {
+        let line = e.span().map(|s| line_of(text, s.start));
+        // Name the key of a "duplicate key" (the span covers it).
+        let key = match e.span() {
+            Some(s) if e.message().contains("duplicate") => text
+                .get(s)
+                .map(|k| k.trim().trim_matches(['[', ']']).trim().to_string())
+                .unwrap_or_default(),
+            _ => String::new(),
+        };
+        err(line, key, one_line(e.message()))
+    })?;
+    let value: T = serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        let key = if path == "." { String::new() } else { path };
+        err(
+            inner.span().map(|s| line_of(text, s.start)),
+            key,
+            one_line(inner.message()),
+        )
+    })?;
+    validate(&value).map_err(|(key, message)| err(None, key, message))?;
+    Ok(value)
+}
+
 impl Rig {
     /// Read and validate a rig file.
     pub fn from_path(path: impl AsRef<Path>) -> Result<Rig, Error> {
@@ -211,38 +253,7 @@ impl Rig {
 
     /// Parse and validate rig TOML text; `source_name` names it in errors.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Rig, RigError> {
-        let err = |line: Option<usize>, key: String, message: String| RigError {
-            kind: "rig",
-            source_name: source_name.to_string(),
-            line,
-            key,
-            message,
-        };
-        let de = toml::Deserializer::parse(text).map_err(|e| {
-            let line = e.span().map(|s| line_of(text, s.start));
-            // Name the key of a "duplicate key" (the span covers it).
-            let key = match e.span() {
-                Some(s) if e.message().contains("duplicate") => text
-                    .get(s)
-                    .map(|k| k.trim().trim_matches(['[', ']']).trim().to_string())
-                    .unwrap_or_default(),
-                _ => String::new(),
-            };
-            err(line, key, one_line(e.message()))
-        })?;
-        let rig: Rig = serde_path_to_error::deserialize(de).map_err(|e| {
-            let path = e.path().to_string();
-            let inner = e.into_inner();
-            let key = if path == "." { String::new() } else { path };
-            err(
-                inner.span().map(|s| line_of(text, s.start)),
-                key,
-                one_line(inner.message()),
-            )
-        })?;
-        rig.validate()
-            .map_err(|(key, message)| err(None, key, message))?;
-        Ok(rig)
+        parse_strict(text, source_name, "rig", Rig::validate)
     }
 
     /// The checks types cannot express. Returns (key, message) of the first problem.

@@ -302,42 +302,10 @@ impl Effect {
     }
 }
 
-fn line_of(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())].matches('\n').count() + 1
-}
-
 impl Scenario {
     /// Parse and validate scenario TOML text; `source_name` names it in errors.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Scenario, RigError> {
-        let err = |line: Option<usize>, key: String, message: String| RigError {
-            kind: "scenario",
-            source_name: source_name.to_string(),
-            line,
-            key,
-            message,
-        };
-        let de = toml::Deserializer::parse(text).map_err(|e| {
-            err(
-                e.span().map(|s| line_of(text, s.start)),
-                String::new(),
-                e.message().split_whitespace().collect::<Vec<_>>().join(" "),
-            )
-        })?;
-        let sc: Scenario = serde_path_to_error::deserialize(de).map_err(|e| {
-            let path = e.path().to_string();
-            let inner = e.into_inner();
-            err(
-                inner.span().map(|s| line_of(text, s.start)),
-                if path == "." { String::new() } else { path },
-                inner
-                    .message()
-                    .split_whitespace()
-                    .collect::<Vec<_>>()
-                    .join(" "),
-            )
-        })?;
-        sc.validate().map_err(|(k, m)| err(None, k, m))?;
-        Ok(sc)
+        crate::rig::parse_strict(text, source_name, "scenario", Scenario::validate)
     }
 
     /// The checks types cannot express. Returns (key, message) of the first problem.
