@@ -92,7 +92,9 @@ def test_effect_moves_the_truth_by_its_parameters(tmp_path: Path, paper_rig: the
     a = j.filter(camera="A")
     assert np.allclose(a["x_px"], a["x_px_e"]) and np.allclose(a["y_px"], a["y_px_e"])
     b = j.filter(camera="B", run="warm")
-    t = (b["t_ns"].to_numpy() - b["t_ns"].min()) / 1e9 + 300.0 / 3 + 0.5  # since the run began
+    # Since the run began: the first run starts at the simulator's epoch (simulate::T0_NS);
+    # the spot is taken at mid-exposure (default 10 ms).
+    t = (b["t_ns"].to_numpy() - 1_750_000_000 * 10**9) / 1e9 + 0.005
     want_u = 5.0 * (1 - np.exp(-t / (20 * 60)))
     got_u = (b["x_px_e"] - b["x_px"]).to_numpy() * 8.6
     assert np.allclose(got_u, want_u, atol=0.05)
@@ -165,3 +167,35 @@ def test_sixteen_bit_frames_and_float_thermal(tmp_path: Path, paper_rig: thermrs
     t = ex.temperatures.filter(pl.col("name") == "link3").sort("t_ns")["temperature_c"]
     d = t.to_numpy() - sim.samples.sort("t_ns")["link3_surface_c"].to_numpy()
     assert np.all(np.abs(d) < 0.25)
+
+
+def test_continuous_cameras_see_dark_frames_and_smeared_spots(
+    tmp_path: Path, paper_rig: thermrs.Rig
+) -> None:
+    """Continuous recording: most frames dark, spot frames only while the laser is on the chip
+    (the dwell, and the ends of the moves, where the spot is smeared); visits found from the
+    joint states."""
+    text = (
+        'format = "thermrs-scenario/1"\nseed = 3\n[[run]]\nname = "r"\nspeed_pct = 10\n'
+        'duration_min = 1\ncycle_s = 30\nstart = "ambient"\n'
+        '[camera]\nmode = "continuous"\nframe_rate_hz = 10\nexposure_s = 0.05\n'
+        "[motion]\ndwell_s = 2\n"
+    )
+    p = tmp_path / "cont.toml"
+    p.write_text(text)
+    sim = simulate(paper_rig, p, tmp_path / "cont.mcap")
+    assert sim.frames.height == 2 * 2 * 300  # cycles × cameras × 30 s × 10 Hz
+    lit = sim.frames.filter(pl.col("x_px").is_not_nan())
+    assert 0 < lit.height < 0.15 * sim.frames.height
+    ex = thermrs.extract(sim.recording, paper_rig)
+    j = ex.frames.join(sim.frames, on=["camera", "t_ns"], suffix="_true")
+    dark = j.filter(pl.col("x_px_true").is_nan())
+    assert (dark["status"] == "no_spot").all()
+    still = j.filter(pl.col("status") == "ok")
+    assert still.height >= 2 * 2 * 19  # ≥ 19 still frames per 2-s dwell
+    err = (still["x_px"] - still["x_px_true"]).to_numpy()
+    assert np.sqrt(np.mean(err**2)) < 0.05
+    # Every visit (2 cycles × 2 cameras) is found from the joint states and the frames.
+    assert ex.visits.height == 4 and (ex.visits["n_ok"] >= 19).all()
+    # Joint states sample the moves too, not only the poses.
+    assert ex.joints.height > 2 * 30 * 2

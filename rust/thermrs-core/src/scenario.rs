@@ -145,6 +145,8 @@ pub struct CameraModel {
     pub background_dn: f64,
     pub read_noise_dn: f64,
     pub dn_per_electron: f64,
+    /// Exposure (s): a spot that moves during it is smeared along its path.
+    pub exposure_s: f64,
 }
 
 impl Default for CameraModel {
@@ -159,6 +161,7 @@ impl Default for CameraModel {
             background_dn: 8.0,
             read_noise_dn: 1.5,
             dn_per_electron: 0.5,
+            exposure_s: 0.01,
         }
     }
 }
@@ -193,8 +196,13 @@ pub struct Motion {
     pub dwell_s: f64,
     /// Pose repeatability: joint-angle noise per visit (µrad rms).
     pub repeatability_urad: f64,
-    /// Joint states per second while moving and dwelling.
+    /// Joint states per second (plus one at every start and end of a move).
     pub joint_rate_hz: f64,
+    /// Maximum joint rates (°/s) at 100 % speed; default the KR 15/2's (paper Table 1).
+    pub max_rate_deg_s: [f64; 6],
+    /// After its visits the robot turns away to present itself to the thermal camera: the
+    /// first camera's pose plus this offset (°), where it rests until the next cycle.
+    pub rest_offset_deg: [f64; 6],
 }
 
 impl Default for Motion {
@@ -203,6 +211,8 @@ impl Default for Motion {
             dwell_s: 5.0,
             repeatability_urad: 2.0,
             joint_rate_hz: 2.0,
+            max_rate_deg_s: [152.0, 152.0, 152.0, 284.0, 293.0, 604.0],
+            rest_offset_deg: [-30.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         }
     }
 }
@@ -397,6 +407,21 @@ impl Scenario {
         }
         pos(self.motion.dwell_s, "motion.dwell_s")?;
         pos(self.motion.joint_rate_hz, "motion.joint_rate_hz")?;
+        for (j, v) in self.motion.max_rate_deg_s.iter().enumerate() {
+            pos(*v, &format!("motion.max_rate_deg_s[{j}]"))?;
+        }
+        if !(c.exposure_s.is_finite()
+            && c.exposure_s >= 0.0
+            && c.exposure_s < 1.0 / c.frame_rate_hz)
+        {
+            return fail(
+                "camera.exposure_s",
+                format!(
+                    "is {}, expected 0 ≤ exposure < 1/frame_rate_hz",
+                    c.exposure_s
+                ),
+            );
+        }
         if !matches!(self.output.compression.as_str(), "none" | "zstd" | "lz4") {
             return fail(
                 "output.compression",

@@ -37,6 +37,19 @@ const LOG_DELAY_NS: i64 = 2_000_000;
 /// The epoch the first run starts at (2025-06-15T15:06:40Z), like the sample recording.
 pub const T0_NS: i64 = 1_750_000_000_000_000_000;
 
+/// Most sub-exposure samples of a spot that moves during a frame (its smear).
+const MAX_SMEAR_SAMPLES: usize = 4096;
+
+/// One piece of a cycle's joint-space trajectory: a move (`dwell` None) or a dwell at a
+/// camera's pose.
+struct Segment {
+    t0: f64,
+    t1: f64,
+    q0: [f64; 6],
+    q1: [f64; 6],
+    dwell: Option<usize>,
+}
+
 /// Ground truth of a simulation, column by column.
 #[derive(Debug, Default, Clone)]
 pub struct Truth {
@@ -163,8 +176,8 @@ fn render_ccd(
     w: usize,
     h: usize,
     bpp: usize,
-    x: f64,
-    y: f64,
+    path: &[(f64, f64)],
+    weight: f64,
     cam: &crate::scenario::CameraModel,
     rng: &mut StdRng,
 ) {
@@ -185,33 +198,53 @@ fn render_ccd(
         let z: f64 = StandardNormal.sample(rng);
         put(out, i, cam.background_dn + sd_dn * z);
     }
-    if !(x.is_finite() && y.is_finite()) {
+    if path.is_empty() {
         return;
     }
+    // The spot's Gaussian at each point of its path, `weight` of the signal each.
     let s = cam.sigma_px;
     let r = (5.0 * s).ceil() as i64;
+    let xs = path.iter().map(|p| p.0);
+    let ys = path.iter().map(|p| p.1);
+    let (xmin, xmax) = (
+        xs.clone().fold(f64::INFINITY, f64::min),
+        xs.fold(f64::NEG_INFINITY, f64::max),
+    );
+    let (ymin, ymax) = (
+        ys.clone().fold(f64::INFINITY, f64::min),
+        ys.fold(f64::NEG_INFINITY, f64::max),
+    );
     let (x0, x1) = (
-        (x.round() as i64 - r).max(0),
-        (x.round() as i64 + r).min(w as i64 - 1),
+        (xmin.round() as i64 - r).max(0),
+        (xmax.round() as i64 + r).min(w as i64 - 1),
     );
     let (y0, y1) = (
-        (y.round() as i64 - r).max(0),
-        (y.round() as i64 + r).min(h as i64 - 1),
+        (ymin.round() as i64 - r).max(0),
+        (ymax.round() as i64 + r).min(h as i64 - 1),
     );
     if x0 > x1 || y0 > y1 {
         return;
     }
-    let total_e = cam.peak_dn * 2.0 * std::f64::consts::PI * s * s / gain;
+    let total_e = weight * cam.peak_dn * 2.0 * std::f64::consts::PI * s * s / gain;
     let k = 1.0 / (s * std::f64::consts::SQRT_2);
     let frac = |c: i64, mu: f64| {
         0.5 * (libm::erf((c as f64 + 0.5 - mu) * k) - libm::erf((c as f64 - 0.5 - mu) * k))
     };
-    let fx: Vec<f64> = (x0..=x1).map(|c| frac(c, x)).collect();
-    let fy: Vec<f64> = (y0..=y1).map(|c| frac(c, y)).collect();
+    let (nx, ny) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
+    let mut signal = vec![0.0; nx * ny];
+    for &(x, y) in path {
+        let fx: Vec<f64> = (x0..=x1).map(|c| frac(c, x)).collect();
+        let fy: Vec<f64> = (y0..=y1).map(|c| frac(c, y)).collect();
+        for (j, fyj) in fy.iter().enumerate() {
+            for (i, fxi) in fx.iter().enumerate() {
+                signal[j * nx + i] += total_e * fxi * fyj;
+            }
+        }
+    }
     let read = Normal::new(0.0, read_e.max(1e-12)).expect("finite");
     for (j, row) in (y0..=y1).enumerate() {
         for (i, col) in (x0..=x1).enumerate() {
-            let lam = total_e * fx[i] * fy[j] + bg_e;
+            let lam = signal[j * nx + i] + bg_e;
             let e = if lam > 0.0 {
                 Poisson::new(lam).map(|p| p.sample(rng)).unwrap_or(lam)
             } else {
@@ -291,11 +324,6 @@ fn render_ir(
 
 /// Simulate `scenario` on `rig`, writing the recording to `out`; returns the truth.
 pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W, Truth)> {
-    if sc.camera.mode != "visits" {
-        return Err(Error::Input(
-            "camera.mode = \"continuous\" is not simulated yet; use \"visits\"".into(),
-        ));
-    }
     let th = rig
         .thermal
         .as_ref()
@@ -378,6 +406,8 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
     let enc = if bpp == 1 { "mono8" } else { "mono16" };
     let joint_names = &rig.robot.joint_names;
     let frame_dt = 1.0 / cam.frame_rate_hz;
+    let continuous = cam.mode == "continuous";
+    let mut q_cur: Option<[f64; 6]> = None;
     let lag_step = |x_prev: f64, x_now: f64, y_prev: f64, dt: f64, tau: f64| -> f64 {
         if tau <= 0.0 || dt <= 0.0 {
             return x_now;
@@ -410,81 +440,232 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
         let slot = run.cycle_s / (rig.camera.len() as f64 + 1.0);
         for _ in 0..cycles {
             let cycle_t = t_s;
+            // This cycle's trajectory: to each camera's pose in turn (joint space, every joint
+            // at the run's share of its maximum rate), a dwell there, then away to the rest
+            // pose until the thermal camera closes the cycle. Per-visit repeatability noise on
+            // each camera pose.
+            let mut segs: Vec<Segment> = Vec::new();
+            let mut t = cycle_t;
             for (ci, c) in rig.camera.iter().enumerate() {
                 let pose = rig.pose_by_name(&c.pose).expect("validated");
-                let t_visit = cycle_t + ci as f64 * slot;
-                let ambient = ambient_at(t_visit);
-                // Joint state at arrival: taught pose plus repeatability noise.
-                let mut q = pose_joints_rad(&pose.joints_deg);
-                for v in q.iter_mut() {
+                let mut target = pose_joints_rad(&pose.joints_deg);
+                for v in target.iter_mut() {
                     let z: f64 = StandardNormal.sample(&mut rng);
                     *v += sc.motion.repeatability_urad * 1e-6 * z;
                 }
-                let tq = T0_NS + (t_visit * 1e9) as i64;
+                let from = q_cur.unwrap_or(target);
+                let move_s = (0..6)
+                    .map(|j| {
+                        (target[j] - from[j]).abs()
+                            / (sc.motion.max_rate_deg_s[j].to_radians() * speed)
+                    })
+                    .fold(0.0, f64::max);
+                segs.push(Segment {
+                    t0: t,
+                    t1: t + move_s,
+                    q0: from,
+                    q1: target,
+                    dwell: None,
+                });
+                t += move_s;
+                segs.push(Segment {
+                    t0: t,
+                    t1: t + sc.motion.dwell_s,
+                    q0: target,
+                    q1: target,
+                    dwell: Some(ci),
+                });
+                t += sc.motion.dwell_s;
+                q_cur = Some(target);
+            }
+            // Then away from the cameras, to rest facing the thermal camera.
+            {
+                let first = rig.pose_by_name(&rig.camera[0].pose).expect("validated");
+                let mut rest = pose_joints_rad(&first.joints_deg);
+                for (j, v) in rest.iter_mut().enumerate() {
+                    *v += sc.motion.rest_offset_deg[j].to_radians();
+                }
+                let from = q_cur.unwrap_or(rest);
+                let move_s = (0..6)
+                    .map(|j| {
+                        (rest[j] - from[j]).abs()
+                            / (sc.motion.max_rate_deg_s[j].to_radians() * speed)
+                    })
+                    .fold(0.0, f64::max);
+                segs.push(Segment {
+                    t0: t,
+                    t1: t + move_s,
+                    q0: from,
+                    q1: rest,
+                    dwell: None,
+                });
+                t += move_s;
+                q_cur = Some(rest);
+            }
+            let t_ir = cycle_t + rig.camera.len() as f64 * slot;
+            if t > t_ir {
+                return Err(Error::Input(format!(
+                    "run {:?}: moves and dwells take {:.1} s, more than the {:.1} s of the cycle \
+                     before the thermal frame (lengthen cycle_s or shorten motion.dwell_s)",
+                    run.name,
+                    t - cycle_t,
+                    t_ir - cycle_t
+                )));
+            }
+            let q_at = |t: f64| -> [f64; 6] {
+                for sgm in &segs {
+                    if t < sgm.t1 || sgm.t1 <= sgm.t0 && t <= sgm.t1 {
+                        if t <= sgm.t0 {
+                            return sgm.q0;
+                        }
+                        let f = ((t - sgm.t0) / (sgm.t1 - sgm.t0)).clamp(0.0, 1.0);
+                        return std::array::from_fn(|j| sgm.q0[j] + f * (sgm.q1[j] - sgm.q0[j]));
+                    }
+                }
+                segs.last().map(|sg| sg.q1).unwrap_or([0.0; 6])
+            };
+            // Joint states on a regular grid and at every segment boundary.
+            let mut tj: Vec<f64> = segs.iter().flat_map(|sg| [sg.t0, sg.t1]).collect();
+            let step = 1.0 / sc.motion.joint_rate_hz;
+            let mut k = 0.0;
+            while cycle_t + k * step < cycle_t + run.cycle_s {
+                tj.push(cycle_t + k * step);
+                k += 1.0;
+            }
+            tj.sort_by(f64::total_cmp);
+            tj.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+            for &tq_s in &tj {
+                let tq = T0_NS + (tq_s * 1e9).round() as i64;
                 wr.write_joint_state(
                     &rig.robot.joint_states_topic,
                     (tq + LOG_DELAY_NS) as u64,
                     tq,
                     "base",
                     joint_names,
-                    &q,
+                    &q_at(tq_s),
                 )
                 .map_err(werr)?;
-                // True spot from the structure temperatures.
-                let temps: Vec<f64> = temp_src
-                    .iter()
-                    .map(|s| s.map(|k| structure[k]).unwrap_or(ambient))
-                    .collect();
-                let mut spot = [0.0; crate::model::SPOT_WIDTH];
-                model.spot_batch(
-                    ci,
-                    &q,
-                    Some(&temps.iter().map(std::slice::from_ref).collect::<Vec<_>>()),
-                    &mut spot,
-                )?;
-                let (mut x, mut y) = (spot[0], spot[1]);
+            }
+            // Temperatures are stepped per cycle; within a cycle the structure is taken as
+            // constant (minutes against time constants of hours).
+            let ambient = ambient_at(cycle_t);
+            let temps: Vec<f64> = temp_src
+                .iter()
+                .map(|s| s.map(|k| structure[k]).unwrap_or(ambient))
+                .collect();
+            let tcols: Vec<&[f64]> = temps.iter().map(std::slice::from_ref).collect();
+            // Where camera ci's spot is at time t (px, with the chip effects), if on its chip.
+            let spot_at = |ci: usize, t: f64| -> Result<(f64, f64, bool)> {
+                let c = &rig.camera[ci];
+                let mut out = [0.0; crate::model::SPOT_WIDTH];
+                model.spot_batch(ci, &q_at(t), Some(&tcols), &mut out)?;
+                let (mut x, mut y) = (out[0], out[1]);
                 for &(fc, k) in &fx.fixture {
                     if fc == ci {
-                        let d = fixture_drift_um(k, rig.expansion.reference_c, &[ambient])[0];
+                        let d = fixture_drift_um(k, rig.expansion.reference_c, &[ambient_at(t)])[0];
                         x += d[0] / c.pixel_pitch_um[0];
                         y += d[1] / c.pixel_pitch_um[1];
                     }
                 }
                 for &(sc_i, tau, um) in &fx.sensor {
                     if sc_i == ci {
-                        let d = sensor_drift_um(um, tau, &[t_visit - run_start_s])[0];
+                        let d = sensor_drift_um(um, tau, &[t - run_start_s])[0];
                         x += d[0] / c.pixel_pitch_um[0];
                         y += d[1] / c.pixel_pitch_um[1];
                     }
                 }
-                let (w, h) = (c.size_px[0] as usize, c.size_px[1] as usize);
-                for f in 0..cam.frames_per_visit {
-                    let tf_s = t_visit + 0.5 + f as f64 * frame_dt;
-                    let tf = T0_NS + (tf_s * 1e9).round() as i64;
-                    let fields = ImageFields {
-                        stamp_ns: tf,
-                        frame_id: &c.name,
-                        width: w as u32,
-                        height: h as u32,
-                        encoding: enc,
-                        is_bigendian: false,
-                        step: (w * bpp) as u32,
-                    };
-                    let rng_ref = &mut ccd_rng;
-                    wr.write_image_with(
-                        &c.topic,
-                        (tf + LOG_DELAY_NS) as u64,
-                        &fields,
-                        w * h * bpp,
-                        |buf| render_ccd(buf, w, h, bpp, x, y, cam, rng_ref),
-                    )
-                    .map_err(werr)?;
-                    truth.frame_camera.push(ci as u32);
-                    truth.frame_t_ns.push(tf);
-                    truth.frame_run.push(ri as u32);
-                    truth.frame_x_px.push(x);
-                    truth.frame_y_px.push(y);
+                let (w, h) = (c.size_px[0] as f64, c.size_px[1] as f64);
+                let on = x.is_finite()
+                    && y.is_finite()
+                    && (-0.5..=w - 0.5).contains(&x)
+                    && (-0.5..=h - 0.5).contains(&y);
+                Ok((x, y, on))
+            };
+            // Frame times per camera: during its dwell (visits) or all cycle long (continuous).
+            let mut frames: Vec<(f64, usize)> = Vec::new();
+            for (ci, _) in rig.camera.iter().enumerate() {
+                if continuous {
+                    let n = (run.cycle_s * cam.frame_rate_hz).floor() as usize;
+                    frames.extend((0..n).map(|f| {
+                        (
+                            cycle_t + f as f64 * frame_dt + ci as f64 * 0.25 * frame_dt,
+                            ci,
+                        )
+                    }));
+                } else if let Some(sg) = segs.iter().find(|sg| sg.dwell == Some(ci)) {
+                    frames.extend(
+                        (0..cam.frames_per_visit).map(|f| (sg.t0 + 0.5 + f as f64 * frame_dt, ci)),
+                    );
                 }
+            }
+            frames.sort_by(|a, b| a.0.total_cmp(&b.0));
+            for (tf_s, ci) in frames {
+                let c = &rig.camera[ci];
+                // The spot along its path during the exposure (one point when still).
+                let moving = segs.iter().any(|sg| {
+                    sg.dwell.is_none()
+                        && sg.t1 > sg.t0
+                        && tf_s < sg.t1
+                        && tf_s + cam.exposure_s > sg.t0
+                });
+                // Enough sub-exposure samples that neighbours are ≤ σ/2 apart: a continuous
+                // streak rather than a row of separate spots.
+                let subs = if moving {
+                    let a = spot_at(ci, tf_s)?;
+                    let b = spot_at(ci, tf_s + cam.exposure_s)?;
+                    let len = (b.0 - a.0).hypot(b.1 - a.1);
+                    if len.is_finite() {
+                        ((len / (0.5 * cam.sigma_px)).ceil() as usize).clamp(2, MAX_SMEAR_SAMPLES)
+                    } else {
+                        MAX_SMEAR_SAMPLES
+                    }
+                } else {
+                    1
+                };
+                let mut path = Vec::with_capacity(subs);
+                for k in 0..subs {
+                    let ts = tf_s + cam.exposure_s * (k as f64 + 0.5) / subs as f64;
+                    let (x, y, on) = spot_at(ci, ts)?;
+                    if on {
+                        path.push((x, y));
+                    }
+                }
+                let weight = 1.0 / subs as f64;
+                let tf = T0_NS + (tf_s * 1e9).round() as i64;
+                let (w, h) = (c.size_px[0] as usize, c.size_px[1] as usize);
+                let fields = ImageFields {
+                    stamp_ns: tf,
+                    frame_id: &c.name,
+                    width: w as u32,
+                    height: h as u32,
+                    encoding: enc,
+                    is_bigendian: false,
+                    step: (w * bpp) as u32,
+                };
+                let rng_ref = &mut ccd_rng;
+                let path_ref = &path;
+                wr.write_image_with(
+                    &c.topic,
+                    (tf + LOG_DELAY_NS) as u64,
+                    &fields,
+                    w * h * bpp,
+                    |buf| render_ccd(buf, w, h, bpp, path_ref, weight, cam, rng_ref),
+                )
+                .map_err(werr)?;
+                let n = path.len() as f64;
+                let (x, y) = if path.is_empty() {
+                    (f64::NAN, f64::NAN)
+                } else {
+                    (
+                        path.iter().map(|p| p.0).sum::<f64>() / n,
+                        path.iter().map(|p| p.1).sum::<f64>() / n,
+                    )
+                };
+                truth.frame_camera.push(ci as u32);
+                truth.frame_t_ns.push(tf);
+                truth.frame_run.push(ri as u32);
+                truth.frame_x_px.push(x);
+                truth.frame_y_px.push(y);
             }
             // The thermal camera and the thermometer close the cycle.
             let t_ir = cycle_t + rig.camera.len() as f64 * slot;
