@@ -362,6 +362,12 @@ def test_cli_writes_every_table_atomically(tmp_path: Path, paper_rig: thermrs.Ri
     for name in ("visits", "temperatures", "joints"):
         assert (out.parent / f"run1.{name}.parquet").exists()
     assert not [q for q in out.parent.iterdir() if q.name.startswith(".")]
+    # Atomic, yet with the permissions of any new file (not mkstemp's private 0600).
+    import os
+
+    mask = os.umask(0)
+    os.umask(mask)
+    assert out.stat().st_mode & 0o777 == 0o666 & ~mask
     assert "frames/s" in p.stderr
 
 

@@ -106,14 +106,29 @@ def write_parquet_atomic(df: pl.DataFrame, path: str | Path) -> None:
     reader never sees a half-written file, and a failure leaves the old file in place."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
+    tmp = atomic_tmp(path)
     try:
         df.write_parquet(tmp)
-        os.replace(tmp, path)
+        publish(tmp, path)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
+
+
+def atomic_tmp(path: Path) -> Path:
+    """A fresh temporary file beside ``path`` (same filesystem, so the rename is atomic)."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    return Path(tmp)
+
+
+def publish(tmp: Path, path: Path) -> None:
+    """Give ``tmp`` the permissions a newly created file gets (mkstemp makes it private),
+    then rename it onto ``path`` in one step."""
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(tmp, 0o666 & ~mask)
+    os.replace(tmp, path)
 
 
 def extract(

@@ -14,8 +14,6 @@ writes the recording atomically and the truth beside it:
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,7 +21,7 @@ from typing import Any
 import polars as pl
 
 from thermrs import _native
-from thermrs.ingest import write_parquet_atomic
+from thermrs.ingest import atomic_tmp, publish, write_parquet_atomic
 from thermrs.rig import Rig
 
 __all__ = ["Simulation", "simulate"]
@@ -54,15 +52,14 @@ def simulate(
     scenario = Path(scenario)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent)
-    os.close(fd)
+    tmp = atomic_tmp(out)
     try:
         cols, sc_json = _native.simulate(
-            rig._native, scenario.read_text(), tmp, source_name=str(scenario), seed=seed
+            rig._native, scenario.read_text(), str(tmp), source_name=str(scenario), seed=seed
         )
-        os.replace(tmp, out)
+        publish(tmp, out)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
     cams = [c.name for c in rig.cameras]
     runs = [r["name"] for r in json.loads(sc_json)["run"]]
@@ -89,7 +86,8 @@ def simulate(
     write_parquet_atomic(frames, out.with_name(f"{stem}.truth.parquet"))
     write_parquet_atomic(samples, out.with_name(f"{stem}.truth-samples.parquet"))
     doc = json.loads(sc_json)
-    tmp_json = out.with_name(f".{stem}.truth.json.tmp")
+    json_path = out.with_name(f"{stem}.truth.json")
+    tmp_json = atomic_tmp(json_path)
     tmp_json.write_text(json.dumps(doc, indent=2))
-    os.replace(tmp_json, out.with_name(f"{stem}.truth.json"))
+    publish(tmp_json, json_path)
     return Simulation(recording=out, frames=frames, samples=samples, scenario=doc)
