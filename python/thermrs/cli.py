@@ -312,6 +312,50 @@ def simulate(rig_path: Path, scenario_path: Path, out_path: Path, seed: int | No
     )
 
 
+@cli.command()
+@rig_option
+@click.option(
+    "--train",
+    "train",
+    required=True,
+    multiple=True,
+    type=click.Path(path_type=Path),
+    help="Training recordings (MCAP), one run each; repeat for several.",
+)
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Write the SPEC §7 JSON here (atomically).",
+)
+def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None:
+    """Fit the expansion coefficient α over training runs: a time-series least-squares fit of
+    the forward model to every visit's spot, with a 95 % interval."""
+    from thermrs.fit import fit_alpha, run_table
+    from thermrs.ingest import atomic_tmp, publish
+    from thermrs.ingest import extract as run_extract
+
+    r = load_rig(rig_path)
+    tables = [run_table(run_extract(p, r), r, run=p.stem) for p in train]
+    f = fit_alpha(tables, r)
+    doc = f.to_json()
+    if json_path is not None:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = atomic_tmp(json_path)
+        tmp.write_text(json.dumps(doc, indent=2))
+        publish(tmp, json_path)
+    t = Table(title=f"α from {len(train)} run(s), {f.n_visits} visits")
+    for col in ("α (×10⁻⁶/K)", "95 % interval", "rms (µm)"):
+        t.add_column(col, justify="right")
+    t.add_row(
+        f"{f.alpha_per_k * 1e6:.3f}",
+        f"{f.ci95[0] * 1e6:.3f} – {f.ci95[1] * 1e6:.3f}",
+        f"{f.rms_um:.3f}",
+    )
+    out.print(t)
+
+
 def _debug() -> bool:
     return os.environ.get("THERMRS_DEBUG", "") not in ("", "0")
 

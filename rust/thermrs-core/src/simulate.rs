@@ -667,13 +667,24 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
                 truth.frame_x_px.push(x);
                 truth.frame_y_px.push(y);
             }
-            // The thermal camera and the thermometer close the cycle.
+            // The thermal camera and the thermometer close the cycle, seeing the temperatures
+            // of their own time (the state stepped from the cycle's start to t_ir).
             let t_ir = cycle_t + rig.camera.len() as f64 * slot;
             let ambient = ambient_at(t_ir);
+            let into = t_ir - cycle_t;
+            let a_ir = ambient_at(cycle_t + into / 2.0);
+            let surface_ir: Vec<f64> = nodes
+                .iter()
+                .zip(&surface)
+                .map(|(n, &t)| n.step(t, a_ir, Some(speed), into))
+                .collect();
+            let structure_ir: Vec<f64> = (0..nodes.len())
+                .map(|k| lag_step(surface[k], surface_ir[k], structure[k], into, fx.lag_tau_s))
+                .collect();
             for _ in 0..sc.ir.frames_per_cycle.max(1) {
                 let roi_c: Vec<(usize, f64)> = node_roi
                     .iter()
-                    .zip(&surface)
+                    .zip(&surface_ir)
                     .map(|(&r, &t)| (r, t))
                     .collect();
                 let img = render_ir(rig, sc, ambient, &roi_c, &mut ir_rng);
@@ -726,8 +737,8 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
             truth.sample_t_ns.push(T0_NS + (t_ir * 1e9) as i64);
             truth.sample_run.push(ri as u32);
             truth.sample_ambient_c.push(ambient);
-            truth.surface_c.extend_from_slice(&surface);
-            truth.structure_c.extend_from_slice(&structure);
+            truth.surface_c.extend_from_slice(&surface_ir);
+            truth.structure_c.extend_from_slice(&structure_ir);
             // Advance the thermal state over the cycle (running at the run's speed).
             let a_mid = ambient_at(cycle_t + run.cycle_s / 2.0);
             for (k, n) in nodes.iter().enumerate() {

@@ -1,0 +1,166 @@
+"""Fitting the expansion coefficient α on the forward model (SPEC §4, §7 ``thermrs fit``).
+
+Run tables
+    :func:`run_table` joins each visit (mean centroid of its ``ok`` frames, chip µm) with the
+    temperatures at the visit's time: every ROI maximum and the ambient reading, interpolated
+    between their own samples with a shape-preserving cubic (PCHIP) and extrapolated beyond
+    them (a run's first visits come before its first thermal frame; holding that later,
+    warmer reading, or joining samples by straight lines along a curved warm-up, biases α by
+    a few per cent when thermal frames are sparse). A recording should hold one run:
+    temperatures are not measured while the robot idles between runs.
+
+    Measured ROI temperatures are maxima of noisy pixels (SPEC §3): they read high by an
+    amount that shrinks as a link's hot region forms (measured on simulated IR frames with
+    0.05 K noise: 0.10–0.15 K early in a warm-up, 0.04–0.09 K later), which compresses the
+    measured ΔT and raises the fitted α by about 1 %.
+
+Time-series estimator
+    For visit i of camera c in run r, the spot's position on the chip (u, v) is modelled as
+    ``offset[c, r, axis] + α · s_i``, where ``s_i`` is the forward model's displacement per unit
+    α of the spot at camera c's taught pose from the reference temperature to the visit's
+    mapped temperatures (the model is linear in α to far below a nanometre over the range of
+    interest; ``s_i`` is evaluated at the rig's α). The offsets absorb each camera's unknown
+    mounting in each run (SPEC §4: absolute positions carry unknown offsets), so no single
+    anchor visit carries the noise. α and the offsets come from one linear least-squares fit;
+    the 95 % interval is Student-t on the residual variance.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import polars as pl
+from scipy import stats
+from scipy.interpolate import PchipInterpolator
+
+from thermrs.errors import InputError
+from thermrs.ingest import Extraction
+from thermrs.model import ForwardModel
+from thermrs.rig import Rig
+
+__all__ = ["AlphaFit", "fit_alpha", "run_table"]
+
+
+def interpolate(t: np.ndarray, st: np.ndarray, sv: np.ndarray) -> np.ndarray:
+    """Samples (st, sv) at t: shape-preserving piecewise cubic (PCHIP, scipy), which follows a
+    first-order warm-up far better than straight lines between sparse thermal frames, and
+    extrapolates smoothly beyond the ends."""
+    if len(st) == 0:
+        return np.full(len(t), np.nan)
+    if len(st) == 1:
+        return np.full(len(t), float(sv[0]))
+    keep = np.concatenate([[True], np.diff(st) > 0])
+    return np.asarray(PchipInterpolator(st[keep], sv[keep], extrapolate=True)(t))
+
+
+def run_table(ex: Extraction, rig: Rig, *, run: str = "run") -> pl.DataFrame:
+    """One row per visit with ``ok`` frames: ``run``, ``camera``, ``visit``, ``t_ns``,
+    ``u_um``, ``v_um``, ``drift_u_um``, ``drift_v_um`` and one ``<name>_c`` column per ROI and
+    ``ambient`` (°C at the visit time, linear interpolation)."""
+    v = ex.visits.filter(pl.col("n_ok") > 0).sort("camera", "t_ns")
+    t = v["t_ns"].to_numpy().astype(np.float64)
+    cols: dict[str, np.ndarray] = {}
+    temps = ex.temperatures
+    for name in sorted(set(temps["name"].to_list())):
+        s = temps.filter(pl.col("name") == name).sort("t_ns")
+        st = s["t_ns"].to_numpy().astype(np.float64)
+        sv = s["temperature_c"].to_numpy()
+        cols[f"{name}_c"] = interpolate(t, st, sv)
+    return v.select(
+        pl.lit(run).alias("run"),
+        "camera",
+        "visit",
+        "t_ns",
+        "u_um",
+        "v_um",
+        "drift_u_um",
+        "drift_v_um",
+    ).with_columns(**{k: pl.Series(k, a) for k, a in cols.items()})
+
+
+@dataclass(frozen=True)
+class AlphaFit:
+    """The time-series fit of α."""
+
+    alpha_per_k: float
+    ci95: tuple[float, float]
+    rms_um: float
+    n_visits: int
+    residuals: pl.DataFrame
+
+    def to_json(self) -> dict[str, object]:
+        """The SPEC §7 ``thermrs fit --json`` document (extended)."""
+        return {
+            "alpha_per_k": {"value": self.alpha_per_k, "ci95": list(self.ci95)},
+            "rms_um": self.rms_um,
+            "n_visits": self.n_visits,
+            "estimator": "time-series least squares on the forward model, "
+            "per-camera-and-run offsets",
+        }
+
+
+def sensitivities(table: pl.DataFrame, rig: Rig) -> tuple[np.ndarray, np.ndarray]:
+    """Per row: the spot's displacement (u, v) in µm per unit α at the camera's taught pose,
+    from the reference temperature to the row's mapped temperatures."""
+    alpha0 = rig.alpha_per_k
+    model = ForwardModel(rig, alpha_per_k=alpha0)
+    names = model.temperature_names
+    missing = [n for n in names if f"{n}_c" not in table.columns]
+    if missing:
+        raise InputError(f"the run table has no temperatures for {missing} (the rig maps them)")
+    su = np.empty(table.height)
+    sv = np.empty(table.height)
+    for cam in rig.cameras:
+        idx = np.flatnonzero((table["camera"] == cam.name).to_numpy())
+        if not len(idx):
+            continue
+        q = rig.camera_pose(cam.name).joints_rad
+        temps = {n: table[f"{n}_c"].to_numpy()[idx] for n in names}
+        hot = model.spots(cam.name, q, temperatures=temps)
+        ref = model.spots(cam.name, q, temperatures={n: rig.reference_c for n in names})
+        su[idx] = (hot.u_um - ref.u_um[0]) / alpha0
+        sv[idx] = (hot.v_um - ref.v_um[0]) / alpha0
+    return su, sv
+
+
+def fit_alpha(tables: Sequence[pl.DataFrame], rig: Rig) -> AlphaFit:
+    """Fit α over every run table given (see the module docstring)."""
+    table = pl.concat(tables, how="diagonal_relaxed")
+    if table.height < 3:
+        raise InputError(f"{table.height} visits: too few to fit α")
+    su, sv = sensitivities(table, rig)
+    groups = table.select(pl.concat_str(["run", "camera"], separator="/")).to_series()
+    keys = sorted(set(groups.to_list()))
+    g = np.array([keys.index(k) for k in groups.to_list()])
+    n, k = table.height, len(keys)
+    # Rows: every visit's u then v. Columns: α, then offsets (group, axis).
+    x = np.zeros((2 * n, 1 + 2 * k))
+    x[:n, 0], x[n:, 0] = su, sv
+    x[np.arange(n), 1 + g] = 1.0
+    x[n + np.arange(n), 1 + k + g] = 1.0
+    y = np.concatenate([table["u_um"].to_numpy(), table["v_um"].to_numpy()])
+    ok = np.isfinite(y) & np.isfinite(x[:, 0])
+    x, y = x[ok], y[ok]
+    dof = len(y) - x.shape[1]
+    if dof < 1:
+        raise InputError(f"{len(y)} measurements for {x.shape[1]} parameters: too few to fit α")
+    beta, *_ = np.linalg.lstsq(x, y, rcond=None)
+    r = y - x @ beta
+    s2 = float(r @ r) / dof
+    cov = s2 * np.linalg.pinv(x.T @ x)
+    half = float(stats.t.ppf(0.975, dof) * np.sqrt(cov[0, 0]))
+    a = float(beta[0])
+    full = np.full(2 * n, np.nan)
+    full[ok] = r
+    res = table.select("run", "camera", "visit", "t_ns").with_columns(
+        residual_u_um=pl.Series(full[:n]), residual_v_um=pl.Series(full[n:])
+    )
+    return AlphaFit(
+        alpha_per_k=a,
+        ci95=(a - half, a + half),
+        rms_um=float(np.sqrt(np.mean(r**2))),
+        n_visits=n,
+        residuals=res,
+    )
