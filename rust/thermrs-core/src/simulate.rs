@@ -50,6 +50,29 @@ struct Segment {
     dwell: Option<usize>,
 }
 
+impl Segment {
+    /// A move from `from` to `to` starting at `t0`, every joint at `speed` × its maximum rate
+    /// (°/s); it lasts as long as the slowest joint needs.
+    fn movement(
+        t0: f64,
+        from: [f64; 6],
+        to: [f64; 6],
+        max_rate_deg_s: &[f64; 6],
+        speed: f64,
+    ) -> Segment {
+        let dur = (0..6)
+            .map(|j| (to[j] - from[j]).abs() / (max_rate_deg_s[j].to_radians() * speed))
+            .fold(0.0, f64::max);
+        Segment {
+            t0,
+            t1: t0 + dur,
+            q0: from,
+            q1: to,
+            dwell: None,
+        }
+    }
+}
+
 /// Ground truth of a simulation, column by column.
 #[derive(Debug, Default, Clone)]
 pub struct Truth {
@@ -453,21 +476,15 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
                     let z: f64 = StandardNormal.sample(&mut rng);
                     *v += sc.motion.repeatability_urad * 1e-6 * z;
                 }
-                let from = q_cur.unwrap_or(target);
-                let move_s = (0..6)
-                    .map(|j| {
-                        (target[j] - from[j]).abs()
-                            / (sc.motion.max_rate_deg_s[j].to_radians() * speed)
-                    })
-                    .fold(0.0, f64::max);
-                segs.push(Segment {
-                    t0: t,
-                    t1: t + move_s,
-                    q0: from,
-                    q1: target,
-                    dwell: None,
-                });
-                t += move_s;
+                let mv = Segment::movement(
+                    t,
+                    q_cur.unwrap_or(target),
+                    target,
+                    &sc.motion.max_rate_deg_s,
+                    speed,
+                );
+                t = mv.t1;
+                segs.push(mv);
                 segs.push(Segment {
                     t0: t,
                     t1: t + sc.motion.dwell_s,
@@ -485,21 +502,15 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
                 for (j, v) in rest.iter_mut().enumerate() {
                     *v += sc.motion.rest_offset_deg[j].to_radians();
                 }
-                let from = q_cur.unwrap_or(rest);
-                let move_s = (0..6)
-                    .map(|j| {
-                        (rest[j] - from[j]).abs()
-                            / (sc.motion.max_rate_deg_s[j].to_radians() * speed)
-                    })
-                    .fold(0.0, f64::max);
-                segs.push(Segment {
-                    t0: t,
-                    t1: t + move_s,
-                    q0: from,
-                    q1: rest,
-                    dwell: None,
-                });
-                t += move_s;
+                let mv = Segment::movement(
+                    t,
+                    q_cur.unwrap_or(rest),
+                    rest,
+                    &sc.motion.max_rate_deg_s,
+                    speed,
+                );
+                t = mv.t1;
+                segs.push(mv);
                 q_cur = Some(rest);
             }
             let t_ir = cycle_t + rig.camera.len() as f64 * slot;
