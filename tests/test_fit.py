@@ -13,7 +13,7 @@ import polars as pl
 import pytest
 import thermrs
 from thermrs import ForwardModel
-from thermrs.fit import fit_alpha, interpolate, run_table
+from thermrs.fit import fit_alpha, fit_alpha_start_end, interpolate, run_table
 from thermrs.simulate import simulate
 
 SCENARIO = """format = "thermrs-scenario/1"
@@ -90,6 +90,14 @@ def test_recovers_the_simulated_alpha(tmp_path: Path, paper_rig: thermrs.Rig, se
     assert f.rms_um < 1.0
     measured = fit_alpha([table], paper_rig)
     assert 1.0 < measured.alpha_per_k / 23.2e-6 < 1.02
+    # The paper's start/end estimator on the same data: consistent with the truth, and its
+    # interval wider than the time-series estimator's (it uses two visits of the run).
+    se = fit_alpha_start_end(true_t, paper_rig)
+    lo, hi = se.mean[1]
+    assert lo <= 23.2e-6 <= hi, se
+    assert hi - lo > f.ci95[1] - f.ci95[0]
+    for cam, (a, (clo, chi)) in se.per_camera.items():
+        assert clo <= 23.2e-6 <= chi, (cam, a)
 
 
 def test_cli_fit_json_contract(tmp_path: Path, paper_rig: thermrs.Rig) -> None:

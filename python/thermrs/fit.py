@@ -40,7 +40,7 @@ from thermrs.ingest import Extraction
 from thermrs.model import ForwardModel
 from thermrs.rig import Rig
 
-__all__ = ["AlphaFit", "fit_alpha", "run_table"]
+__all__ = ["AlphaFit", "StartEndFit", "fit_alpha", "fit_alpha_start_end", "run_table"]
 
 
 def interpolate(t: np.ndarray, st: np.ndarray, sv: np.ndarray) -> np.ndarray:
@@ -164,3 +164,53 @@ def fit_alpha(tables: Sequence[pl.DataFrame], rig: Rig) -> AlphaFit:
         n_visits=n,
         residuals=res,
     )
+
+
+@dataclass(frozen=True)
+class StartEndFit:
+    """The paper's start/end estimator, per camera and their mean (see
+    :func:`fit_alpha_start_end`)."""
+
+    per_camera: dict[str, tuple[float, tuple[float, float]]]
+    mean: tuple[float, tuple[float, float]]
+    visit_noise_um: float
+
+
+def fit_alpha_start_end(
+    table: pl.DataFrame, rig: Rig, *, axis: str = "v", visit_noise_um: float | None = None
+) -> StartEndFit:
+    """The paper's estimator (Eq. 2 with the forward model in place of Eq. 3): per camera,
+    α = (drift between the run's first and last visit along the chip ``axis``) / (the same
+    drift per unit α predicted from the temperatures at those two visits); the mean of the
+    cameras.
+
+    Its interval propagates the noise of one visit, ``visit_noise_um`` (default: the residual
+    rms of the time-series fit :func:`fit_alpha` on the same table, which includes pose
+    repeatability), through the two visits used: ±1.96·√2·noise/|Δs|.
+    """
+    if axis not in ("u", "v"):
+        raise InputError(f"axis must be 'u' or 'v', got {axis!r}")
+    su, sv = sensitivities(table, rig)
+    sens = su if axis == "u" else sv
+    noise = fit_alpha([table], rig).rms_um if visit_noise_um is None else visit_noise_um
+    per: dict[str, tuple[float, tuple[float, float]]] = {}
+    variances = []
+    for cam in sorted(set(table["camera"].to_list())):
+        idx = np.flatnonzero((table["camera"] == cam).to_numpy())
+        idx = idx[np.argsort(table["t_ns"].to_numpy()[idx])]
+        if len(idx) < 2:
+            continue
+        first, last = idx[0], idx[-1]
+        y = table[f"{axis}_um"].to_numpy()
+        ds = sens[last] - sens[first]
+        if ds == 0:
+            raise InputError(f"camera {cam}: no predicted drift between first and last visit")
+        a = (y[last] - y[first]) / ds
+        half = 1.96 * np.sqrt(2.0) * noise / abs(ds)
+        per[cam] = (float(a), (float(a - half), float(a + half)))
+        variances.append((half / 1.96) ** 2)
+    if not per:
+        raise InputError("no camera has two visits: nothing to estimate")
+    m = float(np.mean([v[0] for v in per.values()]))
+    half_m = 1.96 * float(np.sqrt(np.sum(variances))) / len(per)
+    return StartEndFit(per_camera=per, mean=(m, (m - half_m, m + half_m)), visit_noise_um=noise)
