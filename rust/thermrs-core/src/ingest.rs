@@ -373,7 +373,8 @@ thread_local! {
     static INPUT_BUF: std::cell::RefCell<Vec<u8>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
-/// Decompress a chunk's records into `out`. For a cut chunk, decode as much as there is.
+/// Decompress a chunk's records into `out` (uncompressed chunks are walked in place and never
+/// come here). For a cut chunk, decode as much as there is.
 fn decompress(
     header: &ChunkHeader,
     data: &[u8],
@@ -383,7 +384,6 @@ fn decompress(
     out.clear();
     let want = usize::try_from(header.uncompressed_size).unwrap_or(usize::MAX);
     match header.compression.as_str() {
-        "" => out.extend_from_slice(data),
         "zstd" if !partial => {
             out.reserve(want);
             zstd::bulk::Decompressor::new()
