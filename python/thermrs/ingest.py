@@ -70,8 +70,10 @@ class Extraction:
     visits
         One row per visit (see :func:`thermrs.visits.find_visits`).
     temperatures
-        Long format: ``t_ns``, ``name`` (ROI name or ``ambient``), ``temperature_c``, ``x_px``,
-        ``y_px`` (where the ROI maximum is; null for ambient).
+        Long format: ``t_ns``, ``name`` (ROI name or ``ambient``), ``temperature_c`` (the ROI
+        maximum, SPEC §3), ``peak_c`` (the de-noised peak: the vertex of a quadratic surface
+        fitted around the maximum, see the core's ``thermal`` module; the reading itself for
+        ambient), ``x_px``, ``y_px`` (where the ROI maximum is; null for ambient).
     joints
         ``t_ns`` and one column per rig joint name (radians).
     report
@@ -213,6 +215,7 @@ def extract(
                 dtype=pl.String,
             ),
             "temperature_c": thermal_c["max_c"],
+            "peak_c": thermal_c["peak_c"],
             "x_px": thermal_c["x_px"].astype(np.int32),
             "y_px": thermal_c["y_px"].astype(np.int32),
         },
@@ -223,6 +226,7 @@ def extract(
             "t_ns": ambient_c["t_ns"],
             "name": pl.Series(["ambient"] * len(ambient_c["t_ns"]), dtype=pl.String),
             "temperature_c": ambient_c["temperature_c"],
+            "peak_c": ambient_c["temperature_c"],
             "x_px": pl.Series([None] * len(ambient_c["t_ns"]), dtype=pl.Int32),
             "y_px": pl.Series([None] * len(ambient_c["t_ns"]), dtype=pl.Int32),
         },

@@ -100,6 +100,7 @@ pub struct ThermalTable {
     /// Index of the ROI in the rig.
     pub roi: Vec<u32>,
     pub max_c: Vec<f64>,
+    pub peak_c: Vec<f64>,
     pub x_px: Vec<u32>,
     pub y_px: Vec<u32>,
 }
@@ -148,7 +149,16 @@ impl Tables {
             noise,
             status
         );
-        append_all!(self.thermal, o.thermal, t_ns, roi, max_c, x_px, y_px);
+        append_all!(
+            self.thermal,
+            o.thermal,
+            t_ns,
+            roi,
+            max_c,
+            peak_c,
+            x_px,
+            y_px
+        );
         append_all!(self.joints, o.joints, t_ns, position);
         append_all!(self.ambient, o.ambient, t_ns, temperature_c);
     }
@@ -658,6 +668,7 @@ impl<'r> Context<'r> {
                     tt.t_ns.push(t);
                     tt.roi.push(i as u32);
                     tt.max_c.push(m.max_c);
+                    tt.peak_c.push(m.peak_c);
                     tt.x_px.push(m.x_px);
                     tt.y_px.push(m.y_px);
                 }

@@ -378,6 +378,7 @@ fn extract<'py>(
             ("t_ns", th.t_ns.into_pyarray(py).into_any()),
             ("roi", th.roi.into_pyarray(py).into_any()),
             ("max_c", th.max_c.into_pyarray(py).into_any()),
+            ("peak_c", th.peak_c.into_pyarray(py).into_any()),
             ("x_px", th.x_px.into_pyarray(py).into_any()),
             ("y_px", th.y_px.into_pyarray(py).into_any()),
         ],
