@@ -9,10 +9,11 @@ Run tables
     a few per cent when thermal frames are sparse). A recording should hold one run:
     temperatures are not measured while the robot idles between runs.
 
-    Measured ROI temperatures are maxima of noisy pixels (SPEC §3): they read high by an
-    amount that shrinks as a link's hot region forms (measured on simulated IR frames with
-    0.05 K noise: 0.10–0.15 K early in a warm-up, 0.04–0.09 K later), which compresses the
-    measured ΔT and raises the fitted α by about 1 %.
+    ROI maxima (SPEC §3) are maxima of noisy pixels: they read high by an amount that shrinks
+    as a link's hot region forms (0.05 K pixel noise: about 0.11 K at a 0.3 K rise, 0.03 K at
+    10 K), which compresses the measured ΔT and raises a fitted α by 1–2 %. Run tables
+    therefore use each ROI's de-noised peak by default (a quadratic surface fitted around the
+    maximum; +0.03 K at 0.3 K, 0.00 K at 10 K), and the maximum on request.
 
 Time-series estimator
     For visit i of camera c in run r, the spot's position on the chip (u, v) is modelled as
@@ -21,14 +22,17 @@ Time-series estimator
     mapped temperatures (the model is linear in α to far below a nanometre over the range of
     interest; ``s_i`` is evaluated at the rig's α). The offsets absorb each camera's unknown
     mounting in each run (SPEC §4: absolute positions carry unknown offsets), so no single
-    anchor visit carries the noise. α and the offsets come from one linear least-squares fit;
-    the 95 % interval is Student-t on the residual variance.
+    anchor visit carries the noise. α and the offsets come from one linear least-squares fit,
+    weighted per camera and chip axis by the inverse of that axis's residual variance (feasible
+    weighted least squares: an unweighted fit first gives the variances); the 95 % interval is
+    Student-t on the weighted residual variance.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import polars as pl
@@ -40,7 +44,15 @@ from thermrs.ingest import Extraction
 from thermrs.model import ForwardModel
 from thermrs.rig import Rig
 
-__all__ = ["AlphaFit", "StartEndFit", "fit_alpha", "fit_alpha_start_end", "run_table"]
+__all__ = [
+    "AlphaFit",
+    "StartEndFit",
+    "fit_alpha",
+    "fit_alpha_start_end",
+    "load_run_table",
+    "run_table",
+    "run_table_from",
+]
 
 
 def interpolate(t: np.ndarray, st: np.ndarray, sv: np.ndarray) -> np.ndarray:
@@ -55,18 +67,57 @@ def interpolate(t: np.ndarray, st: np.ndarray, sv: np.ndarray) -> np.ndarray:
     return np.asarray(PchipInterpolator(st[keep], sv[keep], extrapolate=True)(t))
 
 
-def run_table(ex: Extraction, rig: Rig, *, run: str = "run") -> pl.DataFrame:
-    """One row per visit with ``ok`` frames: ``run``, ``camera``, ``visit``, ``t_ns``,
-    ``u_um``, ``v_um``, ``drift_u_um``, ``drift_v_um`` and one ``<name>_c`` column per ROI and
-    ``ambient`` (°C at the visit time, linear interpolation)."""
-    v = ex.visits.filter(pl.col("n_ok") > 0).sort("camera", "t_ns")
+def run_table(
+    ex: Extraction, rig: Rig, *, run: str = "run", temperature: str = "peak"
+) -> pl.DataFrame:
+    """The run table of an extraction; see :func:`run_table_from`."""
+    return run_table_from(ex.visits, ex.temperatures, rig, run=run, temperature=temperature)
+
+
+def run_table_from(
+    visits: pl.DataFrame,
+    temperatures: pl.DataFrame,
+    rig: Rig,
+    *,
+    run: str = "run",
+    temperature: str = "peak",
+) -> pl.DataFrame:
+    """The run table: one row per visit with ``ok`` frames.
+
+    Parameters
+    ----------
+    visits, temperatures
+        The recording's visits and temperatures tables (:class:`thermrs.Extraction`, or the
+        ``.visits.parquet`` and ``.temperatures.parquet`` files ``thermrs extract`` writes).
+    rig
+        The rig it was recorded on.
+    run
+        The run's name (the ``run`` column).
+    temperature
+        Which ROI reading to use: ``"peak"`` (default; the de-noised peak, which does not read
+        high the way the maximum of noisy pixels does) or ``"max"`` (the ROI maximum of SPEC §3,
+        the paper's reading).
+
+    Returns
+    -------
+    polars.DataFrame
+        ``run``, ``camera``, ``visit``, ``t_ns``, ``u_um``, ``v_um``, ``drift_u_um``,
+        ``drift_v_um`` and one ``<name>_c`` column per ROI and ``ambient`` (°C at the visit
+        time, PCHIP interpolation between the readings, see the module docs).
+    """
+    if temperature not in ("peak", "max"):
+        raise InputError(f"temperature must be 'peak' or 'max', got {temperature!r}")
+    column = "peak_c" if temperature == "peak" else "temperature_c"
+    v = visits.filter(pl.col("n_ok") > 0).sort("camera", "t_ns")
     t = v["t_ns"].to_numpy().astype(np.float64)
     cols: dict[str, np.ndarray] = {}
-    temps = ex.temperatures
+    temps = temperatures
+    if column not in temps.columns:  # tables extracted before the peak existed
+        column = "temperature_c"
     for name in sorted(set(temps["name"].to_list())):
         s = temps.filter(pl.col("name") == name).sort("t_ns")
         st = s["t_ns"].to_numpy().astype(np.float64)
-        sv = s["temperature_c"].to_numpy()
+        sv = s[column].to_numpy()
         cols[f"{name}_c"] = interpolate(t, st, sv)
     return v.select(
         pl.lit(run).alias("run"),
@@ -78,6 +129,44 @@ def run_table(ex: Extraction, rig: Rig, *, run: str = "run") -> pl.DataFrame:
         "drift_u_um",
         "drift_v_um",
     ).with_columns(**{k: pl.Series(k, a) for k, a in cols.items()})
+
+
+def load_run_table(
+    path: str | Path, rig: Rig, *, run: str | None = None, temperature: str = "peak"
+) -> tuple[pl.DataFrame, bool]:
+    """The run table of a recording (``.mcap``, extracted here) or of the tables ``thermrs
+    extract`` wrote (any of ``OUT.parquet``, ``OUT.visits.parquet``, … : the visits and
+    temperatures files beside it are read). The run is named ``run`` (default: the file's
+    stem). Returns the table and whether the recording lost data (always False for tables).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    if path.name.endswith(".parquet"):
+        stem = path.name[: -len(".parquet")]
+        for part in (".visits", ".temperatures", ".joints"):
+            if stem.endswith(part):
+                stem = stem[: -len(part)]
+        need = {k: path.with_name(f"{stem}.{k}.parquet") for k in ("visits", "temperatures")}
+        for k, p in need.items():
+            if not p.exists():
+                raise InputError(f"{path}: the {k} table {p.name} is not beside it")
+        try:
+            visits = pl.read_parquet(need["visits"])
+            temps = pl.read_parquet(need["temperatures"])
+        except (OSError, pl.exceptions.PolarsError) as e:
+            raise InputError(f"{path}: cannot read the extracted tables: {e}") from None
+        missing = [c for c in ("camera", "t_ns", "n_ok", "u_um", "v_um") if c not in visits.columns]
+        if missing:
+            raise InputError(f"{need['visits']}: not a visits table (no {missing})")
+        table = run_table_from(visits, temps, rig, run=run or stem, temperature=temperature)
+        return table, False
+    from thermrs.ingest import extract
+
+    ex = extract(path, rig)
+    stem = path.name[: -len(".mcap")] if path.name.endswith(".mcap") else path.stem
+    table = run_table(ex, rig, run=run or stem, temperature=temperature)
+    return table, ex.report.data_loss
 
 
 @dataclass(frozen=True)
@@ -146,10 +235,25 @@ def fit_alpha(tables: Sequence[pl.DataFrame], rig: Rig) -> AlphaFit:
     dof = len(y) - x.shape[1]
     if dof < 1:
         raise InputError(f"{len(y)} measurements for {x.shape[1]} parameters: too few to fit α")
+    # Feasible weighted least squares: an ordinary fit, then every (camera, axis) weighted by
+    # the inverse of its own residual variance (pose repeatability and centroid noise project
+    # differently onto the chips' axes), refitted; the interval comes from the weighted fit.
     beta, *_ = np.linalg.lstsq(x, y, rcond=None)
     r = y - x @ beta
-    s2 = float(r @ r) / dof
-    cov = s2 * np.linalg.pinv(x.T @ x)
+    cams = table["camera"].to_list()
+    noise_group = np.array([f"{c}/u" for c in cams] + [f"{c}/v" for c in cams])[ok]
+    sd = np.empty(len(y))
+    pooled = float(np.sqrt(r @ r / dof))
+    for grp in set(noise_group.tolist()):
+        m = noise_group == grp
+        sd[m] = np.sqrt(np.mean(r[m] ** 2)) if m.sum() >= 5 else pooled
+    sd = np.maximum(sd, 1e-6 * max(pooled, 1e-12))
+    xw, yw = x / sd[:, None], y / sd
+    beta, *_ = np.linalg.lstsq(xw, yw, rcond=None)
+    rw = yw - xw @ beta
+    r = y - x @ beta
+    s2 = float(rw @ rw) / dof
+    cov = s2 * np.linalg.pinv(xw.T @ xw)
     half = float(stats.t.ppf(0.975, dof) * np.sqrt(cov[0, 0]))
     a = float(beta[0])
     full = np.full(2 * n, np.nan)
@@ -174,6 +278,18 @@ class StartEndFit:
     per_camera: dict[str, tuple[float, tuple[float, float]]]
     mean: tuple[float, tuple[float, float]]
     visit_noise_um: float
+
+    def to_json(self) -> dict[str, object]:
+        """``{"per_camera": {camera: {"value", "ci95"}}, "mean": {…}, "visit_noise_um"}``."""
+
+        def one(v: tuple[float, tuple[float, float]]) -> dict[str, object]:
+            return {"value": v[0], "ci95": list(v[1])}
+
+        return {
+            "per_camera": {c: one(v) for c, v in self.per_camera.items()},
+            "mean": one(self.mean),
+            "visit_noise_um": self.visit_noise_um,
+        }
 
 
 def fit_alpha_start_end(
