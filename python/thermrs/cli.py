@@ -20,7 +20,7 @@ from rich.console import Console
 from rich.table import Table
 
 from thermrs import paper as paper_mod
-from thermrs.errors import ThermrsError
+from thermrs.errors import InputError, ThermrsError
 from thermrs.rig import default_rig_path, load_rig
 from thermrs.visits import DEFAULT_TOLERANCE_DEG
 
@@ -312,6 +312,45 @@ def simulate(rig_path: Path, scenario_path: Path, out_path: Path, seed: int | No
     )
 
 
+def _write_json(path: Path, doc: object) -> None:
+    """Write ``doc`` as JSON to ``path`` atomically."""
+    from thermrs.ingest import atomic_tmp, publish
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = atomic_tmp(path)
+    try:
+        tmp.write_text(json.dumps(doc, indent=2))
+        publish(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def _run_tables(paths: tuple[Path, ...], rig: Any, what: str) -> tuple[list[Any], bool]:
+    """Run tables of recordings or extracted tables, and whether any recording lost data."""
+    from thermrs.fit import load_run_table
+
+    tables, loss = [], False
+    names = [p.name for p in paths]
+    for p in paths:
+        # Two files of one name in different folders: name the runs by their paths.
+        run = str(p) if names.count(p.name) > 1 else None
+        t, lost = load_run_table(p, rig, run=run)
+        if t.height == 0:
+            raise InputError(f"{what} {p}: no visit with a spot")
+        if lost:
+            click.echo(f"thermrs: warning: {p}: part of the recording was lost", err=True)
+        tables.append(t)
+        loss |= lost
+    return tables, loss
+
+
+TRAIN_HELP = (
+    "Training runs: recordings (MCAP) or tables written by `thermrs extract`, one run each "
+    "(--train A B or --train A --train B)."
+)
+
+
 @cli.command()
 @rig_option
 @click.option(
@@ -320,7 +359,7 @@ def simulate(rig_path: Path, scenario_path: Path, out_path: Path, seed: int | No
     required=True,
     multiple=True,
     type=click.Path(path_type=Path),
-    help="Training recordings (MCAP), one run each; repeat for several.",
+    help=TRAIN_HELP,
 )
 @click.option(
     "--json",
@@ -331,29 +370,216 @@ def simulate(rig_path: Path, scenario_path: Path, out_path: Path, seed: int | No
 )
 def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None:
     """Fit the expansion coefficient α over training runs: a time-series least-squares fit of
-    the forward model to every visit's spot, with a 95 % interval."""
-    from thermrs.fit import fit_alpha, run_table
-    from thermrs.ingest import atomic_tmp, publish
-    from thermrs.ingest import extract as run_extract
+    the forward model to every visit's spot, with a 95 % interval, and the paper's start/end
+    estimator per camera beside it.
+
+    Exits 3 (after fitting) if part of a training recording was lost.
+    """
+    from thermrs.fit import fit_alpha, fit_alpha_start_end
 
     r = load_rig(rig_path)
-    tables = [run_table(run_extract(p, r), r, run=p.stem) for p in train]
+    tables, loss = _run_tables(train, r, "--train")
     f = fit_alpha(tables, r)
     doc = f.to_json()
+    start_end = {t["run"][0]: fit_alpha_start_end(t, r, visit_noise_um=f.rms_um) for t in tables}
+    doc["start_end"] = {run: se.to_json() for run, se in start_end.items()}
     if json_path is not None:
-        json_path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = atomic_tmp(json_path)
-        tmp.write_text(json.dumps(doc, indent=2))
-        publish(tmp, json_path)
+        _write_json(json_path, doc)
     t = Table(title=f"α from {len(train)} run(s), {f.n_visits} visits")
-    for col in ("α (×10⁻⁶/K)", "95 % interval", "rms (µm)"):
-        t.add_column(col, justify="right")
+    for col in ("estimator", "run", "camera", "α (×10⁻⁶/K)", "95 % interval", "rms (µm)"):
+        t.add_column(col, justify="right" if col not in ("estimator", "run") else "left")
     t.add_row(
+        "time-series",
+        "all",
+        "all",
         f"{f.alpha_per_k * 1e6:.3f}",
         f"{f.ci95[0] * 1e6:.3f} – {f.ci95[1] * 1e6:.3f}",
         f"{f.rms_um:.3f}",
     )
+    for run, se in start_end.items():
+        for cam, (a, (lo, hi)) in [*se.per_camera.items(), ("mean", se.mean)]:
+            t.add_row(
+                "start/end", run, cam, f"{a * 1e6:.3f}", f"{lo * 1e6:.3f} – {hi * 1e6:.3f}", ""
+            )
     out.print(t)
+    if loss:
+        sys.exit(EXIT_DATA_LOSS)
+
+
+@cli.command()
+@rig_option
+@click.option(
+    "--run",
+    "runs",
+    required=True,
+    multiple=True,
+    type=click.Path(path_type=Path),
+    help="Runs to predict: recordings (MCAP) or tables written by `thermrs extract`.",
+)
+@click.option("--alpha", "alpha", type=float, default=None, help="α (1/K) to predict with.")
+@click.option(
+    "--fit",
+    "fit_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Take α from a `thermrs fit --json` file.",
+)
+@click.option(
+    "--train",
+    "train",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    help="Fit α on these runs first (time-series and start/end estimators). " + TRAIN_HELP,
+)
+@click.option(
+    "--axis",
+    type=click.Choice(["auto", "u", "v"]),
+    default="auto",
+    show_default=True,
+    help="Chip axis of the end-of-run figures (auto: the larger predicted drift).",
+)
+@click.option(
+    "--end-visits",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    help="The run's end is the mean of its last N visits.",
+)
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Write the prediction table as JSON here (atomically).",
+)
+@click.option(
+    "--series",
+    "series_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Write every visit's predicted and measured drift here (Parquet, atomically).",
+)
+def predict(
+    rig_path: Path,
+    runs: tuple[Path, ...],
+    alpha: float | None,
+    fit_path: Path | None,
+    train: tuple[Path, ...],
+    axis: str,
+    end_visits: int,
+    json_path: Path | None,
+    series_path: Path | None,
+) -> None:
+    """Predict runs' drift from their temperatures with the forward model and an α given,
+    read from a fit, or fitted here on training runs; a Table 7-style table (predicted,
+    measured, % error) with the whole series' agreement against the measurement's own noise.
+
+    Exits 3 (after predicting) if part of a recording was lost.
+    """
+    from thermrs.fit import fit_alpha, fit_alpha_start_end
+    from thermrs.ingest import write_parquet_atomic
+    from thermrs.predict import predict as run_predict
+    from thermrs.predict import prediction_table
+
+    given = sum(x is not None and x != () for x in (alpha, fit_path, train))
+    if given != 1:
+        raise InputError("give exactly one of --alpha, --fit or --train")
+    r = load_rig(rig_path)
+    loss = False
+    alphas: dict[str, float] = {}
+    if alpha is not None:
+        alphas["given"] = alpha
+    elif fit_path is not None:
+        try:
+            doc = json.loads(fit_path.read_text())
+            alphas["fit"] = float(doc["alpha_per_k"]["value"])
+        except FileNotFoundError:
+            raise InputError(f"--fit {fit_path}: no such file") from None
+        except (ValueError, KeyError, TypeError) as e:
+            raise InputError(
+                f"--fit {fit_path}: not a `thermrs fit --json` file ({type(e).__name__}: {e})"
+            ) from None
+    else:
+        tables, loss = _run_tables(train, r, "--train")
+        alphas["series"] = fit_alpha(tables, r).alpha_per_k
+        if len(tables) == 1:  # the paper's protocol: α per camera and their mean, one run
+            se = fit_alpha_start_end(tables[0], r)
+            for cam, (a, _) in se.per_camera.items():
+                alphas[cam] = a
+            alphas["mean"] = se.mean[0]
+    held, lost = _run_tables(runs, r, "--run")
+    loss |= lost
+    table = prediction_table(held, r, alphas=alphas, axis=axis, end_visits=end_visits)
+    if json_path is not None:
+        _write_json(
+            json_path, {"alpha_per_k": alphas, "table": table.drop("alpha_per_k").to_dicts()}
+        )
+    if series_path is not None:
+        import polars as pl
+
+        series = pl.concat(
+            [
+                run_predict(pl.concat(held, how="diagonal_relaxed"), r, alpha_per_k=a).select(
+                    pl.lit(label).alias("alpha"), pl.all()
+                )
+                for label, a in alphas.items()
+            ]
+        )
+        write_parquet_atomic(series, series_path)
+    t = Table(
+        title="Predicted against measured drift at the end of each run",
+        caption="α (×10⁻⁶/K): "
+        + ", ".join(f"{k} {v * 1e6:.3f}" for k, v in alphas.items())
+        + (" (series: time-series fit; A, B, mean: start/end)" if train else ""),
+    )
+    for col in ("α", "cam", "run", "axis", "pred µm", "meas µm", "err %", "rms µm", "noise µm"):
+        t.add_column(col, justify="left" if col in ("α", "cam", "run", "axis") else "right")
+    for row in table.iter_rows(named=True):
+        t.add_row(
+            row["alpha"],
+            row["camera"],
+            row["run"],
+            row["axis"],
+            f"{row['predicted_um']:.2f}",
+            f"{row['measured_um']:.2f}",
+            f"{row['error_pct']:+.2f}",
+            f"{row['rms_centred_um']:.3f}",
+            f"{row['noise_um']:.3f}",
+        )
+    out.print(t)
+    out.print(
+        "rms: prediction against measurement over every visit, both axes, mean offset removed; "
+        "noise: the measurement's own visit-to-visit noise."
+    )
+    if loss:
+        sys.exit(EXIT_DATA_LOSS)
+
+
+#: Options that take several values (``--train A B``) as well as repeats (``--train A
+#: --train B``), as SPEC §7 writes them.
+MULTI_VALUE_OPTIONS = ("--train", "--holdout", "--run")
+
+
+def _expand_multi(argv: list[str]) -> list[str]:
+    """``--train A B --json X`` → ``--train A --train B --json X``."""
+    res: list[str] = []
+    opt = None
+    for a in argv:
+        if a == "--":
+            opt = None
+            res.append(a)
+        elif a.startswith("-"):
+            opt = a if a in MULTI_VALUE_OPTIONS else None
+            res.append(a)
+            if opt is not None:
+                res.append("\0")  # placeholder: the first value follows the option directly
+        elif opt is not None and res[-1] == "\0":
+            res[-1] = a
+        elif opt is not None:
+            res.extend([opt, a])
+        else:
+            res.append(a)
+    return [a for a in res if a != "\0"]
 
 
 def _debug() -> bool:
@@ -363,10 +589,15 @@ def _debug() -> bool:
 def main(argv: list[str] | None = None) -> None:
     """Entry point: run the CLI and map errors to SPEC §7 exit codes."""
     try:
-        cli.main(args=argv, prog_name="thermrs", standalone_mode=False)
+        args = sys.argv[1:] if argv is None else argv
+        cli.main(args=_expand_multi(list(args)), prog_name="thermrs", standalone_mode=False)
     except click.exceptions.Exit as e:
         sys.exit(e.exit_code)
-    except click.ClickException as e:  # usage errors: exit 2
+    except click.UsageError as e:  # one line, like every other bad input: exit 2
+        cmd = e.ctx.command_path if e.ctx is not None else "thermrs"
+        click.echo(f"thermrs: error: {e.format_message()} (see `{cmd} --help`)", err=True)
+        sys.exit(EXIT_BAD_INPUT)
+    except click.ClickException as e:  # exit 2
         e.show()
         sys.exit(EXIT_BAD_INPUT)
     except click.exceptions.Abort:

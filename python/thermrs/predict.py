@@ -1,0 +1,198 @@
+"""Prediction: a run's drift from its temperatures and an α fitted on other runs.
+
+Forward model (SPEC §4)
+    For every visit of a run table (:func:`thermrs.fit.run_table`), the spot's displacement on
+    the camera's chip from the camera's first visit of the run, computed with the rig's
+    kinematics, links expanded by α at the visit's mapped temperatures, the laser ray and the
+    chip: both chip axes, any rig, any pose.
+
+Paper projection (SPEC §5, Eq. 3)
+    Δl = α·(l₂·cos 17.55°·ΔT₂ + l₃·cos 55.57°·ΔT₃)·cos φ·cos θ along the camera's y axis, with
+    ΔT from the run's first visit; only where the paper's data name the camera (φ, θ) and the
+    run table has ``link2_c`` and ``link3_c``.
+
+Comparison with the measurement
+    Measured drift is anchored at the first visit (SPEC §4), so that visit's noise is in every
+    measured value; ``rms_um`` compares anchored series, ``rms_centred_um`` removes the mean
+    difference first (what is left is the model's error plus each visit's own noise). The noise
+    level of the measurement itself, ``noise_um``, is estimated from the measured series alone
+    with the von Neumann estimator (the RMS of successive differences over √2), which a slow
+    drift hardly touches: that is the floor a perfect model reaches.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import polars as pl
+
+from thermrs.errors import InputError
+from thermrs.fit import sensitivities
+from thermrs.paper import PaperData, load_paper_data, predicted_dl_um
+from thermrs.rig import Rig
+
+__all__ = ["noise_um", "predict", "prediction_table"]
+
+
+def noise_um(values: np.ndarray) -> float:
+    """The white noise level of a slowly varying series: RMS of successive differences / √2
+    (von Neumann). NaN with fewer than three finite values."""
+    v = np.asarray(values, dtype=np.float64)
+    v = v[np.isfinite(v)]
+    if len(v) < 3:
+        return float("nan")
+    return float(np.sqrt(np.mean(np.diff(v) ** 2) / 2.0))
+
+
+def predict(
+    table: pl.DataFrame,
+    rig: Rig,
+    *,
+    alpha_per_k: float,
+    paper: PaperData | None = None,
+) -> pl.DataFrame:
+    """Predicted drift of every visit of ``table`` beside the measured one.
+
+    Parameters
+    ----------
+    table
+        Run table(s) (:func:`thermrs.fit.run_table`); several runs may be concatenated.
+    rig
+        The rig the runs were recorded on.
+    alpha_per_k
+        The expansion coefficient (1/K), e.g. fitted on training runs.
+    paper
+        The paper's Eq. 3 data (default: the embedded tables) for the ``paper_v_um`` column.
+
+    Returns
+    -------
+    polars.DataFrame
+        ``run``, ``camera``, ``visit``, ``t_ns``, ``measured_u_um``, ``measured_v_um``,
+        ``predicted_u_um``, ``predicted_v_um``, ``residual_u_um``, ``residual_v_um``
+        (measured − predicted) and ``paper_v_um`` (Eq. 3 along the camera's y axis; null where
+        it does not apply). Every drift is anchored at the camera's first visit of its run.
+    """
+    if not np.isfinite(alpha_per_k):
+        raise InputError(f"alpha_per_k must be finite, got {alpha_per_k}")
+    if table.height == 0:
+        raise InputError("the run table has no visits to predict")
+    t = table.sort("run", "camera", "t_ns")
+    su, sv = sensitivities(t, rig)
+    key = t.select(pl.concat_str(["run", "camera"], separator="/")).to_series().to_numpy()
+    first = np.zeros(t.height, dtype=np.int64)
+    for k in np.unique(key):
+        idx = np.flatnonzero(key == k)
+        first[idx] = idx[0]
+    pu = alpha_per_k * (su - su[first])
+    pv = alpha_per_k * (sv - sv[first])
+    mu = t["u_um"].to_numpy() - t["u_um"].to_numpy()[first]
+    mv = t["v_um"].to_numpy() - t["v_um"].to_numpy()[first]
+    d = load_paper_data() if paper is None else paper
+    paper_v = np.full(t.height, np.nan)
+    if "link2_c" in t.columns and "link3_c" in t.columns:
+        t2 = t["link2_c"].to_numpy()
+        t3 = t["link3_c"].to_numpy()
+        cams = t["camera"].to_numpy()
+        for i in range(t.height):
+            if cams[i] in d.cameras:
+                paper_v[i] = predicted_dl_um(
+                    alpha_per_k,
+                    str(cams[i]),
+                    float(t2[i] - t2[first[i]]),
+                    float(t3[i] - t3[first[i]]),
+                    data=d,
+                )
+    return t.select("run", "camera", "visit", "t_ns").with_columns(
+        measured_u_um=pl.Series(mu),
+        measured_v_um=pl.Series(mv),
+        predicted_u_um=pl.Series(pu),
+        predicted_v_um=pl.Series(pv),
+        residual_u_um=pl.Series(mu - pu),
+        residual_v_um=pl.Series(mv - pv),
+        paper_v_um=pl.Series(paper_v).fill_nan(None),
+    )
+
+
+def prediction_table(
+    tables: Sequence[pl.DataFrame],
+    rig: Rig,
+    *,
+    alphas: Mapping[str, float],
+    axis: str = "auto",
+    end_visits: int = 1,
+) -> pl.DataFrame:
+    """A Table 7-style table for any runs and cameras: per α (label → value), camera and run,
+    the predicted and measured drift at the end of the run and the % error, with the whole
+    series' agreement beside it.
+
+    Parameters
+    ----------
+    tables
+        Run tables of the runs to predict (usually held out from the fit).
+    rig
+        The rig.
+    alphas
+        Labelled α values (1/K), e.g. ``{"A": …, "B": …, "mean": …}`` or ``{"fit": …}``.
+    axis
+        Chip axis of the end-of-run figures: ``"u"``, ``"v"``, or ``"auto"`` (default: the axis
+        along which the forward model predicts the larger drift for that camera and run).
+    end_visits
+        The end of the run is the mean of the last ``end_visits`` visits (default 1: the last
+        visit, as the paper).
+
+    Returns
+    -------
+    polars.DataFrame
+        ``alpha`` (label), ``alpha_per_k``, ``camera``, ``run``, ``axis``, ``predicted_um``,
+        ``measured_um``, ``error_pct`` ((predicted − measured)/measured·100), ``rms_um`` and
+        ``rms_centred_um`` (prediction against measurement over every visit, both axes),
+        ``noise_um`` (the measurement's own noise, von Neumann, both axes), ``n_visits``.
+    """
+    if axis not in ("u", "v", "auto"):
+        raise InputError(f"axis must be 'u', 'v' or 'auto', got {axis!r}")
+    if end_visits < 1:
+        raise InputError(f"end_visits must be ≥ 1, got {end_visits}")
+    if not alphas:
+        raise InputError("no α to predict with")
+    table = pl.concat(list(tables), how="diagonal_relaxed")
+    rows: list[dict[str, object]] = []
+    for label, alpha in alphas.items():
+        p = predict(table, rig, alpha_per_k=alpha)
+        for (run, cam), g in p.group_by(["run", "camera"], maintain_order=True):
+            g = g.sort("t_ns")
+            pred = {a: g[f"predicted_{a}_um"].to_numpy() for a in "uv"}
+            meas = {a: g[f"measured_{a}_um"].to_numpy() for a in "uv"}
+            ax = axis
+            if ax == "auto":
+                ax = "u" if abs(pred["u"][-1]) >= abs(pred["v"][-1]) else "v"
+            k = min(end_visits, g.height)
+            pe = float(np.mean(pred[ax][-k:]))
+            me = float(np.mean(meas[ax][-k:]))
+            res = np.concatenate([meas["u"] - pred["u"], meas["v"] - pred["v"]])
+            res = res[np.isfinite(res)]
+            centred = np.concatenate(
+                [
+                    (meas[a] - pred[a]) - np.nanmean(meas[a] - pred[a])
+                    for a in "uv"
+                    if np.isfinite(meas[a] - pred[a]).any()
+                ]
+            )
+            noise = np.sqrt(np.nanmean([noise_um(meas["u"]) ** 2, noise_um(meas["v"]) ** 2]))
+            rows.append(
+                {
+                    "alpha": label,
+                    "alpha_per_k": float(alpha),
+                    "camera": cam,
+                    "run": run,
+                    "axis": ax,
+                    "predicted_um": pe,
+                    "measured_um": me,
+                    "error_pct": (pe - me) / me * 100.0 if me != 0 else float("nan"),
+                    "rms_um": float(np.sqrt(np.mean(res**2))) if len(res) else float("nan"),
+                    "rms_centred_um": float(np.sqrt(np.nanmean(centred**2))),
+                    "noise_um": float(noise),
+                    "n_visits": g.height,
+                }
+            )
+    return pl.DataFrame(rows)
