@@ -207,3 +207,20 @@ def test_continuous_cameras_see_dark_frames_and_smeared_spots(
     assert ex.visits.height == 4 and (ex.visits["n_ok"] >= 19).all()
     # Joint states sample the moves too, not only the poses.
     assert ex.joints.height > 2 * 30 * 2
+
+
+def test_truth_holds_every_expanding_length(tmp_path: Path, paper_rig: thermrs.Rig) -> None:
+    """The truth samples carry each expanding length: the rig's a2 (link 2) and d4 (link 3),
+    and an unmodelled a3, each L·(1 + α·ΔT·(1 + κ·ΔT)) at its structure temperature."""
+    extra = (
+        '[[effect]]\nname = "unmodelled_length"\nlength = "a3"\ntemperature = "link3"\n'
+        '[[effect]]\nname = "nonlinear_alpha"\nkappa_per_k = 0.01\n'
+    )
+    s = simulate(paper_rig, short(tmp_path, extra=extra), tmp_path / "sim.mcap").samples
+    ref, alpha = paper_rig.reference_c, paper_rig.alpha_per_k
+    for col, nominal, node in (("a2_mm", 650.0, "link2"), ("d4_mm", -600.0, "link3"),
+                               ("a3_mm", 152.91, "link3")):  # fmt: skip
+        dt = s[f"{node}_structure_c"].to_numpy() - ref
+        want = nominal * (1 + alpha * dt * (1 + 0.01 * dt))
+        assert np.allclose(s[col].to_numpy(), want, rtol=0, atol=1e-9), col
+    assert (s["a2_mm"] > 650.0).all()  # warmer than the reference throughout

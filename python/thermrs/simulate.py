@@ -7,7 +7,9 @@ writes the recording atomically and the truth beside it:
 - ``OUT.truth.parquet``: per CCD frame ``camera``, ``t_ns``, ``run``, the true ``x_px``,
   ``y_px`` (SPEC §4);
 - ``OUT.truth-samples.parquet``: per thermal sample ``t_ns``, ``run``, ``ambient_c`` and per
-  node ``<node>_surface_c`` (what the IR camera sees) and ``<node>_structure_c`` (what expands);
+  node ``<node>_surface_c`` (what the IR camera sees) and ``<node>_structure_c`` (what expands),
+  and per expanding DH length (the rig's and an ``unmodelled_length``'s) its true length
+  ``<a|d><row>_mm`` with every effect;
 - ``OUT.truth.json``: the scenario as simulated (runs, models, effects with parameters).
 """
 
@@ -81,6 +83,8 @@ def simulate(
     for k, name in enumerate(cols["node_names"]):
         data[f"{name}_surface_c"] = cols["surface_c"][:, k]
         data[f"{name}_structure_c"] = cols["structure_c"][:, k]
+    for k, name in enumerate(cols["length_names"]):
+        data[f"{name}_mm"] = cols["lengths_mm"][:, k]
     samples = pl.DataFrame(data, schema_overrides={"run": pl.String, "t_ns": pl.Int64})
     stem = out.name[: -len(".mcap")] if out.name.endswith(".mcap") else out.name
     write_parquet_atomic(frames, out.with_name(f"{stem}.truth.parquet"))

@@ -300,6 +300,12 @@ impl ForwardModel {
             })
     }
 
+    /// The lengths that expand (the rig's mapped ones, then the effects' extra ones) and the
+    /// index of the temperature each follows, in `temperature_names` order.
+    pub fn expanding_lengths(&self) -> &[(LengthRef, usize)] {
+        &self.lengths
+    }
+
     /// The DH lengths (a, d) in mm at one set of temperatures (one per temperature name).
     #[inline]
     pub fn lengths_at(&self, temps: Option<&[f64]>) -> ([f64; 6], [f64; 6]) {

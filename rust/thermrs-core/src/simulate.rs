@@ -90,6 +90,10 @@ pub struct Truth {
     pub node_names: Vec<String>,
     pub surface_c: Vec<f64>,
     pub structure_c: Vec<f64>,
+    /// Per thermal sample the true length (mm) of every expanding DH length (`length_names`
+    /// order, row-major N × lengths), from the structure temperatures with every effect.
+    pub length_names: Vec<String>,
+    pub lengths_mm: Vec<f64>,
 }
 
 /// Effects of a scenario turned into model parameters and chip shifts.
@@ -413,6 +417,11 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
     let mut ir_rng = stream(3);
     let mut truth = Truth {
         node_names: nodes.iter().map(|n| n.name.clone()).collect(),
+        length_names: model
+            .expanding_lengths()
+            .iter()
+            .map(|(l, _)| l.to_string())
+            .collect(),
         ..Truth::default()
     };
     let amb = &sc.ambient;
@@ -750,6 +759,17 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
             truth.sample_ambient_c.push(ambient);
             truth.surface_c.extend_from_slice(&surface_ir);
             truth.structure_c.extend_from_slice(&structure_ir);
+            let temps_ir: Vec<f64> = temp_src
+                .iter()
+                .map(|s| s.map(|k| structure_ir[k]).unwrap_or(ambient))
+                .collect();
+            let (a_mm, d_mm) = model.lengths_at(Some(&temps_ir));
+            for (l, _) in model.expanding_lengths() {
+                truth.lengths_mm.push(match *l {
+                    LengthRef::A(r) => a_mm[r],
+                    LengthRef::D(r) => d_mm[r],
+                });
+            }
             // Advance the thermal state over the cycle (running at the run's speed).
             let a_mid = ambient_at(cycle_t + run.cycle_s / 2.0);
             for (k, n) in nodes.iter().enumerate() {

@@ -460,6 +460,8 @@ fn simulate<'py>(
     let k = truth.node_names.len();
     let surface = Array2::from_shape_vec((n, k), truth.surface_c).expect("N×nodes");
     let structure = Array2::from_shape_vec((n, k), truth.structure_c).expect("N×nodes");
+    let nl = truth.length_names.len();
+    let lengths = Array2::from_shape_vec((n, nl), truth.lengths_mm).expect("N×lengths");
     let d = columns(
         py,
         vec![
@@ -479,9 +481,11 @@ fn simulate<'py>(
             ),
             ("surface_c", surface.into_pyarray(py).into_any()),
             ("structure_c", structure.into_pyarray(py).into_any()),
+            ("lengths_mm", lengths.into_pyarray(py).into_any()),
         ],
     )?;
     d.set_item("node_names", truth.node_names)?;
+    d.set_item("length_names", truth.length_names)?;
     Ok((d, serde_json::to_string(&sc).expect("scenario serialises")))
 }
 
