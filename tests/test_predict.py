@@ -212,3 +212,17 @@ def test_cli_bad_fit_file_and_usage_errors_are_one_line(tmp_path: Path) -> None:
     r = run_cli("fit", "--train", "x.mcap")
     assert r.returncode == 2 and r.stderr.count("\n") == 1
     assert "Missing option '--rig'" in r.stderr
+
+
+def test_cli_drift_curves_and_iso9283(runs: dict[str, Path], tmp_path: Path) -> None:
+    out = tmp_path / "drift.json"
+    rig = str(thermrs.default_rig_path())
+    r = run_cli("drift", "--rig", rig, "--run", str(runs["train"]), "--json", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "Heating curves" in r.stdout and "ISO 9283-style" in r.stdout
+    doc = json.loads(out.read_text())
+    link3 = next(c for c in doc["curves"] if c["series"] == "link3")
+    # The heat model's link-3 time constant is 308 min; 3 h of a warm-up pins it loosely.
+    assert link3["phase"] == "warm-up" and 200 < link3["tau_min"] < 450
+    cams = {row["camera"] for row in doc["iso9283"]["summary"]}
+    assert cams == {"A", "B"}

@@ -555,6 +555,91 @@ def predict(
         sys.exit(EXIT_DATA_LOSS)
 
 
+@cli.command()
+@rig_option
+@click.option(
+    "--run",
+    "runs",
+    required=True,
+    multiple=True,
+    type=click.Path(path_type=Path),
+    help="Runs: recordings (MCAP) or tables written by `thermrs extract`.",
+)
+@click.option(
+    "--window",
+    type=click.IntRange(min=3),
+    default=10,
+    show_default=True,
+    help="Visits per ISO 9283 window.",
+)
+@click.option(
+    "--tolerance-um",
+    type=click.FloatRange(min=0, min_open=True),
+    default=1.0,
+    show_default=True,
+    help="Settling tolerance of the barycentre (µm).",
+)
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Write the curves and the ISO 9283-style figures as JSON here (atomically).",
+)
+def drift(
+    rig_path: Path, runs: tuple[Path, ...], window: int, tolerance_um: float,
+    json_path: Path | None,
+) -> None:  # fmt: skip
+    """How runs warm up and drift: first-order heating curves y = y₀ + A·e^(−t/τ) per ROI
+    temperature and per camera drift axis, and ISO 9283-style pose figures per camera chip
+    (RP cold and warm, dAP, dRP, settling time).
+
+    Exits 3 (after reporting) if part of a recording was lost.
+    """
+    import polars as pl
+
+    from thermrs.heating import heating_curves
+    from thermrs.iso9283 import LABEL, iso9283
+
+    r = load_rig(rig_path)
+    tables, loss = _run_tables(runs, r, "--run")
+    table = pl.concat(tables, how="diagonal_relaxed")
+    curves = heating_curves(table)
+    iso = iso9283(table, window=window, tolerance_um=tolerance_um)
+    if json_path is not None:
+        _write_json(json_path, {"curves": curves.to_dicts(), "iso9283": iso.to_json()})
+
+    def num(x: float | None, digits: int = 2) -> str:
+        return "—" if x is None else f"{x:.{digits}f}"
+
+    t = Table(title="Heating curves y = y₀ + A·e^(−t/τ)")
+    for col in ("run", "series", "y₀", "A", "τ (min)", "± τ", "rms", "phase"):
+        t.add_column(col, justify="left" if col in ("run", "series", "phase") else "right")
+    for row in curves.iter_rows(named=True):
+        series = (
+            row["series"]
+            if row["kind"] == "temperature"
+            else (f"drift {row['camera']} {row['axis']} (µm)")
+        )
+        unit = " °C" if row["kind"] == "temperature" else ""
+        t.add_row(
+            row["run"], series + unit, num(row["y0"]), num(row["a"]), num(row["tau_min"], 1),
+            num(row["tau_min_se"], 1), num(row["rms"], 3), row["phase"] or "no fit (--json: why)",
+        )  # fmt: skip
+    out.print(t)
+    t = Table(title=LABEL)
+    for col in ("run", "cam", "RP cold µm", "RP warm µm", "dAP µm", "dRP µm", "settle min"):
+        t.add_column(col, justify="left" if col in ("run", "cam") else "right")
+    for row in iso.summary.iter_rows(named=True):
+        t.add_row(
+            row["run"], row["camera"], num(row["rp_cold_um"]), num(row["rp_warm_um"]),
+            num(row["dap_um"]), num(row["drp_um"]), num(row["settle_min"], 1),
+        )  # fmt: skip
+    out.print(t)
+    if loss:
+        sys.exit(EXIT_DATA_LOSS)
+
+
 #: Options that take several values (``--train A B``) as well as repeats (``--train A
 #: --train B``), as SPEC §7 writes them.
 MULTI_VALUE_OPTIONS = ("--train", "--holdout", "--run")
