@@ -381,7 +381,7 @@ def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None
     tables, loss = _run_tables(train, r, "--train")
     f = fit_alpha(tables, r)
     doc = f.to_json()
-    start_end = {t["run"][0]: fit_alpha_start_end(t, r, visit_noise_um=f.rms_um) for t in tables}
+    start_end = {t["run"][0]: fit_alpha_start_end(t, r) for t in tables}
     doc["start_end"] = {run: se.to_json() for run, se in start_end.items()}
     if json_path is not None:
         _write_json(json_path, doc)

@@ -293,40 +293,77 @@ class StartEndFit:
 
 
 def fit_alpha_start_end(
-    table: pl.DataFrame, rig: Rig, *, axis: str = "v", visit_noise_um: float | None = None
+    table: pl.DataFrame,
+    rig: Rig,
+    *,
+    axis: str = "auto",
+    visit_noise_um: float | None = None,
+    temperature_noise_c: float = 0.05,
 ) -> StartEndFit:
     """The paper's estimator (Eq. 2 with the forward model in place of Eq. 3): per camera,
     α = (drift between the run's first and last visit along the chip ``axis``) / (the same
     drift per unit α predicted from the temperatures at those two visits); the mean of the
     cameras.
 
-    Its interval propagates the noise of one visit, ``visit_noise_um`` (default: the residual
-    rms of the time-series fit :func:`fit_alpha` on the same table, which includes pose
-    repeatability), through the two visits used: ±1.96·√2·noise/|Δs|.
+    ``axis`` is ``"u"``, ``"v"`` or ``"auto"`` (default: per camera, the axis along which the
+    forward model predicts the larger drift; the paper measured along its cameras' y axis,
+    which on the SPEC rig is v, but at its poses the links' expansion moves the spot mostly
+    along u).
+
+    Its interval propagates the errors of the two visits used: the spot's noise (±√2·noise/|Δs|;
+    ``visit_noise_um`` gives it, by default the residual RMS of the time-series fit
+    :func:`fit_alpha` on the same table for that camera and axis, which includes pose
+    repeatability) and the error of each mapped temperature reading at those two visits,
+    ``temperature_noise_c`` (default 0.05 K: an IR camera's pixel noise class, and the first
+    visit of a run usually precedes its first thermal frame, so its temperature is
+    extrapolated), through the model's sensitivity to each temperature. Two visits carry
+    no information about either error, so both are inputs, not estimates; the time-series
+    estimator needs neither.
     """
-    if axis not in ("u", "v"):
-        raise InputError(f"axis must be 'u' or 'v', got {axis!r}")
+    if axis not in ("u", "v", "auto"):
+        raise InputError(f"axis must be 'u', 'v' or 'auto', got {axis!r}")
     su, sv = sensitivities(table, rig)
-    sens = su if axis == "u" else sv
-    noise = fit_alpha([table], rig).rms_um if visit_noise_um is None else visit_noise_um
+    # Sensitivity of (su, sv) to one kelvin on each mapped temperature.
+    grads = []
+    for n in ForwardModel(rig).temperature_names:
+        gu, gv = sensitivities(table.with_columns(pl.col(f"{n}_c") + 1.0), rig)
+        grads.append((gu - su, gv - sv))
+    res = fit_alpha([table], rig).residuals if visit_noise_um is None else None
     per: dict[str, tuple[float, tuple[float, float]]] = {}
     variances = []
+    noises = []
     for cam in sorted(set(table["camera"].to_list())):
         idx = np.flatnonzero((table["camera"] == cam).to_numpy())
         idx = idx[np.argsort(table["t_ns"].to_numpy()[idx])]
         if len(idx) < 2:
             continue
         first, last = idx[0], idx[-1]
-        y = table[f"{axis}_um"].to_numpy()
+        ax = axis
+        if ax == "auto":
+            ax = "u" if abs(su[last] - su[first]) >= abs(sv[last] - sv[first]) else "v"
+        sens = su if ax == "u" else sv
+        y = table[f"{ax}_um"].to_numpy()
         ds = sens[last] - sens[first]
         if ds == 0:
             raise InputError(f"camera {cam}: no predicted drift between first and last visit")
+        if visit_noise_um is not None:
+            noise = float(visit_noise_um)
+        else:
+            assert res is not None
+            r = res.filter(pl.col("camera") == cam)[f"residual_{ax}_um"].to_numpy()
+            noise = float(np.sqrt(np.nanmean(r**2)))
+        noises.append(noise)
         a = (y[last] - y[first]) / ds
-        half = 1.96 * np.sqrt(2.0) * noise / abs(ds)
+        k = 0 if ax == "u" else 1
+        temp_var = sum(
+            (a * g[k][i] * temperature_noise_c) ** 2 for g in grads for i in (first, last)
+        )
+        half = 1.96 * np.sqrt(2.0 * noise**2 + temp_var) / abs(ds)
         per[cam] = (float(a), (float(a - half), float(a + half)))
         variances.append((half / 1.96) ** 2)
     if not per:
         raise InputError("no camera has two visits: nothing to estimate")
     m = float(np.mean([v[0] for v in per.values()]))
     half_m = 1.96 * float(np.sqrt(np.sum(variances))) / len(per)
+    noise = float(np.sqrt(np.mean(np.square(noises))))
     return StartEndFit(per_camera=per, mean=(m, (m - half_m, m + half_m)), visit_noise_um=noise)
