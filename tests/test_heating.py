@@ -26,11 +26,11 @@ FAST_NODES = """
 [[node]]
 name = "link2"
 tau_min = 20.0
-rise_k = [2.5695, 12.2877, -11.2331]
+rise_saturating = { r0_k = 0.438342, span_k = 5.030472, s0 = 0.0964029 }
 [[node]]
 name = "link3"
 tau_min = 30.0
-rise_k = [3.4192, 16.7351, -14.8273]
+rise_saturating = { r0_k = 1.602697, span_k = 6.041837, s0 = 0.1241591 }
 [[node]]
 name = "base"
 tau_min = 600.0

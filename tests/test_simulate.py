@@ -3,6 +3,7 @@ paper runs' temperatures, and its error contract."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -156,6 +157,49 @@ def test_bad_scenario_exits_2_naming_the_key(tmp_path: Path) -> None:
     assert not (tmp_path / "x.mcap").exists()
     with pytest.raises(thermrs.errors.ScenarioError, match=r"output\.compression"):
         simulate(thermrs.load_rig(), bad, tmp_path / "y.mcap")
+
+
+NODES = """
+[[node]]
+name = "link2"
+tau_min = 391.643331
+rise_saturating = {{ r0_k = 0.438342, span_k = 5.030472, s0 = 0.0964029 }}
+[[node]]
+name = "link3"
+tau_min = 308.339005
+rise_saturating = {{ r0_k = 1.602697, span_k = 6.041837, s0 = 0.1241591 }}
+[[node]]
+name = "base"
+tau_min = 600.0
+rise_k = {base}
+"""
+
+
+def test_scenario_nodes_in_either_form(tmp_path: Path, paper_rig: thermrs.Rig) -> None:
+    """Explicit nodes with the calibration's saturating rises (rounded) simulate like the
+    defaults, and the truth JSON echoes each node with the one rise form it was given."""
+    p = short(tmp_path, extra=NODES.format(base="[0.10, 0.85, 0.50]"))
+    sim = simulate(paper_rig, p, tmp_path / "n.mcap")
+    default = simulate(paper_rig, short(tmp_path), tmp_path / "d.mcap")
+    for col in ("link2_surface_c", "link3_surface_c", "base_surface_c"):
+        assert np.allclose(sim.samples[col], default.samples[col], atol=1e-5), col
+    nodes = sim.scenario["node"]
+    assert nodes[0] == {
+        "name": "link2",
+        "tau_min": 391.643331,
+        "rise_saturating": {"r0_k": 0.438342, "span_k": 5.030472, "s0": 0.0964029},
+    }
+    assert nodes[2] == {"name": "base", "tau_min": 600.0, "rise_k": [0.10, 0.85, 0.50]}
+    doc = json.loads((tmp_path / "n.truth.json").read_text())
+    assert doc["node"] == nodes
+
+
+def test_decreasing_rise_is_a_scenario_error(tmp_path: Path) -> None:
+    """The old link 2 quadratic (peaks at ~55 % speed) is rejected, naming the key."""
+    bad = short(tmp_path, extra=NODES.format(base="[2.5695, 12.2877, -11.2331]"))
+    with pytest.raises(thermrs.errors.ScenarioError, match=r"node\[2\]\.rise_k: .*decreases"):
+        simulate(thermrs.load_rig(), bad, tmp_path / "y.mcap")
+    assert not (tmp_path / "y.mcap").exists()
 
 
 def test_sixteen_bit_frames_and_float_thermal(tmp_path: Path, paper_rig: thermrs.Rig) -> None:

@@ -16,17 +16,31 @@
 //!
 //! The losses depend on the duty. With the servo off (`speed = None`, "idle") there are none and
 //! `ΔT_ss = 0`. With the robot running at speed `s` (fraction of maximum, 0..=1; `Some(0.0)` is
-//! standstill under servo) they are `P(s) = p0 + p1·s + p2·s²`: `p0` the holding losses (brake
-//! released, motors holding the arm against gravity), the speed terms motor copper losses and
-//! gearbox friction, which grow with speed. Only the product with `R` is observable from surface
-//! temperatures, so the parameters are the steady rise
+//! standstill under servo) they are `P(s)`: the holding losses `P(0)` (brake released, motors
+//! holding the arm against gravity) plus motor copper losses and gearbox friction, which grow
+//! with speed, so `P` is non-decreasing in `s`. Only the product with `R` is observable from
+//! surface temperatures, so the parameters are the steady rise `ΔT_ss(s) = R·P(s)` (K) and the
+//! time constant `τ` ([`NodeParams::tau_min`], minutes). Time steps are in seconds.
+//!
+//! The steady rise ([`NodeParams::rise`], a [`Rise`]) takes one of two forms, both required to be
+//! non-decreasing on `[0, 1]` ([`Rise::check`]):
 //!
 //! ```text
-//!   ΔT_ss(s) = r0 + r1·s + r2·s²        (K; r_i = R·p_i)
+//!   saturating:  ΔT_ss(s) = r0 + r_span·(1 − exp(−s/s0))     r_span ≥ 0, s0 > 0
+//!   quadratic:   ΔT_ss(s) = r0 + r1·s + r2·s²                 r1 ≥ 0, r1 + 2·r2 ≥ 0
 //! ```
 //!
-//! ([`NodeParams::rise_k`] = `[r0, r1, r2]`) and the time constant `τ` ([`NodeParams::tau_min`],
-//! minutes). Time steps are in seconds.
+//! **Saturating** ([`Rise::Saturating`] `{ r0_k, span_k, s0 }`): `r0` is the standstill rise
+//! under servo (holding losses), `r_span` the extra rise the speed-dependent losses add as speed
+//! grows, approached as `s ≫ s0`, and `s0` the speed scale (fraction of maximum) over which they
+//! build up: `1 − e^{−1}` = 63 % of `r_span` is reached at `s = s0`. Its slope
+//! `(r_span/s0)·exp(−s/s0)` is positive for every `s` (with `r_span > 0`), so it is strictly
+//! increasing and concave, bounded by `r0 + r_span`. The paper's links use it.
+//! **Quadratic** ([`Rise::Quadratic`] `[r0, r1, r2]`): `r_i = R·p_i` of losses
+//! `p0 + p1·s + p2·s²`; its slope `r1 + 2·r2·s` is linear in `s`, so it is non-decreasing on
+//! `[0, 1]` iff the slope is ≥ 0 at both ends. The assumed `base` node uses it.
+//! In scenario files a `[[node]]` gives one of them: `rise_saturating = { r0_k, span_k, s0 }` or
+//! `rise_k = [r0, r1, r2]` ([`crate::scenario::Node`]).
 //!
 //! **Exact integration.** For inputs (speed, ambient) constant over a step `dt` the ODE solves in
 //! closed form, `T(t+dt) = T_ss + (T(t) − T_ss)·exp(−dt/τ)`; [`NodeParams::step`] and
@@ -56,30 +70,47 @@
 //! 2. **Steady rise per run.** Over a 900-min run with `q = exp(−900/τ)`,
 //!    `e_end = D + (e_start − D)·q`, so `D = ΔT_ss(s) = (e_end − e_start·q)/(1 − q)`. Run 3's
 //!    start is Run 2's end.
-//! 3. **Quadratic** through the three points (10 %, 30 %, 75 %) by divided differences.
+//! 3. **Saturating rise** through the three points `(s_i, D_i)` = (10 %, 30 %, 75 %). With
+//!    `E_i = exp(−s_i/s0)`, `D_j − D_i = r_span·(E_i − E_j)`, so the ratio of the two rises
 //!
-//! | node | e_end,1 → e_start,2 (K) | τ (min) | q | ΔT_ss 10 % | 30 % | 75 % | r0 | r1 | r2 |
-//! | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |
-//! | link2 | 4.72 → 1.02 | 391.64 | 0.10046 | 3.686 | 5.245 | 5.467 | 2.5695 | 12.2877 | −11.2331 |
-//! | link3 | 6.72 → 0.96 | 308.34 | 0.05399 | 4.944 | 7.105 | 7.630 | 3.4192 | 16.7351 | −14.8273 |
+//!    ```text
+//!      ρ = (D(0.75) − D(0.30)) / (D(0.30) − D(0.10)) = (E_2 − E_3)/(E_1 − E_2) = g(s0)
+//!    ```
+//!
+//!    depends on `s0` alone. `g` rises monotonically from 0 (`s0 → 0`) to
+//!    `(0.75 − 0.30)/(0.30 − 0.10)` = 2.25 (`s0 → ∞`, the straight line), so a solution exists
+//!    iff `D` increases with speed and its slope falls, `0 < ρ < 2.25`; [`solve_saturating_s0`]
+//!    finds it by bisection (to full precision). Then, in closed form,
+//!    `r_span = (D(0.30) − D(0.10))/(E_1 − E_2)` and `r0 = D(0.10) − r_span·(1 − E_1)`.
+//!
+//! | node | e_end,1 → e_start,2 (K) | τ (min) | q | ΔT_ss 10 % | 30 % | 75 % | ρ | s0 | r_span (K) | r0 (K) |
+//! | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |
+//! | link2 | 4.72 → 1.02 | 391.64 | 0.10046 | 3.686 | 5.245 | 5.467 | 0.14230 | 0.096403 | 5.0305 | 0.4383 |
+//! | link3 | 6.72 → 0.96 | 308.34 | 0.05399 | 4.944 | 7.105 | 7.630 | 0.24291 | 0.124159 | 6.0418 | 1.6027 |
 //!
 //! (e.g. link 2: τ = 600/ln(4.72/1.02) = 600/1.5321; Run 1: D = (4.72 − 0.02·q)/(1 − q);
 //! Run 2: (5.02 − 1.02·q)/(1 − q); Run 3: (3.82 − 5.02·q)/(1 − q).) The parameters are computed
 //! from the Table 4 numbers at run time, so they carry no rounding of the values above.
 //!
-//! **Not monotonic in speed.** The fitted quadratics are concave: `ΔT_ss` rises steeply from 10 %
-//! to 30 % and barely from 30 % to 75 %, so the parabola peaks inside [0, 1] — link 2 at
-//! s ≈ 0.547 (5.93 K), link 3 at s ≈ 0.564 (8.14 K) — and falls beyond: at 100 % it gives only
-//! 3.62 K / 5.33 K, *less* than at 30 %. The three measured speeds are ordered as expected
-//! (10 % < 30 % < 75 %), but three points cannot pin down a quadratic's curvature; extrapolating
-//! above ~60 % (and the standstill value `r0` = 2.57 K / 3.42 K) is not supported by the data.
-//! Physically the losses should grow with speed; the flattening between 30 % and 75 % more
-//! likely reflects the 900-min runs, a duty that is not proportional to the speed limit (dwell
-//! and camera stops), or the maximum-temperature ROI moving. [`NodeParams::steady_rise_k`]
-//! evaluates the quadratic as is; it clamps nothing.
+//! Resulting `ΔT_ss` (K) at 0 / 50 / 100 % speed: link 2 0.438 / 5.441 / 5.469, link 3
+//! 1.603 / 7.537 / 7.643 (plateaus `r0 + r_span` = 5.469 / 7.645).
 //!
-//! **`base`** (an assumption, not from the paper): slow and small, τ = 600 min,
-//! `ΔT_ss(s) = 0.10 + 0.85·s + 0.50·s²` (0.40 K at 30 %, 1.45 K at 100 %, monotonic).
+//! **Monotonic in speed, flat above ~50 %.** The data rise steeply from 10 % to 30 % and barely
+//! from 30 % to 75 % (+0.22 K / +0.52 K), so the calibrated `s0` is small (~0.1) and the curve is
+//! all but saturated above ~50 %: from 75 % to 100 % it adds 0.002 K / 0.012 K. It never falls.
+//! The first calibration passed a quadratic through the same three points instead; being concave
+//! it peaked inside [0, 1] (link 2 at s ≈ 0.547, 5.93 K; link 3 at s ≈ 0.564, 8.14 K) and fell
+//! beyond, to 3.62 K / 5.33 K at 100 %, *less* than at 30 %: losses falling with speed, which
+//! contradicts the model (issue #4), so it was replaced. Both forms go through the same three
+//! points, so the paper's runs (Table 4) come out the same; they differ only between and outside
+//! the measured speeds, where neither is supported by data: above 75 % and below 10 % (the
+//! standstill rise `r0` = 0.44 K / 1.60 K; the quadratic gave 2.57 K / 3.42 K) are
+//! extrapolations. The flattening between 30 % and 75 % may reflect the 900-min runs, a duty
+//! that is not proportional to the speed limit (dwell and camera stops; with a fixed cycle a
+//! faster robot rests longer), or the maximum-temperature ROI moving.
+//!
+//! **`base`** (an assumption, not from the paper): slow and small, τ = 600 min, quadratic
+//! `ΔT_ss(s) = 0.10 + 0.85·s + 0.50·s²` (0.40 K at 30 %, 1.45 K at 100 %, increasing).
 //!
 //! # Surface vs structure: [`first_order_lag`]
 //!
@@ -102,6 +133,70 @@
 /// Ambient temperature of the paper's runs, °C, used for every node of [`kr15_paper_nodes`].
 pub const KR15_PAPER_AMBIENT_C: f64 = 23.38;
 
+/// Steady rise of a node above ambient as a function of speed (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Rise {
+    /// `[r0, r1, r2]` (K): `ΔT_ss(s) = r0 + r1·s + r2·s²`.
+    Quadratic([f64; 3]),
+    /// `ΔT_ss(s) = r0_k + span_k·(1 − exp(−s/s0))`: standstill rise `r0_k` (K), extra rise
+    /// `span_k` (K, ≥ 0) approached as speed grows, speed scale `s0` (fraction of maximum, > 0).
+    Saturating { r0_k: f64, span_k: f64, s0: f64 },
+}
+
+impl Rise {
+    /// `ΔT_ss` (K) at `speed` (fraction of maximum), evaluated as is (no clamping).
+    pub fn at(&self, speed: f64) -> f64 {
+        match *self {
+            Rise::Quadratic([r0, r1, r2]) => r0 + speed * (r1 + speed * r2),
+            Rise::Saturating { r0_k, span_k, s0 } => r0_k - span_k * (-speed / s0).exp_m1(),
+        }
+    }
+
+    /// Check the parameters are finite and the rise is non-decreasing on [0, 1]: a quadratic
+    /// needs `r1 ≥ 0` and `r1 + 2·r2 ≥ 0`, a saturating rise `span_k ≥ 0` and `s0 > 0`. The error
+    /// names the offending key as a scenario file spells it (`rise_k`, `rise_saturating.s0`, …).
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
+        match *self {
+            Rise::Quadratic(r) => {
+                if let Some(v) = r.iter().find(|v| !v.is_finite()) {
+                    return Err(("rise_k", format!("has {v}, expected finite numbers")));
+                }
+                let [_, r1, r2] = r;
+                if !(r1 >= 0.0 && r1 + 2.0 * r2 >= 0.0) {
+                    return Err((
+                        "rise_k",
+                        format!(
+                            "is {r:?}, which decreases with speed on [0, 1] \
+                             (expected r1 ≥ 0 and r1 + 2·r2 ≥ 0)"
+                        ),
+                    ));
+                }
+            }
+            Rise::Saturating { r0_k, span_k, s0 } => {
+                if !r0_k.is_finite() {
+                    return Err((
+                        "rise_saturating.r0_k",
+                        format!("is {r0_k}, expected a finite number"),
+                    ));
+                }
+                if !(span_k.is_finite() && span_k >= 0.0) {
+                    return Err((
+                        "rise_saturating.span_k",
+                        format!("is {span_k}, expected a finite number ≥ 0"),
+                    ));
+                }
+                if !(s0.is_finite() && s0 > 0.0) {
+                    return Err((
+                        "rise_saturating.s0",
+                        format!("is {s0}, expected a positive number"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 /// One lumped thermal node (see the module documentation).
 #[derive(Debug, Clone, PartialEq)]
 pub struct NodeParams {
@@ -109,25 +204,24 @@ pub struct NodeParams {
     pub name: String,
     /// Time constant τ, minutes (> 0).
     pub tau_min: f64,
-    /// Steady rise above ambient while running, `[r0, r1, r2]` (K):
-    /// `ΔT_ss(s) = r0 + r1·s + r2·s²`.
-    pub rise_k: [f64; 3],
+    /// Steady rise above ambient while running, as a function of speed.
+    pub rise: Rise,
 }
 
 impl NodeParams {
     /// A validated node.
-    pub fn new(name: impl Into<String>, tau_min: f64, rise_k: [f64; 3]) -> Result<Self, String> {
+    pub fn new(name: impl Into<String>, tau_min: f64, rise: Rise) -> Result<Self, String> {
         let node = NodeParams {
             name: name.into(),
             tau_min,
-            rise_k,
+            rise,
         };
         node.validate()?;
         Ok(node)
     }
 
-    /// Check the name is non-empty, `tau_min` is finite and > 0 and the rise coefficients are
-    /// finite.
+    /// Check the name is non-empty, `tau_min` is finite and > 0 and the rise passes
+    /// [`Rise::check`] (finite, non-decreasing in speed on [0, 1]).
     pub fn validate(&self) -> Result<(), String> {
         if self.name.trim().is_empty() {
             return Err("thermal node: name is empty".into());
@@ -138,21 +232,15 @@ impl NodeParams {
                 self.name, self.tau_min
             ));
         }
-        if let Some(r) = self.rise_k.iter().find(|r| !r.is_finite()) {
-            return Err(format!(
-                "thermal node {:?}: rise_k must be finite, got {r}",
-                self.name
-            ));
-        }
-        Ok(())
+        self.rise
+            .check()
+            .map_err(|(key, msg)| format!("thermal node {:?}: {key} {msg}", self.name))
     }
 
-    /// Steady rise above ambient when running at `speed` (fraction of maximum), K:
-    /// `r0 + r1·s + r2·s²`, evaluated as is (no clamping; see the module documentation on
-    /// monotonicity).
+    /// Steady rise above ambient when running at `speed` (fraction of maximum), K: the
+    /// [`Rise`] evaluated as is (no clamping).
     pub fn steady_rise_k(&self, speed: f64) -> f64 {
-        let [r0, r1, r2] = self.rise_k;
-        r0 + speed * (r1 + speed * r2)
+        self.rise.at(speed)
     }
 
     /// Steady-state temperature, °C, for a duty (`None` = idle, servo off: ambient).
@@ -165,7 +253,7 @@ impl NodeParams {
 
     /// Temperature after `dt_s` seconds from `t_c` with constant ambient and duty, exactly:
     /// `T_ss + (t_c − T_ss)·exp(−dt/τ)`. `dt_s ≤ 0` returns `t_c` (no time passes). Speeds
-    /// outside [0, 1] are not rejected here (the quadratic is evaluated as is); [`simulate`]
+    /// outside [0, 1] are not rejected here (the rise is evaluated as is); [`simulate`]
     /// validates.
     pub fn step(&self, t_c: f64, ambient_c: f64, speed: Option<f64>, dt_s: f64) -> f64 {
         if dt_s <= 0.0 {
@@ -274,19 +362,93 @@ const PAPER_COOL_MIN: f64 = 600.0;
 /// Speeds of Runs 1, 2, 3.
 const PAPER_SPEEDS: [f64; 3] = [0.30, 0.75, 0.10];
 
-/// The quadratic `[c0, c1, c2]` (`c0 + c1·x + c2·x²`) through three points with distinct x.
-fn quadratic_through(p: [(f64, f64); 3]) -> [f64; 3] {
-    let [(x0, y0), (x1, y1), (x2, y2)] = p;
-    let f01 = (y1 - y0) / (x1 - x0);
-    let f12 = (y2 - y1) / (x2 - x1);
-    let c2 = (f12 - f01) / (x2 - x0);
-    let c1 = f01 - c2 * (x0 + x1);
-    let c0 = y0 - c1 * x0 - c2 * x0 * x0;
-    [c0, c1, c2]
+/// `g(s0) = (E_2 − E_3)/(E_1 − E_2)` with `E_i = exp(−x_i/s0)` (module documentation, step 3),
+/// written as `e^{−a}·(1 − e^{−b})/(1 − e^{−a})`, `a = (x_2 − x_1)/s0`, `b = (x_3 − x_2)/s0`, so
+/// that it neither underflows for small `s0` nor cancels for large `s0`.
+fn saturating_ratio(x: [f64; 3], s0: f64) -> f64 {
+    let a = (x[1] - x[0]) / s0;
+    let b = (x[2] - x[1]) / s0;
+    (-a).exp() * (-b).exp_m1() / (-a).exp_m1()
 }
 
-/// τ and the quadratic rise from one link's Table 4 numbers (module documentation, steps 1–3).
-fn calibrate(link: &Table4Link, ambient_c: f64) -> NodeParams {
+/// The speed scale `s0` of a saturating rise `r0 + r_span·(1 − exp(−s/s0))` whose rises between
+/// the speeds `x = [x_1, x_2, x_3]` (strictly increasing) have the ratio
+/// `rho = (D_3 − D_2)/(D_2 − D_1)`: the root of `g(s0) = rho` (module documentation, step 3), by
+/// bisection to full precision. `g` rises monotonically from 0 (`s0 → 0`) to
+/// `(x_3 − x_2)/(x_2 − x_1)` (`s0 → ∞`); errors if `rho` is not strictly between (no saturating
+/// curve has that shape), or so close to the upper limit that `s0` would exceed 1e12.
+pub fn solve_saturating_s0(x: [f64; 3], rho: f64) -> Result<f64, String> {
+    if !(x.iter().all(|v| v.is_finite()) && x[0] < x[1] && x[1] < x[2]) {
+        return Err(format!(
+            "saturating rise: speeds {x:?} must be finite and strictly increasing"
+        ));
+    }
+    let limit = (x[2] - x[1]) / (x[1] - x[0]);
+    if !(rho > 0.0 && rho < limit) {
+        return Err(format!(
+            "saturating rise: ratio of rises ρ = {rho} is outside (0, {}); \
+             no saturating curve through these points",
+            (limit * 1e12).round() / 1e12
+        ));
+    }
+    let g = |s0: f64| saturating_ratio(x, s0);
+    // Bracket the root within a factor 2, starting at the speeds' span.
+    let (mut lo, mut hi) = (x[2] - x[0], x[2] - x[0]);
+    if g(lo) < rho {
+        while g(hi) < rho {
+            lo = hi;
+            hi *= 2.0;
+            if hi > 1e12 {
+                return Err(format!(
+                    "saturating rise: ρ = {rho} is too close to its limit {limit} \
+                     (the points are nearly on a straight line; s0 > 1e12)"
+                ));
+            }
+        }
+    } else {
+        // g → 0 as s0 → 0 and rho > 0, so this ends (g underflows to 0 by s0 ≈ 3e-4·span).
+        while g(lo) >= rho {
+            hi = lo;
+            lo /= 2.0;
+        }
+    }
+    // g(lo) < rho ≤ g(hi): bisect until the bracket cannot shrink.
+    loop {
+        let mid = lo + 0.5 * (hi - lo);
+        if mid <= lo || mid >= hi {
+            return Ok(if rho - g(lo) <= g(hi) - rho { lo } else { hi });
+        }
+        if g(mid) < rho {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+}
+
+/// The saturating rise through three points `(s_i, D_i)` with strictly increasing speeds and
+/// rises (module documentation, step 3): `s0` by [`solve_saturating_s0`], then `r_span` and `r0`
+/// in closed form. Errors if the rises do not increase or their slope does not fall.
+pub fn saturating_through(p: [(f64, f64); 3]) -> Result<Rise, String> {
+    let [(x1, d1), (x2, d2), (x3, d3)] = p;
+    let step = d2 - d1;
+    if !(step.is_finite() && step > 0.0) {
+        return Err(format!(
+            "saturating rise: D({x1}) = {d1} must be less than D({x2}) = {d2}"
+        ));
+    }
+    let rho = (d3 - d2) / (d2 - d1);
+    let s0 = solve_saturating_s0([x1, x2, x3], rho)?;
+    // E_1 − E_2 = e^{−x1/s0}·(1 − e^{−(x2 − x1)/s0})
+    let e12 = -(-x1 / s0).exp() * (-(x2 - x1) / s0).exp_m1();
+    let span_k = (d2 - d1) / e12;
+    let r0_k = d1 + span_k * (-x1 / s0).exp_m1();
+    Ok(Rise::Saturating { r0_k, span_k, s0 })
+}
+
+/// The steady rises `D` of one link at the speeds of Runs 1, 2 and 3 (30 %, 75 %, 10 %) and τ
+/// (minutes) from its Table 4 numbers (module documentation, steps 1–2).
+fn table4_rises(link: &Table4Link, ambient_c: f64) -> (f64, [f64; 3]) {
     let e = |t: f64| t - ambient_c;
     let tau_min = PAPER_COOL_MIN / (e(link.run1.1) / e(link.run2.0)).ln();
     let q = (-PAPER_RUN_MIN / tau_min).exp();
@@ -294,27 +456,31 @@ fn calibrate(link: &Table4Link, ambient_c: f64) -> NodeParams {
     let d1 = rise(link.run1.0, link.run1.1);
     let d2 = rise(link.run2.0, link.run2.1);
     let d3 = rise(link.run2.1, link.run3_end);
-    let [s1, s2, s3] = PAPER_SPEEDS;
-    NodeParams {
-        name: link.name.to_string(),
-        tau_min,
-        rise_k: quadratic_through([(s3, d3), (s1, d1), (s2, d2)]),
-    }
+    (tau_min, [d1, d2, d3])
 }
 
-/// The KR-15/2 nodes calibrated to the paper (`link2`, `link3`) plus an assumed `base`, for
-/// ambient [`KR15_PAPER_AMBIENT_C`]. See the module documentation for the derivation and the
-/// caveat that the link quadratics are not monotonic in speed.
+/// τ and the saturating rise from one link's Table 4 numbers (module documentation, steps 1–3).
+fn calibrate(link: &Table4Link, ambient_c: f64) -> Result<NodeParams, String> {
+    let (tau_min, [d1, d2, d3]) = table4_rises(link, ambient_c);
+    let [s1, s2, s3] = PAPER_SPEEDS;
+    let rise = saturating_through([(s3, d3), (s1, d1), (s2, d2)])
+        .map_err(|e| format!("calibrating {}: {e}", link.name))?;
+    NodeParams::new(link.name, tau_min, rise)
+}
+
+/// The KR-15/2 nodes calibrated to the paper (`link2`, `link3`, saturating rises) plus an assumed
+/// `base` (quadratic), for ambient [`KR15_PAPER_AMBIENT_C`]. See the module documentation for the
+/// derivation.
 pub fn kr15_paper_nodes() -> Vec<NodeParams> {
     let mut nodes: Vec<NodeParams> = TABLE4
         .iter()
-        .map(|l| calibrate(l, KR15_PAPER_AMBIENT_C))
+        .map(|l| calibrate(l, KR15_PAPER_AMBIENT_C).expect("Table 4 calibrates"))
         .collect();
     // Assumption, not from the paper: the base is massive and far from the hot motors.
     nodes.push(NodeParams {
         name: "base".to_string(),
         tau_min: 600.0,
-        rise_k: [0.10, 0.85, 0.50],
+        rise: Rise::Quadratic([0.10, 0.85, 0.50]),
     });
     nodes
 }
@@ -424,6 +590,8 @@ mod tests {
         }
     }
 
+    /// Every rise of [`kr15_paper_nodes`] at 0, 50 and 100 % (the module documentation's
+    /// numbers).
     #[test]
     fn documented_calibration_numbers_match() {
         let l2 = node("link2");
@@ -431,23 +599,159 @@ mod tests {
         let close = |a: f64, b: f64, tol: f64| (a - b).abs() < tol;
         assert!(close(l2.tau_min, 391.64, 0.005), "{}", l2.tau_min);
         assert!(close(l3.tau_min, 308.34, 0.005), "{}", l3.tau_min);
-        for (n, r, d) in [
-            (&l2, [2.5695, 12.2877, -11.2331], [3.686, 5.245, 5.467]),
-            (&l3, [3.4192, 16.7351, -14.8273], [4.944, 7.105, 7.630]),
+        // (q, ρ, [s0, span, r0], D at 10/30/75 %, ΔT_ss at 0/50/100 %, plateau)
+        for (n, q, rho, p, d, at, plateau) in [
+            (
+                &l2,
+                0.10046,
+                0.14230,
+                [0.096403, 5.0305, 0.4383],
+                [3.686, 5.245, 5.467],
+                [0.438, 5.441, 5.469],
+                5.469,
+            ),
+            (
+                &l3,
+                0.05399,
+                0.24291,
+                [0.124159, 6.0418, 1.6027],
+                [4.944, 7.105, 7.630],
+                [1.603, 7.537, 7.643],
+                7.645,
+            ),
         ] {
-            for (got, want) in n.rise_k.iter().zip(r) {
-                assert!(close(*got, want, 5e-5), "{}: {got} vs {want}", n.name);
-            }
+            assert!(close((-900.0 / n.tau_min).exp(), q, 5e-6), "{}", n.name);
+            let Rise::Saturating { r0_k, span_k, s0 } = n.rise else {
+                panic!("{}: {:?} is not saturating", n.name, n.rise);
+            };
+            assert!(close(s0, p[0], 5e-7), "{}: s0 {s0}", n.name);
+            assert!(close(span_k, p[1], 5e-5), "{}: span {span_k}", n.name);
+            assert!(close(r0_k, p[2], 5e-5), "{}: r0 {r0_k}", n.name);
+            assert!(close(r0_k + span_k, plateau, 5e-4), "{}", n.name);
+            let got_rho = (n.steady_rise_k(0.75) - n.steady_rise_k(0.30))
+                / (n.steady_rise_k(0.30) - n.steady_rise_k(0.10));
+            assert!(close(got_rho, rho, 5e-6), "{}: ρ {got_rho}", n.name);
             for (s, d) in [0.10, 0.30, 0.75].into_iter().zip(d) {
                 let got = n.steady_rise_k(s);
                 assert!(close(got, d, 5e-4), "{} at {s}: {got}", n.name);
             }
+            for (s, d) in [0.0, 0.5, 1.0].into_iter().zip(at) {
+                let got = n.steady_rise_k(s);
+                assert!(close(got, d, 5e-4), "{} at {s}: {got}", n.name);
+            }
+        }
+        // "from 75 % to 100 % it adds 0.002 K / 0.012 K"
+        for (n, add) in [(&l2, 0.002), (&l3, 0.012)] {
+            let got = n.steady_rise_k(1.0) - n.steady_rise_k(0.75);
+            assert!(close(got, add, 5e-4), "{}: {got}", n.name);
         }
         let base = node("base");
+        assert_eq!(base.rise, Rise::Quadratic([0.10, 0.85, 0.50]));
         assert!(close(base.steady_rise_k(0.30), 0.40, 1e-12));
+        assert!(close(base.steady_rise_k(1.0), 1.45, 1e-12));
         assert_eq!(base.tau_min, 600.0);
         for n in kr15_paper_nodes() {
             n.validate().unwrap();
+        }
+    }
+
+    /// The saturating rises go through the three steady rises D that Table 4 implies, exactly.
+    #[test]
+    fn calibration_reproduces_the_three_rises() {
+        for link in &TABLE4 {
+            let n = node(link.name);
+            // D recomputed here from the table (module documentation, steps 1–2).
+            let e = |t: f64| t - KR15_PAPER_AMBIENT_C;
+            let tau = 600.0 / (e(link.run1.1) / e(link.run2.0)).ln();
+            let q = (-900.0 / tau).exp();
+            let d = |a: f64, b: f64| (e(b) - e(a) * q) / (1.0 - q);
+            assert!((n.tau_min - tau).abs() < 1e-12, "{}", link.name);
+            for (s, want) in [
+                (0.30, d(link.run1.0, link.run1.1)),
+                (0.75, d(link.run2.0, link.run2.1)),
+                (0.10, d(link.run2.1, link.run3_end)),
+            ] {
+                let got = n.steady_rise_k(s);
+                assert!(
+                    (got - want).abs() < 1e-9,
+                    "{} at {s}: {got} vs {want}",
+                    n.name
+                );
+            }
+        }
+    }
+
+    /// Losses grow with speed: every default node's rise is strictly increasing on [0, 1].
+    #[test]
+    fn every_default_rise_increases_with_speed() {
+        let grid: Vec<f64> = (0..=1000).map(|i| i as f64 / 1000.0).collect();
+        for n in kr15_paper_nodes() {
+            n.rise.check().unwrap();
+            let d: Vec<f64> = grid.iter().map(|&s| n.steady_rise_k(s)).collect();
+            for (w, s) in d.windows(2).zip(&grid) {
+                assert!(w[1] > w[0], "{} at s = {s}: {} → {}", n.name, w[0], w[1]);
+            }
+            // above the measured 75 % it keeps rising, and never above the plateau
+            if let Rise::Saturating { r0_k, span_k, .. } = n.rise {
+                assert!(n.steady_rise_k(1.0) > n.steady_rise_k(0.75));
+                assert!(n.steady_rise_k(1.0) < r0_k + span_k);
+                assert!(n.steady_rise_k(1.0) > n.steady_rise_k(0.30), "{}", n.name);
+            }
+        }
+    }
+
+    /// The quadratic `[c0, c1, c2]` (`c0 + c1·x + c2·x²`) through three points with distinct x.
+    fn quadratic_through(p: [(f64, f64); 3]) -> [f64; 3] {
+        let [(x0, y0), (x1, y1), (x2, y2)] = p;
+        let f01 = (y1 - y0) / (x1 - x0);
+        let f12 = (y2 - y1) / (x2 - x1);
+        let c2 = (f12 - f01) / (x2 - x0);
+        let c1 = f01 - c2 * (x0 + x1);
+        let c0 = y0 - c1 * x0 - c2 * x0 * x0;
+        [c0, c1, c2]
+    }
+
+    /// What the replaced quadratic calibration did (module documentation): through the same
+    /// three points it peaked at ~55 % and fell below its 30 % value at 100 %; it fails
+    /// [`Rise::check`] now.
+    #[test]
+    fn replaced_quadratic_as_documented() {
+        for (link, coef, vertex, peak, full, r0) in [
+            (
+                &TABLE4[0],
+                [2.5695, 12.2877, -11.2331],
+                0.547,
+                5.93,
+                3.62,
+                2.57,
+            ),
+            (
+                &TABLE4[1],
+                [3.4192, 16.7351, -14.8273],
+                0.564,
+                8.14,
+                5.33,
+                3.42,
+            ),
+        ] {
+            let (_, [d1, d2, d3]) = table4_rises(link, KR15_PAPER_AMBIENT_C);
+            let c = quadratic_through([(0.10, d3), (0.30, d1), (0.75, d2)]);
+            for (g, w) in c.iter().zip(coef) {
+                assert!((g - w).abs() < 5e-5, "{}: {c:?}", link.name);
+            }
+            let q = Rise::Quadratic(c);
+            let v = -c[1] / (2.0 * c[2]);
+            assert!((v - vertex).abs() < 5e-4, "{}: vertex {v}", link.name);
+            assert!((q.at(v) - peak).abs() < 5e-3, "{}", link.name);
+            assert!((q.at(1.0) - full).abs() < 5e-3, "{}", link.name);
+            assert!((q.at(0.0) - r0).abs() < 5e-3, "{}", link.name);
+            assert!(q.at(1.0) < q.at(0.30), "{}", link.name);
+            assert_eq!(q.check().unwrap_err().0, "rise_k");
+            // same three points as the saturating calibration
+            let sat = node(link.name).rise;
+            for s in [0.10, 0.30, 0.75] {
+                assert!((q.at(s) - sat.at(s)).abs() < 1e-9);
+            }
         }
     }
 
@@ -460,28 +764,165 @@ mod tests {
         }
     }
 
-    /// The honest finding: the links' fitted quadratics are ordered at the measured speeds but
-    /// peak inside [0, 1] (~55 %), so at full speed they predict less than at 30 %.
     #[test]
-    fn speed_monotonicity_as_documented() {
-        for name in ["link2", "link3"] {
-            let n = node(name);
-            let [_, r1, r2] = n.rise_k;
-            let d = |s: f64| n.steady_rise_k(s);
-            assert!(d(0.10) < d(0.30) && d(0.30) < d(0.75), "{name}");
-            assert!(r2 < 0.0, "{name}: concave");
-            let vertex = -r1 / (2.0 * r2);
-            assert!((0.54..0.57).contains(&vertex), "{name}: vertex {vertex}");
-            assert!(d(1.0) < d(0.30), "{name}: ΔT(100 %) {} vs ΔT(30 %)", d(1.0));
-            // monotonic increasing below the vertex
-            let grid: Vec<f64> = (0..=54).map(|i| i as f64 / 100.0).collect();
-            assert!(grid.windows(2).all(|w| d(w[1]) > d(w[0])), "{name}");
+    fn solver_recovers_a_known_s0() {
+        let x = [0.10, 0.30, 0.75];
+        // g is increasing in s0 and spans (0, 2.25)
+        let gs: Vec<f64> = (-30..=40)
+            .map(|k| saturating_ratio(x, 10f64.powf(k as f64 / 10.0)))
+            .collect();
+        assert!(gs.windows(2).all(|w| w[1] > w[0]), "{gs:?}");
+        assert!(gs[0] > 0.0 && gs[0] < 1e-80, "{gs:?}");
+        assert!((gs[70] - 2.25).abs() < 1e-4, "{gs:?}");
+        assert_eq!(saturating_ratio(x, 1e-5), 0.0); // underflows, no NaN
+                                                    // ρ from the exponentials themselves (no rises to cancel): s0 to full precision, up to
+                                                    // the conditioning near the straight-line limit.
+        for (s0, tol) in [
+            (0.002, 1e-13),
+            (0.01, 1e-13),
+            (0.0964, 1e-13),
+            (0.3, 1e-13),
+            (1.0, 1e-12),
+            (10.0, 1e-10),
+            (100.0, 1e-8),
+        ] {
+            let e = |s: f64| (-s / s0).exp();
+            let rho = (e(0.30) - e(0.75)) / (e(0.10) - e(0.30));
+            let got = solve_saturating_s0(x, rho).unwrap();
+            assert!((got / s0 - 1.0).abs() < tol, "s0 {s0}: {got}");
         }
-        let base = node("base");
-        let grid: Vec<f64> = (0..=100).map(|i| i as f64 / 100.0).collect();
-        assert!(grid
-            .windows(2)
-            .all(|w| base.steady_rise_k(w[1]) > base.steady_rise_k(w[0])));
+        // the whole curve through three points of a known one
+        for (s0, tol) in [(0.05, 1e-9), (0.0964, 1e-11), (0.3, 1e-11), (1.0, 1e-10)] {
+            let (r0, span) = (1.25, 3.5);
+            let f = |s: f64| r0 + span * (1.0 - (-s / s0).exp());
+            let Rise::Saturating {
+                r0_k,
+                span_k,
+                s0: s,
+            } = saturating_through([(0.10, f(0.10)), (0.30, f(0.30)), (0.75, f(0.75))]).unwrap()
+            else {
+                unreachable!()
+            };
+            assert!((s / s0 - 1.0).abs() < tol, "s0 {s0}: {s}");
+            assert!((r0_k - r0).abs() < 1e3 * tol, "s0 {s0}: r0 {r0_k}");
+            assert!((span_k - span).abs() < 1e3 * tol, "s0 {s0}: span {span_k}");
+        }
+        // other speeds: the limit is (x3 − x2)/(x2 − x1)
+        let x = [0.0, 1.0, 3.0];
+        let s0 = 0.7;
+        let e = |s: f64| (-s / s0).exp();
+        let rho = (e(1.0) - e(3.0)) / (e(0.0) - e(1.0));
+        assert!((solve_saturating_s0(x, rho).unwrap() - s0).abs() < 1e-13);
+        assert!(solve_saturating_s0(x, 1.999).is_ok());
+        assert!(solve_saturating_s0(x, 2.0).is_err());
+    }
+
+    #[test]
+    fn solver_rejects_impossible_ratios() {
+        let x = [0.10, 0.30, 0.75];
+        for rho in [0.0, -0.5, 2.2500001, 2.5, 100.0, f64::NAN, f64::INFINITY] {
+            let e = solve_saturating_s0(x, rho).unwrap_err();
+            assert!(e.contains("outside (0, 2.25)"), "{rho}: {e}");
+        }
+        // 2.25 itself is the straight line: 0.45/0.2 rounds just above it, so it is caught
+        // by the bracket instead
+        assert!(solve_saturating_s0(x, 2.25).is_err());
+        // within (0, 2.25) in floating point but indistinguishable from the straight line
+        let e = solve_saturating_s0(x, 2.25 - 1e-15).unwrap_err();
+        assert!(e.contains("too close"), "{e}");
+        for bad in [[0.3, 0.1, 0.75], [0.1, 0.1, 0.75], [0.1, f64::NAN, 0.75]] {
+            let e = solve_saturating_s0(bad, 1.0).unwrap_err();
+            assert!(e.contains("strictly increasing"), "{e}");
+        }
+        // a convex rise (slope growing) or a falling one has no saturating curve
+        assert!(saturating_through([(0.1, 1.0), (0.3, 2.0), (0.75, 5.0)]).is_err());
+        assert!(saturating_through([(0.1, 3.0), (0.3, 2.0), (0.75, 1.0)]).is_err());
+        assert!(saturating_through([(0.1, 1.0), (0.3, 2.0), (0.75, 1.5)]).is_err());
+        assert!(saturating_through([(0.1, 1.0), (0.3, 1.0), (0.75, 1.5)]).is_err());
+    }
+
+    #[test]
+    fn rise_check_names_the_key() {
+        let ok = [
+            Rise::Quadratic([0.0; 3]),
+            Rise::Quadratic([1.0, 0.0, 0.5]),
+            Rise::Quadratic([1.0, 2.0, -1.0]), // slope 0 at s = 1
+            Rise::Saturating {
+                r0_k: -1.0,
+                span_k: 0.0,
+                s0: 0.1,
+            },
+            Rise::Saturating {
+                r0_k: 0.5,
+                span_k: 3.0,
+                s0: 5.0,
+            },
+        ];
+        for r in ok {
+            r.check().unwrap();
+        }
+        let bad = [
+            (Rise::Quadratic([1.0, -0.1, 0.5]), "rise_k"),
+            (Rise::Quadratic([1.0, 2.0, -1.01]), "rise_k"),
+            (Rise::Quadratic([f64::NAN, 1.0, 0.0]), "rise_k"),
+            (Rise::Quadratic([0.0, 1.0, f64::INFINITY]), "rise_k"),
+            (
+                Rise::Saturating {
+                    r0_k: f64::NAN,
+                    span_k: 1.0,
+                    s0: 0.1,
+                },
+                "rise_saturating.r0_k",
+            ),
+            (
+                Rise::Saturating {
+                    r0_k: 0.0,
+                    span_k: -1.0,
+                    s0: 0.1,
+                },
+                "rise_saturating.span_k",
+            ),
+            (
+                Rise::Saturating {
+                    r0_k: 0.0,
+                    span_k: f64::INFINITY,
+                    s0: 0.1,
+                },
+                "rise_saturating.span_k",
+            ),
+            (
+                Rise::Saturating {
+                    r0_k: 0.0,
+                    span_k: 1.0,
+                    s0: 0.0,
+                },
+                "rise_saturating.s0",
+            ),
+            (
+                Rise::Saturating {
+                    r0_k: 0.0,
+                    span_k: 1.0,
+                    s0: f64::NAN,
+                },
+                "rise_saturating.s0",
+            ),
+        ];
+        for (r, key) in bad {
+            let (k, m) = r.check().unwrap_err();
+            assert_eq!(k, key, "{r:?}: {m}");
+            assert!(!m.contains('\n'));
+            let e = NodeParams::new("x", 1.0, r).unwrap_err();
+            assert!(e.contains(key), "{e}");
+        }
+        // the saturating form at its ends
+        let r = Rise::Saturating {
+            r0_k: 0.5,
+            span_k: 3.0,
+            s0: 0.2,
+        };
+        assert_eq!(r.at(0.0), 0.5);
+        assert!((r.at(0.2) - (0.5 + 3.0 * (1.0 - (-1.0f64).exp()))).abs() < 1e-15);
+        assert!((r.at(1e3) - 3.5).abs() < 1e-15);
     }
 
     #[test]
@@ -554,7 +995,10 @@ mod tests {
         assert!((t - (21.0 + 10.0 / std::f64::consts::E)).abs() < 1e-12);
         // standstill under servo is not idle: it settles at ambient + r0
         let t = n.step(21.0, 21.0, Some(0.0), 1e9);
-        assert!((t - (21.0 + n.rise_k[0])).abs() < 1e-12);
+        let Rise::Saturating { r0_k, .. } = n.rise else {
+            panic!("{:?}", n.rise)
+        };
+        assert!((t - (21.0 + r0_k)).abs() < 1e-12);
         // at steady state nothing changes
         let ss = n.steady_state_c(21.0, Some(0.4));
         assert_eq!(n.step(ss, 21.0, Some(0.4), 3600.0), ss);
@@ -599,18 +1043,19 @@ mod tests {
         let mut bad = n.clone();
         bad.tau_min = 0.0;
         assert!(simulate(&bad, &[0.0], &[None], &[20.0], 20.0).is_err());
+        let flat = Rise::Quadratic([0.0; 3]);
         for tau in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            let e = NodeParams::new("x", tau, [0.0; 3]).unwrap_err();
+            let e = NodeParams::new("x", tau, flat).unwrap_err();
             assert!(e.contains("tau_min"), "{e}");
         }
-        assert!(NodeParams::new("x", 1.0, [0.0, f64::NAN, 0.0]).is_err());
-        assert!(NodeParams::new(" ", 1.0, [0.0; 3]).is_err());
+        assert!(NodeParams::new("x", 1.0, Rise::Quadratic([0.0, f64::NAN, 0.0])).is_err());
+        assert!(NodeParams::new(" ", 1.0, flat).is_err());
         assert_eq!(
-            NodeParams::new("x", 2.0, [1.0, 2.0, 3.0]).unwrap(),
+            NodeParams::new("x", 2.0, Rise::Quadratic([1.0, 2.0, 3.0])).unwrap(),
             NodeParams {
                 name: "x".into(),
                 tau_min: 2.0,
-                rise_k: [1.0, 2.0, 3.0]
+                rise: Rise::Quadratic([1.0, 2.0, 3.0])
             }
         );
         // dt ≤ 0 in step

@@ -26,11 +26,26 @@
 //! [[effect]]
 //! name = "thermal_lag"
 //! tau_min = 25.0
+//!
+//! # Thermal nodes (optional; default the KR 15/2 calibration, `heat::kr15_paper_nodes`).
+//! # Each gives its steady rise over ambient (K) at speed fraction s in exactly one of two
+//! # forms, non-decreasing in s on [0, 1]:
+//! [[node]]
+//! name = "link2"               # a ROI of the rig
+//! tau_min = 391.64
+//! # r0_k + span_k·(1 − exp(−s/s0)), span_k ≥ 0, s0 > 0
+//! rise_saturating = { r0_k = 0.4383, span_k = 5.0305, s0 = 0.096403 }
+//!
+//! [[node]]
+//! name = "base"
+//! tau_min = 600.0
+//! rise_k = [0.10, 0.85, 0.50]  # r0 + r1·s + r2·s², r1 ≥ 0 and r1 + 2·r2 ≥ 0
 //! ```
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::RigError;
+use crate::heat::Rise;
 
 /// The format string every scenario file must carry.
 pub const SCENARIO_FORMAT: &str = "thermrs-scenario/1";
@@ -234,15 +249,46 @@ impl Default for Output {
     }
 }
 
-/// A thermal node (see `heat::NodeParams`).
+/// A thermal node (see `heat::NodeParams`). Its steady rise over ambient (K) at speed fraction
+/// `s` is given by exactly one of `rise_k` and `rise_saturating`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Node {
     /// A ROI name of the rig.
     pub name: String,
     pub tau_min: f64,
-    /// Steady rise over ambient: r0 + r1·s + r2·s² (s = speed fraction).
-    pub rise_k: [f64; 3],
+    /// Quadratic steady rise `[r0, r1, r2]`: `r0 + r1·s + r2·s²` (`heat::Rise::Quadratic`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rise_k: Option<[f64; 3]>,
+    /// Saturating steady rise: `r0_k + span_k·(1 − exp(−s/s0))` (`heat::Rise::Saturating`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rise_saturating: Option<RiseSaturating>,
+}
+
+/// `rise_saturating = { r0_k = …, span_k = …, s0 = … }` of a `[[node]]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RiseSaturating {
+    /// Standstill rise under servo, K.
+    pub r0_k: f64,
+    /// Extra rise approached as speed grows, K (≥ 0).
+    pub span_k: f64,
+    /// Speed scale, fraction of maximum (> 0).
+    pub s0: f64,
+}
+
+impl Node {
+    /// The node's steady rise, if exactly one of `rise_k` and `rise_saturating` is given
+    /// (unchecked; [`Scenario::validate`] checks it).
+    pub fn rise(&self) -> Option<Rise> {
+        match (self.rise_k, self.rise_saturating) {
+            (Some(r), None) => Some(Rise::Quadratic(r)),
+            (None, Some(RiseSaturating { r0_k, span_k, s0 })) => {
+                Some(Rise::Saturating { r0_k, span_k, s0 })
+            }
+            _ => None,
+        }
+    }
 }
 
 /// One effect of SPEC §6 with its parameters (the SPEC's JSON keys).
@@ -433,6 +479,18 @@ impl Scenario {
         }
         for (i, n) in self.node.iter().enumerate() {
             pos(n.tau_min, &format!("node[{i}].tau_min"))?;
+            let Some(rise) = n.rise() else {
+                let m = if n.rise_k.is_some() {
+                    "gives both `rise_k` and `rise_saturating`; give exactly one"
+                } else {
+                    "needs its steady rise: `rise_k = [r0, r1, r2]` or \
+                     `rise_saturating = { r0_k, span_k, s0 }`"
+                };
+                return fail(&format!("node[{i}]"), m.into());
+            };
+            if let Err((key, m)) = rise.check() {
+                return fail(&format!("node[{i}].{key}"), m);
+            }
         }
         for (i, e) in self.effect.iter().enumerate() {
             let k = format!("effect[{i}]");
@@ -518,6 +576,129 @@ mod tests {
             assert!(e.key.starts_with(key), "{key}: {e}");
             assert!(!e.to_string().contains('\n'));
         }
+    }
+
+    const NODE: &str = "[[node]]\nname = \"link2\"\ntau_min = 30\n";
+
+    #[test]
+    fn nodes_take_either_rise_form() {
+        let text = format!(
+            "{MIN}{NODE}rise_saturating = {{ r0_k = 0.44, span_k = 5.03, s0 = 0.0964 }}\n\
+             [[node]]\nname = \"base\"\ntau_min = 600\nrise_k = [0.1, 0.85, 0.5]\n"
+        );
+        let s = Scenario::from_toml(&text, "s.toml").unwrap();
+        assert_eq!(
+            s.node[0].rise(),
+            Some(Rise::Saturating {
+                r0_k: 0.44,
+                span_k: 5.03,
+                s0: 0.0964
+            })
+        );
+        assert_eq!(s.node[1].rise(), Some(Rise::Quadratic([0.1, 0.85, 0.5])));
+        // The scenario as JSON (the simulator's truth) names only the form given, and reads back.
+        let json = serde_json::to_value(&s).unwrap();
+        assert_eq!(
+            json["node"][0],
+            serde_json::json!({
+                "name": "link2",
+                "tau_min": 30.0,
+                "rise_saturating": { "r0_k": 0.44, "span_k": 5.03, "s0": 0.0964 }
+            })
+        );
+        assert_eq!(
+            json["node"][1],
+            serde_json::json!({"name": "base", "tau_min": 600.0, "rise_k": [0.1, 0.85, 0.5]})
+        );
+        let back: Scenario = serde_json::from_value(json).unwrap();
+        assert_eq!(back, s);
+    }
+
+    #[test]
+    fn bad_nodes_name_the_key() {
+        let sat = |r0: &str, span: &str, s0: &str| {
+            format!("{MIN}{NODE}rise_saturating = {{ r0_k = {r0}, span_k = {span}, s0 = {s0} }}\n")
+        };
+        let cases = [
+            (format!("{MIN}{NODE}"), "node[0]", "needs its steady rise"),
+            (
+                format!(
+                    "{MIN}{NODE}rise_k = [1, 2, 0]\n\
+                     rise_saturating = {{ r0_k = 1, span_k = 2, s0 = 0.1 }}\n"
+                ),
+                "node[0]",
+                "exactly one",
+            ),
+            // the old default link 2 quadratic: peaks at ~55 % and falls
+            (
+                format!("{MIN}{NODE}rise_k = [2.5695, 12.2877, -11.2331]\n"),
+                "node[0].rise_k",
+                "decreases",
+            ),
+            (
+                format!("{MIN}{NODE}rise_k = [1, -0.5, 2]\n"),
+                "node[0].rise_k",
+                "decreases",
+            ),
+            (
+                format!("{MIN}{NODE}rise_k = [1, 2, nan]\n"),
+                "node[0].rise_k",
+                "finite",
+            ),
+            (
+                format!("{MIN}{NODE}rise_k = [1, 2]\n"),
+                "node[0].rise_k",
+                "",
+            ),
+            (
+                sat("1", "-0.1", "0.1"),
+                "node[0].rise_saturating.span_k",
+                "≥ 0",
+            ),
+            (
+                sat("1", "inf", "0.1"),
+                "node[0].rise_saturating.span_k",
+                "≥ 0",
+            ),
+            (sat("1", "2", "0"), "node[0].rise_saturating.s0", "positive"),
+            (
+                sat("1", "2", "-0.1"),
+                "node[0].rise_saturating.s0",
+                "positive",
+            ),
+            (
+                sat("nan", "2", "0.1"),
+                "node[0].rise_saturating.r0_k",
+                "finite",
+            ),
+            (
+                format!("{MIN}{NODE}rise_saturating = {{ r0_k = 1, span_k = 2 }}\n"),
+                "node[0].rise_saturating",
+                "s0",
+            ),
+            (
+                format!(
+                    "{MIN}{NODE}rise_saturating = {{ r0_k = 1, span_k = 2, s0 = 0.1, tau = 3 }}\n"
+                ),
+                "node[0].rise_saturating",
+                "tau",
+            ),
+            (
+                format!("{MIN}{NODE}rise_k = [0, 1, 0]\nrise = 3\n"),
+                "node[0]",
+                "rise",
+            ),
+        ];
+        for (text, key, msg) in cases {
+            let e = Scenario::from_toml(&text, "s.toml").unwrap_err();
+            assert!(e.key.starts_with(key), "{key}: {e}");
+            assert!(e.to_string().contains(msg), "{msg}: {e}");
+            assert!(!e.to_string().contains('\n'));
+        }
+        // the second node is named
+        let text = format!("{MIN}{NODE}rise_k = [0, 1, 0]\n{NODE}rise_k = [0, 1, -0.6]\n");
+        let e = Scenario::from_toml(&text, "s.toml").unwrap_err();
+        assert_eq!(e.key, "node[1].rise_k", "{e}");
     }
 
     #[test]

@@ -179,7 +179,15 @@ fn nodes(rig: &Rig, sc: &Scenario) -> Result<Vec<NodeParams>> {
     } else {
         sc.node
             .iter()
-            .map(|n| NodeParams::new(n.name.clone(), n.tau_min, n.rise_k).map_err(Error::Input))
+            .map(|n| {
+                let rise = n.rise().ok_or_else(|| {
+                    Error::Input(format!(
+                        "thermal node {:?}: give exactly one of rise_k and rise_saturating",
+                        n.name
+                    ))
+                })?;
+                NodeParams::new(n.name.clone(), n.tau_min, rise).map_err(Error::Input)
+            })
             .collect::<Result<_>>()?
     };
     let rois = rig.rois();
