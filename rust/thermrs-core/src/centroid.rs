@@ -8,26 +8,32 @@
 //! # Algorithm
 //!
 //! **1. Sparse detection (dark frames stop here).** Only every `k`-th row is read, with
-//! `k = max(1, floor(1.5 · min_sigma_px))` (3 for the default `min_sigma_px = 2`): a
-//! Gaussian spot of σ ≥ `min_sigma_px` always has a scanned row within `k/2` rows of its
-//! centre, where it still shows ≥ 75 % of its peak (≥ 88 % for `k = 3`), so it cannot hide
-//! between scanned rows. The per-row maximum is computed on fixed-size chunks of
-//! `u8`/`u16` with no branch per pixel, which the compiler vectorises. While those rows are
-//! in cache, about a thousand pixels on a regular grid are copied aside; their median, MAD
-//! and then a 4σ-clipped mean and standard deviation give the frame's background `B` and
-//! noise `n`. The detection threshold is
-//! `T = B + max(detect_sigmas · max(n, 0.5), min_peak_dn)`. A dark frame is one where no
-//! scanned row has a maximum above `T`; it costs one read of `1/k` of the rows.
+//! `k = max(1, floor(2 · min_sigma_px))` (4 for the default `min_sigma_px = 2`): the centre
+//! of a spot is never more than `k/2 ≤ σ` rows from a scanned row, where a Gaussian of
+//! σ ≥ `min_sigma_px` still shows at least `r = exp(−(k/2)² / 2σ²)` of its peak above the
+//! background (≥ 0.61; pixel integration only raises it). The per-row maximum is computed on
+//! fixed-size chunks of `u8`/`u16` with no branch per pixel, which the compiler vectorises.
+//! While those rows are in cache, about a thousand pixels on a regular grid are copied
+//! aside; their median, MAD and then a 4σ-clipped mean and standard deviation give the
+//! frame's background `B` and noise `n`. The detection threshold is
+//! `T = B + max(detect_sigmas · max(n, 0.5), min_peak_dn)`, and the scanned rows are
+//! compared with the lowered `T_s = B + r · (T − B)`, so that any spot whose brightest pixel
+//! exceeds `T` shows up wherever it lies between scanned rows. A dark frame is one where no
+//! scanned row has a maximum above `T_s`; it costs one read of `1/k` of the rows (whole
+//! rows: a cache line holds 64 pixels, so skipping columns would save nothing).
 //!
-//! **2. Blobs, not pixels.** In each scanned row whose maximum exceeds `T` (found by
-//! 32-pixel chunks, skipped unless their maximum is above `T`), the pixels above `T` form
-//! stretches (gaps ≤ 2 px bridged). A stretch counts only if one of its pixels — its
-//! brightest first — has the median of its 3×3 neighbourhood above `B + (T − B)/2` (at
-//! least 5 of 9 pixels, proportionally fewer at the frame edge). A Gaussian spot of σ ≥ 2
-//! passes easily; an isolated hot pixel, or a pair, never does. Stretches of neighbouring
-//! scanned rows that overlap (with `k` px tolerance) are joined into blobs (union–find).
-//! The blob with the brightest pixel is *the* spot; the others are kept for the
-//! `multiple` test.
+//! **2. Blobs, not pixels.** In each scanned row whose maximum exceeds `T_s` (found by
+//! 32-pixel chunks, skipped unless their maximum is above `T_s`), the pixels above `T_s`
+//! form candidate stretches (gaps ≤ 2 px bridged). Each candidate is checked on the rows
+//! around it, up to the scanned rows above and below (its columns ± 2): its peak is the
+//! brightest pixel there that is above `T` and whose 3×3 neighbourhood has its median above
+//! `B + (T − B)/2` (at least 5 of 9 pixels, proportionally fewer at the frame edge); with no
+//! such pixel the candidate is dropped. A Gaussian spot of σ ≥ 2 passes easily; an isolated
+//! hot pixel, or a pair, never does, and noise that crossed `T_s` only costs that check.
+//! Stretches of neighbouring scanned rows that overlap (with `k` px tolerance) are joined
+//! into blobs (union–find). The blob with the brightest peak is *the* spot; the others are
+//! kept for the `multiple` test, which therefore sees a second spot of σ ≥ `min_sigma_px`
+//! above `T` wherever it lies.
 //!
 //! **3. Measurement (only a window around the spot is read).** Seed: the brightest pixel
 //! within ±`k` of the blob's peak, and σ from the half-maximum width along its row and
@@ -86,11 +92,13 @@
 //! - `ok`.
 //!
 //! # Speed
-//! A dark 752×582 8-bit frame reads 1/3 of its rows (k = 3) with vectorised maxima, plus a
-//! 256-bin histogram of ~1000 sampled pixels: ≈ 4 µs with the frame in cache (≈ 260,000
-//! frames/s on one core of the development machine; reading every byte would cap at
-//! ≈ 180,000 in cache, ≈ 66,000 from memory). A spot frame (σ 4) adds the candidate rows and
-//! 4–5 passes over a 33×33 box: ≈ 13 µs (≈ 75,000 frames/s). The pixel pass accumulates
+//! A dark 752×582 8-bit frame reads 1/4 of its rows (k = 4) with vectorised maxima, plus a
+//! 256-bin histogram of ~1000 sampled pixels: ≈ 3.4 µs with the frame in cache, ≈ 6 µs
+//! from memory (≈ 300,000 and 165,000 frames/s on one core of the development machine;
+//! reading every byte caps at ≈ 180,000 in cache and ≈ 80,000 from memory, and so did
+//! k = 3: the hardware prefetcher fetches rows that close together anyway). A spot frame
+//! (σ 4) adds the candidate rows and 4–5 passes over a 33×33 box: ≈ 13 µs in cache
+//! (≈ 75,000 frames/s). The pixel pass accumulates
 //! per-column sums in `f32` (vectorised, no reduction inside the loop, no `exp` per pixel:
 //! the Gaussian is separable and its 1-D factors come from a recurrence); the sums are
 //! finished in `f64`. Nothing is allocated per pixel. The function never panics, whatever
@@ -249,7 +257,8 @@ pub struct SpotParams {
     /// Saturation level in DN; `None`: 255 for 8-bit, 65535 for 16-bit frames.
     pub saturation_dn: Option<u32>,
     /// Smallest spot σ (px) that must be detected; sets the row stride of the sparse
-    /// scan, `k = max(1, floor(1.5 · min_sigma_px))`.
+    /// scan, `k = max(1, floor(2 · min_sigma_px))`, and how far below the threshold the
+    /// scanned rows are searched (see the module documentation).
     pub min_sigma_px: f64,
     /// Half-size of the measurement box in units of the spot's σ along each axis.
     pub window_sigmas: f64,
@@ -641,8 +650,10 @@ struct Run {
     y: usize,
     x0: usize,
     x1: usize,
+    /// The brightest pixel of the rows around the stretch that passes the blob test.
     peak: u32,
     peak_x: usize,
+    peak_y: usize,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -652,13 +663,30 @@ struct Blob {
     y: usize,
 }
 
-/// Row stride of the sparse scan for a minimum spot σ.
+/// Row stride of the sparse scan for a minimum spot σ: `floor(2σ)`, so that a spot's centre
+/// is never more than `σ` rows from a scanned row.
 fn scan_stride(min_sigma_px: f64) -> usize {
-    let k = (1.5 * min_sigma_px).floor();
+    let k = (2.0 * min_sigma_px).floor();
     if k.is_finite() && k >= 1.0 {
         (k as usize).min(64)
     } else {
         1
+    }
+}
+
+/// The least fraction of a Gaussian spot's peak (σ ≥ `min_sigma_px`) that the nearest of
+/// the rows scanned every `k` shows: `exp(−(k/2)² / 2σ²)` (1 when every row is scanned).
+/// Pixel integration only broadens the spot, which raises the fraction.
+fn scan_reach(k: usize, min_sigma_px: f64) -> f64 {
+    if k <= 1 {
+        return 1.0;
+    }
+    let d = k as f64 / 2.0;
+    let r = (-d * d / (2.0 * min_sigma_px * min_sigma_px)).exp();
+    if r.is_finite() {
+        r.clamp(0.0, 1.0)
+    } else {
+        1.0
     }
 }
 
@@ -695,19 +723,29 @@ fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
     let (bg, noise) = robust_stats(&samples);
     let excess = (p.detect_sigmas * noise.max(0.5)).max(p.min_peak_dn);
     let thr_f = bg + if excess.is_finite() { excess } else { 0.0 };
+    // A spot whose peak is above T shows at least `reach` of its excess on a scanned row.
+    let scan_f = bg + scan_reach(k, p.min_sigma_px) * (thr_f - bg);
     let best = row_max.iter().copied().max().unwrap_or(0);
-    let detectable = thr_f < P::MAX as f64; // false for NaN
-    if !detectable || (best as f64) <= thr_f {
+    let detectable = thr_f < P::MAX as f64 && scan_f <= thr_f; // false for NaN
+    if !detectable || (best as f64) <= scan_f {
         return Spot::none(bg, noise, best as f64 - bg, 0);
     }
     let thr = thr_f.floor() as u32; // pixel > thr  ⇔  pixel > thr_f
+    let scan_thr = scan_f.floor() as u32;
     let half_thr = (bg + 0.5 * (thr_f - bg)).floor() as u32;
 
-    // 2. Candidate pixels in the bright scanned rows: stretches of pixels above T (gaps of
-    //    ≤ 2 px bridged), kept as runs if one of their pixels passes the blob test.
+    // 2. Candidates in the bright scanned rows: stretches of pixels above the scan threshold
+    //    (gaps of ≤ 2 px bridged). Each is checked on the rows around it (up to the next
+    //    scanned rows): it is kept as a run if a pixel there is above T and passes the blob
+    //    test, and the brightest such pixel is its peak.
     let mut runs: Vec<Run> = Vec::new();
+    let keep = |r: Run, runs: &mut Vec<Run>| {
+        if let Some(r) = verify_run::<P>(f, r, k, thr, half_thr) {
+            runs.push(r);
+        }
+    };
     for (i, &m) in row_max.iter().enumerate() {
-        if m <= thr || runs.len() >= MAX_RUNS {
+        if m <= scan_thr || runs.len() >= MAX_RUNS {
             continue;
         }
         let y = scan_row(i);
@@ -716,10 +754,10 @@ fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
         let mut x0 = 0usize;
         while x0 < w {
             let x1 = (x0 + 32).min(w);
-            if P::max_of(&row[x0 * P::BPP..x1 * P::BPP]) > thr {
+            if P::max_of(&row[x0 * P::BPP..x1 * P::BPP]) > scan_thr {
                 for x in x0..x1 {
                     let v = P::get(row, x);
-                    if v <= thr {
+                    if v <= scan_thr {
                         continue;
                     }
                     match cur.as_mut() {
@@ -732,9 +770,7 @@ fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
                         }
                         _ => {
                             if let Some(r) = cur.take() {
-                                if is_blob_run::<P>(f, &r, thr, half_thr) {
-                                    runs.push(r);
-                                }
+                                keep(r, &mut runs);
                             }
                             cur = Some(Run {
                                 scan_idx: i,
@@ -743,6 +779,7 @@ fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
                                 x1: x,
                                 peak: v,
                                 peak_x: x,
+                                peak_y: y,
                             });
                         }
                     }
@@ -751,9 +788,7 @@ fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
             x0 = x1;
         }
         if let Some(r) = cur {
-            if is_blob_run::<P>(f, &r, thr, half_thr) {
-                runs.push(r);
-            }
+            keep(r, &mut runs);
         }
     }
     if runs.is_empty() {
@@ -797,7 +832,7 @@ fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
         let here = Blob {
             peak: run.peak,
             x: run.peak_x,
-            y: run.y,
+            y: run.peak_y,
         };
         match blobs.get_mut(blob_of_root[r]) {
             Some(b) => {
@@ -856,15 +891,29 @@ fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
     }
 }
 
-/// Does a stretch of pixels above `thr` belong to a blob: does its brightest pixel, or
-/// failing that any other of its pixels above `thr`, pass [`is_blob`]?
-fn is_blob_run<P: Px>(f: &FrameView, r: &Run, thr: u32, half_thr: u32) -> bool {
-    if is_blob::<P>(f, r.peak_x, r.y, half_thr) {
-        return true;
+/// Check a candidate stretch of a scanned row on the rows around it (up to the scanned
+/// rows `k` above and below; its columns ± 2): the brightest pixel above `thr` that passes
+/// [`is_blob`] becomes the run's peak; `None` if there is none.
+fn verify_run<P: Px>(f: &FrameView, mut r: Run, k: usize, thr: u32, half_thr: u32) -> Option<Run> {
+    let reach = k.saturating_sub(1);
+    let (y0, y1) = (r.y.saturating_sub(reach), (r.y + reach).min(f.height - 1));
+    let (x0, x1) = (r.x0.saturating_sub(2), (r.x1 + 2).min(f.width - 1));
+    let mut best: Option<(u32, usize, usize)> = None;
+    for y in y0..=y1 {
+        let row = f.row(y);
+        if P::max_of(&row[x0 * P::BPP..(x1 + 1) * P::BPP]) <= thr.max(best.map_or(0, |b| b.0)) {
+            continue;
+        }
+        for x in x0..=x1 {
+            let v = P::get(row, x);
+            if v > thr && best.is_none_or(|b| v > b.0) && is_blob::<P>(f, x, y, half_thr) {
+                best = Some((v, x, y));
+            }
+        }
     }
-    let row = f.row(r.y);
-    (r.x0..=r.x1)
-        .any(|x| x != r.peak_x && P::get(row, x) > thr && is_blob::<P>(f, x, r.y, half_thr))
+    let (peak, x, y) = best?;
+    (r.peak, r.peak_x, r.peak_y) = (peak, x, y);
+    Some(r)
 }
 
 /// Is the 3×3 neighbourhood of (x, y) mostly (its median) above `half_thr`?
@@ -1926,6 +1975,82 @@ mod tests {
         assert!(s.elongation < 1.2, "{s:?}");
     }
 
+    /// A noise-free 8-bit frame: background 10 DN plus pixel-integrated Gaussians.
+    fn clean8(srcs: &[Src]) -> Vec<u8> {
+        expected_electrons(W, H, srcs, CAM8)
+            .iter()
+            .map(|&e| (10.0 + e * CAM8.gain).round().min(255.0) as u8)
+            .collect()
+    }
+
+    /// Rows of the sparse scan for the default parameters: `first + i·k`.
+    fn scan_rows() -> (usize, usize) {
+        let k = scan_stride(SpotParams::default().min_sigma_px);
+        ((k - 1) / 2, k)
+    }
+
+    #[test]
+    fn faint_spot_between_scanned_rows_is_found() {
+        // Threshold T = 10 + 30 DN; a σ 2 spot whose brightest pixel is just above T is found
+        // wherever its centre lies between two scanned rows (mid-way, its scanned rows show
+        // only ~60 % of the peak), and one just below T is not: the same answer as reading
+        // every row.
+        let p = SpotParams {
+            min_peak_dn: 30.0,
+            ..SpotParams::default()
+        };
+        let (first, k) = scan_rows();
+        assert!(k >= 2, "the default scan skips rows");
+        let y0 = (first + 50 * k) as f64;
+        let mut t = 0.0;
+        while t <= k as f64 {
+            let (x, y) = (400.0 + 0.3 * t, y0 + t);
+            let data = clean8(&[spot(x, y, 2.0, 38.0)]);
+            let peak = data.iter().copied().max().unwrap();
+            assert!(peak > 40 && peak <= 48, "peak pixel {peak}");
+            let s = find_spot(&view(&data, W, H, 8), &p);
+            assert_eq!(s.status, SpotStatus::Ok, "centre y {y}: {s:?}");
+            assert!(
+                (s.x_px - x).abs() < 0.05 && (s.y_px - y).abs() < 0.05,
+                "{s:?}"
+            );
+            t += 0.25;
+        }
+        // Mid-way between scanned rows, brightest pixel at or below T: not a spot.
+        let y = y0 + k as f64 / 2.0;
+        let data = clean8(&[spot(400.0, y, 2.0, 30.0)]);
+        assert!(data.iter().copied().max().unwrap() <= 40);
+        let s = find_spot(&view(&data, W, H, 8), &p);
+        assert_eq!(s.status, SpotStatus::NoSpot, "{s:?}");
+    }
+
+    #[test]
+    fn faint_second_spot_between_scanned_rows_is_multiple() {
+        let p = SpotParams {
+            min_peak_dn: 30.0,
+            ..SpotParams::default()
+        };
+        let (first, k) = scan_rows();
+        let y = (first + 70 * k) as f64 + k as f64 / 2.0;
+        let bright = spot(200.3, 300.6, 4.0, 170.0);
+        let faint = spot(560.0, y, 2.0, 38.0);
+        let s = find_spot(&view(&clean8(&[bright, faint]), W, H, 8), &p);
+        assert_eq!(s.status, SpotStatus::Multiple, "{s:?}");
+        assert_eq!(s.blobs, 2);
+        assert!(
+            (s.x_px - bright.x).abs() < 0.05 && (s.y_px - bright.y).abs() < 0.05,
+            "{s:?}"
+        );
+        // The faint one alone is measured, and a saturated spot between scanned rows is
+        // flagged.
+        let s = find_spot(&view(&clean8(&[faint]), W, H, 8), &p);
+        assert_eq!(s.status, SpotStatus::Ok, "{s:?}");
+        let sat = spot(300.0, y, 2.0, 600.0);
+        let s = find_spot(&view(&clean8(&[sat]), W, H, 8), &p);
+        assert_eq!(s.status, SpotStatus::Saturated, "{s:?}");
+        assert!((s.y_px - y).abs() < 0.1, "{s:?}");
+    }
+
     #[test]
     fn two_spots_are_multiple() {
         let mut rng = StdRng::seed_from_u64(15);
@@ -2115,13 +2240,13 @@ mod tests {
             |src: &[Vec<u8>]| -> Vec<Vec<u8>> { (0..96).map(|i| src[i % 4].clone()).collect() };
         time(&many(&dark), "dark, cold", SpotStatus::NoSpot);
         time(&many(&lit), "spot σ4, cold", SpotStatus::Ok);
-        // Spots known to be σ ≥ 4 px (as in the sample recording): k = 6.
+        // Spots known to be σ ≥ 4 px (as in the sample recording): k = 8.
         let p4 = SpotParams {
             min_sigma_px: 4.0,
             ..p.clone()
         };
-        time_with(&dark[..1], "dark, hot, k=6", SpotStatus::NoSpot, &p4);
-        time_with(&many(&dark), "dark, cold, k=6", SpotStatus::NoSpot, &p4);
+        time_with(&dark[..1], "dark, hot, k=8", SpotStatus::NoSpot, &p4);
+        time_with(&many(&dark), "dark, cold, k=8", SpotStatus::NoSpot, &p4);
         let s = find_spot(&view(&lit[0], W, H, 8), &p);
         println!("spot frame: {} iterations", s.iterations);
         // Reference: reading every byte of the frame (vectorised max), hot and cold.
