@@ -246,7 +246,7 @@ def main() -> None:
                         "peak_rss_mb": r["peak_rss_mb"],
                     }
                 )
-    Path("bench-out/extract.json").write_text(json.dumps(rows, indent=2))
+    (args.dir / "extract.json").write_text(json.dumps(rows, indent=2))
 
 
 if __name__ == "__main__":
