@@ -17,27 +17,7 @@ from thermrs.fit import run_table
 from thermrs.iso9283 import LABEL, SUMMARY_SCHEMA, WINDOW_SCHEMA, iso9283, rp
 from thermrs.simulate import simulate
 
-SCENARIO = """format = "thermrs-scenario/1"
-seed = 5
-[[run]]
-name = "warm"
-speed_pct = 30
-duration_min = 90
-cycle_s = 60
-start = "ambient"
-[[node]]
-name = "link2"
-tau_min = 20.0
-rise_saturating = { r0_k = 0.438342, span_k = 5.030472, s0 = 0.0964029 }
-[[node]]
-name = "link3"
-tau_min = 30.0
-rise_saturating = { r0_k = 1.602697, span_k = 6.041837, s0 = 0.1241591 }
-[[node]]
-name = "base"
-tau_min = 600.0
-rise_k = [0.10, 0.85, 0.50]
-"""
+from tests.scenarios import FAST_NODES, WARM_UP_90_MIN
 
 
 def points_table(
@@ -218,7 +198,7 @@ def simulated(
     """A 90-min warm-up (link τ 20 and 30 min): the run table and the same table with the true
     spot positions (the mean of each visit's frames' true centres, chip µm)."""
     tmp: Path = tmp_path_factory.mktemp("iso")
-    (tmp / "s.toml").write_text(SCENARIO)
+    (tmp / "s.toml").write_text(WARM_UP_90_MIN.format(seed=5) + FAST_NODES)
     sim = simulate(paper_rig, tmp / "s.toml", tmp / "s.mcap")
     ex = thermrs.extract(sim.recording, paper_rig)
     table = run_table(ex, paper_rig, run="warm")

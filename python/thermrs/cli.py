@@ -345,6 +345,18 @@ def _run_tables(paths: tuple[Path, ...], rig: Any, what: str) -> tuple[list[Any]
     return tables, loss
 
 
+def runs_option(what: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """``--run RUN…`` (required, several), with its help text."""
+    return click.option(
+        "--run",
+        "runs",
+        required=True,
+        multiple=True,
+        type=click.Path(path_type=Path),
+        help=f"{what}: recordings (MCAP) or tables written by `thermrs extract`.",
+    )
+
+
 TRAIN_HELP = (
     "Training runs: recordings (MCAP) or tables written by `thermrs extract`, one run each "
     "(--train A B or --train A --train B)."
@@ -408,14 +420,7 @@ def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None
 
 @cli.command()
 @rig_option
-@click.option(
-    "--run",
-    "runs",
-    required=True,
-    multiple=True,
-    type=click.Path(path_type=Path),
-    help="Runs to predict: recordings (MCAP) or tables written by `thermrs extract`.",
-)
+@runs_option("Runs to predict")
 @click.option("--alpha", "alpha", type=float, default=None, help="α (1/K) to predict with.")
 @click.option(
     "--fit",
@@ -557,14 +562,7 @@ def predict(
 
 @cli.command()
 @rig_option
-@click.option(
-    "--run",
-    "runs",
-    required=True,
-    multiple=True,
-    type=click.Path(path_type=Path),
-    help="Runs: recordings (MCAP) or tables written by `thermrs extract`.",
-)
+@runs_option("Runs")
 @click.option(
     "--window",
     type=click.IntRange(min=3),
