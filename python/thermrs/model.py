@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -30,6 +31,9 @@ import polars as pl
 from thermrs import _native
 from thermrs.errors import InputError
 from thermrs.rig import Rig
+
+if TYPE_CHECKING:
+    from thermrs.effects import Effect
 
 __all__ = ["ForwardModel", "Spots"]
 
@@ -99,9 +103,13 @@ class ForwardModel:
         α (1/K) for every mapped temperature; default the rig's ``expansion.alpha_per_k``.
     reference_c
         Temperature (°C) at which the rig's lengths hold; default ``expansion.reference_c``.
+    effects
+        SPEC §6 effects (:mod:`thermrs.effects` objects or their JSON dicts) the model carries:
+        the geometric ones move the spot here; ``thermal_lag`` and the chip effects are applied
+        by :class:`thermrs.signatures.VisitSet` and the simulator, which have the time axis.
     alpha_by_temperature
         One α per mapped temperature name, overriding ``alpha_per_k`` (SPEC §6
-        ``alpha_per_link``).
+        ``alpha_per_link``; the same as ``effects=[AlphaPerLink(...)]``).
     kappa_per_k
         Quadratic strain term: strain = α·ΔT·(1 + κ·ΔT) (SPEC §6 ``nonlinear_alpha``).
     extra_lengths
@@ -125,32 +133,47 @@ class ForwardModel:
         *,
         alpha_per_k: float | None = None,
         reference_c: float | None = None,
+        effects: Sequence[Effect | Mapping[str, Any]] | None = None,
         alpha_by_temperature: Mapping[str, float] | None = None,
         kappa_per_k: float = 0.0,
         extra_lengths: Mapping[str, str] | None = None,
         joint_offsets: Sequence[tuple[str | int, str, float]] | None = None,
         laser_tilt_deg: float | tuple[float, float] | None = None,
     ) -> None:
+        from thermrs.effects import (
+            AlphaPerLink,
+            JointOffset,
+            LaserTilt,
+            NonlinearAlpha,
+            UnmodelledLength,
+            effects_from,
+        )
+
         self.rig = rig
-        offsets = []
+        chosen = effects_from(effects, rig)
+        # The keyword forms of the geometric effects, kept for existing callers.
+        if alpha_by_temperature:
+            chosen.append(AlphaPerLink(alpha_per_k=dict(alpha_by_temperature)))
+        if kappa_per_k:
+            chosen.append(NonlinearAlpha(kappa_per_k=float(kappa_per_k)))
+        for length, temperature in (extra_lengths or {}).items():
+            chosen.append(UnmodelledLength(length=length, temperature=temperature))
         for joint, temperature, urad_per_k in joint_offsets or ():
-            offsets.append((self._joint_index(joint), temperature, urad_per_k * 1e-6))
-        tilt: tuple[float, float] | None
-        if laser_tilt_deg is None:
-            tilt = None
-        elif isinstance(laser_tilt_deg, tuple):
-            tilt = (float(laser_tilt_deg[0]), float(laser_tilt_deg[1]))
-        else:
-            tilt = (float(laser_tilt_deg), 0.0)
+            name = self.rig.joint_names[self._joint_index(joint)]
+            chosen.append(JointOffset(joint=name, temperature=temperature, urad_per_k=urad_per_k))
+        if laser_tilt_deg is not None:
+            tilt, az = (
+                laser_tilt_deg if isinstance(laser_tilt_deg, tuple) else (laser_tilt_deg, 0.0)
+            )
+            chosen.append(LaserTilt(tilt_deg=float(tilt), azimuth_deg=float(az)))
+        self.effects: tuple[Effect, ...] = tuple(chosen)
+        from thermrs.effects import to_json
+
         self._native = _native.ForwardModel(
             rig._native,
             alpha_per_k=alpha_per_k,
             reference_c=reference_c,
-            alpha_by_temperature=dict(alpha_by_temperature) if alpha_by_temperature else None,
-            kappa_per_k=kappa_per_k,
-            extra_lengths=list((extra_lengths or {}).items()),
-            joint_offsets=offsets,
-            laser_tilt=tilt,
+            effects_json=to_json(chosen),
         )
 
     def _joint_index(self, joint: str | int) -> int:

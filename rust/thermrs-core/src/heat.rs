@@ -522,13 +522,25 @@ pub fn first_order_lag(t_s: &[f64], x: &[f64], tau_s: f64) -> Result<Vec<f64>, S
         let h = t_s[k] - t_s[k - 1];
         // NaN steps go through the update so that the NaN propagates.
         if h > 0.0 || h.is_nan() {
-            let u = h / tau_s;
-            let a = (-u).exp();
-            yk = x[k] - (x[k] - x[k - 1]) * phi(u) + a * (yk - x[k - 1]);
+            yk = lag_step(x[k - 1], x[k], yk, h, tau_s);
         }
         y.push(yk);
     }
     Ok(y)
+}
+
+/// One step of the first-order lag (the law of [`first_order_lag`], module documentation):
+/// the lagged value after `h` seconds from `y_prev`, with the input going linearly from
+/// `x_prev` to `x_now`. `tau_s ≤ 0` (no lag) or a step that passes no time gives `x_now`; a NaN
+/// propagates.
+#[inline]
+pub fn lag_step(x_prev: f64, x_now: f64, y_prev: f64, h: f64, tau_s: f64) -> f64 {
+    if tau_s <= 0.0 || h <= 0.0 {
+        return x_now;
+    }
+    let u = h / tau_s;
+    let a = (-u).exp();
+    x_now - (x_now - x_prev) * phi(u) + a * (y_prev - x_prev)
 }
 
 #[cfg(test)]

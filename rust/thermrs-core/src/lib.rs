@@ -5,6 +5,7 @@
 //! - [`kinematics`]: standard Denavit–Hartenberg forward kinematics with per-sample link lengths;
 //! - [`optics`]: the laser ray and its intersection with a CCD chip, in pixels (SPEC §4);
 //! - [`model`]: the thermal-expansion forward model (SPEC §4), vectorised over time series;
+//! - [`effects`]: the unmodelled effects of SPEC §6, their parameters, validation and action;
 //! - [`explain`]: a rig checked and explained pose by pose (`thermrs rig`);
 //! - [`cdr`]: zero-copy ROS 2 CDR decoding of the recorded message types;
 //! - [`centroid`]: laser-spot detection and sub-pixel centroids on CCD frames;
@@ -17,6 +18,7 @@
 
 pub mod cdr;
 pub mod centroid;
+pub mod effects;
 pub mod error;
 pub mod explain;
 pub mod heat;

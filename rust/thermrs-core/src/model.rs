@@ -13,11 +13,9 @@
 //! - `joint_offset`: a joint's zero moves by k·ΔT of a temperature (`joint_offsets`);
 //! - `laser_tilt`: the true laser direction is tilted from the rig's (`laser_tilt`).
 //!
-//! The effects that move a chip rather than the ray, `fixture_drift` (with ambient) and
-//! `sensor_drift` (with time since the run began), are [`fixture_drift_um`] and
-//! [`sensor_drift_um`]: apparent spot shifts on the chip to add to the model's spots. The
-//! remaining effect, `thermal_lag`, acts on the temperature series before they reach this
-//! model ([`crate::heat::first_order_lag`]).
+//! These fields are set from the effects' one home, [`crate::effects`], which also holds the
+//! effects that act elsewhere: on the chip (`fixture_drift`, `sensor_drift`) and on the
+//! temperatures before they reach this model (`thermal_lag`).
 //!
 //! Everything is vectorised over samples: joints are an `N×6` row-major slice (radians),
 //! temperatures one `N`-long column per mapped name. Work over 8,192 samples is spread over the
@@ -478,36 +476,6 @@ impl ForwardModel {
     }
 }
 
-/// `fixture_drift`: the apparent spot shift (u, v) in µm on a chip whose mount moves with the
-/// ambient temperature, `um_per_k` per kelvin above `reference_c`.
-pub fn fixture_drift_um(um_per_k: [f64; 2], reference_c: f64, ambient_c: &[f64]) -> Vec<[f64; 2]> {
-    ambient_c
-        .iter()
-        .map(|t| {
-            [
-                um_per_k[0] * (t - reference_c),
-                um_per_k[1] * (t - reference_c),
-            ]
-        })
-        .collect()
-}
-
-/// `sensor_drift`: the apparent spot shift (u, v) in µm of a chip drifting on its own, first
-/// order with time since the run began: `um`·(1 − e^(−t/τ)).
-pub fn sensor_drift_um(um: [f64; 2], tau_min: f64, t_since_start_s: &[f64]) -> Vec<[f64; 2]> {
-    t_since_start_s
-        .iter()
-        .map(|t| {
-            let f = if tau_min > 0.0 {
-                1.0 - (-t.max(0.0) / (tau_min * 60.0)).exp()
-            } else {
-                1.0
-            };
-            [um[0] * f, um[1] * f]
-        })
-        .collect()
-}
-
 /// Number of threads the parallel loops use (rayon's pool; `RAYON_NUM_THREADS` sets it).
 pub fn num_threads() -> usize {
     rayon::current_num_threads()
@@ -600,19 +568,6 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("A, B"));
-    }
-
-    #[test]
-    fn chip_drifts_have_their_closed_forms() {
-        let f = fixture_drift_um([0.5, -2.0], 23.0, &[23.0, 25.0, 20.0]);
-        assert_eq!(f, vec![[0.0, -0.0], [1.0, -4.0], [-1.5, 6.0]]);
-        let tau_min = 30.0;
-        let s = sensor_drift_um([3.0, -1.0], tau_min, &[0.0, 1800.0, 1e9, -5.0]);
-        let e1 = 1.0 - (-1.0f64).exp();
-        assert_eq!(s[0], [0.0, -0.0]);
-        assert!((s[1][0] - 3.0 * e1).abs() < 1e-12 && (s[1][1] + e1).abs() < 1e-12);
-        assert!((s[2][0] - 3.0).abs() < 1e-12);
-        assert_eq!(s[3], [0.0, -0.0], "before the run began: no drift");
     }
 
     #[test]

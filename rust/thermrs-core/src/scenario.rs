@@ -44,23 +44,12 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::effects::{Effect, EffectSpec};
 use crate::error::RigError;
 use crate::heat::Rise;
 
 /// The format string every scenario file must carry.
 pub const SCENARIO_FORMAT: &str = "thermrs-scenario/1";
-
-/// Effect names of SPEC §6 (the contract).
-pub const EFFECT_NAMES: [&str; 8] = [
-    "alpha_per_link",
-    "thermal_lag",
-    "unmodelled_length",
-    "fixture_drift",
-    "laser_tilt",
-    "joint_offset",
-    "nonlinear_alpha",
-    "sensor_drift",
-];
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -85,8 +74,9 @@ pub struct Scenario {
     /// Thermal nodes (default: the KR 15/2 calibration of `heat::kr15_paper_nodes`).
     #[serde(default)]
     pub node: Vec<Node>,
+    /// SPEC §6 effects, as written (see [`crate::effects`]; [`Scenario::effects`] types them).
     #[serde(default)]
-    pub effect: Vec<Effect>,
+    pub effect: Vec<EffectSpec>,
 }
 
 /// How a run starts.
@@ -291,74 +281,28 @@ impl Node {
     }
 }
 
-/// One effect of SPEC §6 with its parameters (the SPEC's JSON keys).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Effect {
-    pub name: String,
-    #[serde(default)]
-    pub alpha_per_k: Option<std::collections::BTreeMap<String, f64>>,
-    #[serde(default)]
-    pub tau_min: Option<f64>,
-    #[serde(default)]
-    pub length: Option<String>,
-    #[serde(default)]
-    pub temperature: Option<String>,
-    #[serde(default)]
-    pub camera: Option<String>,
-    #[serde(default)]
-    pub um_per_k: Option<[f64; 2]>,
-    #[serde(default)]
-    pub tilt_deg: Option<f64>,
-    #[serde(default)]
-    pub joint: Option<String>,
-    #[serde(default)]
-    pub urad_per_k: Option<f64>,
-    #[serde(default)]
-    pub kappa_per_k: Option<f64>,
-    #[serde(default)]
-    pub um: Option<[f64; 2]>,
-}
-
-impl Effect {
-    /// The parameter keys each effect requires (SPEC §6).
-    pub fn required_keys(name: &str) -> Option<&'static [&'static str]> {
-        Some(match name {
-            "alpha_per_link" => &["alpha_per_k"],
-            "thermal_lag" => &["tau_min"],
-            "unmodelled_length" => &["length", "temperature"],
-            "fixture_drift" => &["camera", "um_per_k"],
-            "laser_tilt" => &["tilt_deg"],
-            "joint_offset" => &["joint", "temperature", "urad_per_k"],
-            "nonlinear_alpha" => &["kappa_per_k"],
-            "sensor_drift" => &["camera", "tau_min", "um"],
-            _ => return None,
-        })
-    }
-
-    fn present_keys(&self) -> Vec<&'static str> {
-        let mut k = Vec::new();
-        macro_rules! has {
-            ($($f:ident),*) => { $( if self.$f.is_some() { k.push(stringify!($f)); } )* };
-        }
-        has!(
-            alpha_per_k,
-            tau_min,
-            length,
-            temperature,
-            camera,
-            um_per_k,
-            tilt_deg,
-            joint,
-            urad_per_k,
-            kappa_per_k,
-            um
-        );
-        k
-    }
-}
-
 impl Scenario {
+    /// The scenario's effects, typed (valid once [`Scenario::validate`] passed).
+    pub fn effects(&self) -> Result<Vec<Effect>, RigError> {
+        self.effect
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                Effect::from_spec(e).map_err(|(key, message)| RigError {
+                    kind: "scenario",
+                    source_name: self.name.clone().unwrap_or_else(|| "<scenario>".into()),
+                    line: None,
+                    key: if key.is_empty() {
+                        format!("effect[{i}]")
+                    } else {
+                        format!("effect[{i}].{key}")
+                    },
+                    message,
+                })
+            })
+            .collect()
+    }
+
     /// Parse and validate scenario TOML text; `source_name` names it in errors.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Scenario, RigError> {
         crate::rig::parse_strict(text, source_name, "scenario", Scenario::validate)
@@ -493,34 +437,13 @@ impl Scenario {
             }
         }
         for (i, e) in self.effect.iter().enumerate() {
-            let k = format!("effect[{i}]");
-            let Some(req) = Effect::required_keys(&e.name) else {
-                return fail(
-                    &format!("{k}.name"),
-                    format!(
-                        "{:?} is not a SPEC §6 effect ({})",
-                        e.name,
-                        EFFECT_NAMES.join(", ")
-                    ),
-                );
-            };
-            let present = e.present_keys();
-            for r in req {
-                if !present.contains(r) {
-                    return fail(&k, format!("effect {:?} needs `{r}`", e.name));
-                }
-            }
-            for p in &present {
-                if !req.contains(p) {
-                    return fail(
-                        &format!("{k}.{p}"),
-                        format!(
-                            "is not a parameter of {:?} (it takes {})",
-                            e.name,
-                            req.join(", ")
-                        ),
-                    );
-                }
+            if let Err((key, m)) = Effect::from_spec(e) {
+                let k = if key.is_empty() {
+                    format!("effect[{i}]")
+                } else {
+                    format!("effect[{i}].{key}")
+                };
+                return fail(&k, m);
             }
         }
         Ok(())
@@ -702,9 +625,19 @@ mod tests {
     }
 
     #[test]
-    fn every_effect_has_its_keys() {
-        for name in EFFECT_NAMES {
-            assert!(Effect::required_keys(name).is_some(), "{name}");
+    fn effect_values_out_of_range_are_named() {
+        for (body, key) in [
+            (
+                "name = \"thermal_lag\"\ntau_min = -5\n",
+                "effect[0].tau_min",
+            ),
+            (
+                "name = \"nonlinear_alpha\"\nkappa_per_k = 3\n",
+                "effect[0].kappa_per_k",
+            ),
+        ] {
+            let e = Scenario::from_toml(&format!("{MIN}[[effect]]\n{body}"), "s").unwrap_err();
+            assert_eq!(e.key, key, "{e}");
         }
     }
 }

@@ -22,12 +22,10 @@ use rand::rngs::StdRng;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal, Poisson, StandardNormal};
 
+use crate::effects::Effects;
 use crate::error::{Error, Result};
 use crate::heat::{self, NodeParams};
-use crate::model::{
-    fixture_drift_um, pose_joints_rad, sensor_drift_um, ForwardModel, JointOffset, LaserTilt,
-    ModelParams,
-};
+use crate::model::{pose_joints_rad, ForwardModel};
 use crate::record::{ImageFields, MsgType, RecordCompression, RecordOptions, RecordingWriter};
 use crate::rig::{LengthRef, Rig, AMBIENT};
 use crate::scenario::{Scenario, Start};
@@ -96,80 +94,15 @@ pub struct Truth {
     pub lengths_mm: Vec<f64>,
 }
 
-/// Effects of a scenario turned into model parameters and chip shifts.
-struct EffectSet {
-    params: ModelParams,
-    lag_tau_s: f64,
-    /// (camera, µm per K)
-    fixture: Vec<(usize, [f64; 2])>,
-    /// (camera, τ min, µm)
-    sensor: Vec<(usize, f64, [f64; 2])>,
-}
-
-fn effects(rig: &Rig, sc: &Scenario) -> Result<EffectSet> {
-    let mut params = ModelParams::nominal(rig);
-    let mut set = EffectSet {
-        params: ModelParams::nominal(rig),
-        lag_tau_s: 0.0,
-        fixture: Vec::new(),
-        sensor: Vec::new(),
-    };
-    let camera = |name: &Option<String>| -> Result<usize> {
-        let n = name.as_deref().unwrap_or("");
-        rig.camera_index(n)
-            .ok_or_else(|| Error::Input(format!("effect names camera {n:?}, not in the rig")))
-    };
-    for e in &sc.effect {
-        match e.name.as_str() {
-            "alpha_per_link" => {
-                params.alpha_by_temperature = e.alpha_per_k.clone().unwrap_or_default();
-            }
-            "nonlinear_alpha" => params.kappa_per_k = e.kappa_per_k.unwrap_or(0.0),
-            "thermal_lag" => set.lag_tau_s = e.tau_min.unwrap_or(0.0) * 60.0,
-            "unmodelled_length" => {
-                let name = e.length.clone().unwrap_or_default();
-                let l = LengthRef::parse(&name).ok_or_else(|| {
-                    Error::Input(format!("unmodelled_length: {name:?} is not a DH length"))
-                })?;
-                params
-                    .extra_lengths
-                    .push((l, e.temperature.clone().unwrap_or_default()));
-            }
-            "joint_offset" => {
-                let j = e.joint.clone().unwrap_or_default();
-                let joint = rig
-                    .robot
-                    .joint_names
-                    .iter()
-                    .position(|n| *n == j)
-                    .ok_or_else(|| {
-                        Error::Input(format!("joint_offset: {j:?} is not a joint of the rig"))
-                    })?;
-                params.joint_offsets.push(JointOffset {
-                    joint,
-                    temperature: e.temperature.clone().unwrap_or_default(),
-                    rad_per_k: e.urad_per_k.unwrap_or(0.0) * 1e-6,
-                });
-            }
-            "laser_tilt" => {
-                params.laser_tilt = Some(LaserTilt {
-                    tilt_deg: e.tilt_deg.unwrap_or(0.0),
-                    azimuth_deg: 0.0,
-                })
-            }
-            "fixture_drift" => set
-                .fixture
-                .push((camera(&e.camera)?, e.um_per_k.unwrap_or([0.0; 2]))),
-            "sensor_drift" => set.sensor.push((
-                camera(&e.camera)?,
-                e.tau_min.unwrap_or(1.0),
-                e.um.unwrap_or([0.0; 2]),
-            )),
-            other => return Err(Error::Input(format!("unknown effect {other:?}"))),
-        }
-    }
-    set.params = params;
-    Ok(set)
+/// A scenario's effects on a rig (see [`crate::effects`]).
+fn effects(rig: &Rig, sc: &Scenario) -> Result<Effects> {
+    let list = sc.effects()?;
+    Effects::build(
+        rig,
+        &list,
+        rig.expansion.alpha_per_k,
+        rig.expansion.reference_c,
+    )
 }
 
 /// Thermal nodes: the scenario's, else the KR 15/2 calibration; each must be a ROI of the rig.
@@ -448,15 +381,6 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
     let frame_dt = 1.0 / cam.frame_rate_hz;
     let continuous = cam.mode == "continuous";
     let mut q_cur: Option<[f64; 6]> = None;
-    let lag_step = |x_prev: f64, x_now: f64, y_prev: f64, dt: f64, tau: f64| -> f64 {
-        if tau <= 0.0 || dt <= 0.0 {
-            return x_now;
-        }
-        let u = dt / tau;
-        let a = (-u).exp();
-        let phi = -(-u).exp_m1() / u;
-        x_now - (x_now - x_prev) * phi + a * (y_prev - x_prev)
-    };
     for (ri, run) in sc.run.iter().enumerate() {
         // Idle (cooling) before the run; a run that starts at ambient resets every node.
         if run.start == Start::Ambient || ri == 0 {
@@ -470,7 +394,7 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
             for (k, n) in nodes.iter().enumerate() {
                 let before = surface[k];
                 surface[k] = n.step(before, a, None, dt);
-                structure[k] = lag_step(before, surface[k], structure[k], dt, fx.lag_tau_s);
+                structure[k] = fx.structure_step(before, surface[k], structure[k], dt);
             }
             t_s += dt;
         }
@@ -588,20 +512,9 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
                 let mut out = [0.0; crate::model::SPOT_WIDTH];
                 model.spot_batch(ci, &q_at(t), Some(&tcols), &mut out)?;
                 let (mut x, mut y) = (out[0], out[1]);
-                for &(fc, k) in &fx.fixture {
-                    if fc == ci {
-                        let d = fixture_drift_um(k, rig.expansion.reference_c, &[ambient_at(t)])[0];
-                        x += d[0] / c.pixel_pitch_um[0];
-                        y += d[1] / c.pixel_pitch_um[1];
-                    }
-                }
-                for &(sc_i, tau, um) in &fx.sensor {
-                    if sc_i == ci {
-                        let d = sensor_drift_um(um, tau, &[t - run_start_s])[0];
-                        x += d[0] / c.pixel_pitch_um[0];
-                        y += d[1] / c.pixel_pitch_um[1];
-                    }
-                }
+                let d = fx.chip_shift_um(ci, ambient_at(t), t - run_start_s);
+                x += d[0] / c.pixel_pitch_um[0];
+                y += d[1] / c.pixel_pitch_um[1];
                 let (w, h) = (c.size_px[0] as f64, c.size_px[1] as f64);
                 let on = x.is_finite()
                     && y.is_finite()
@@ -707,7 +620,7 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
                 .map(|(n, &t)| n.step(t, a_ir, Some(speed), into))
                 .collect();
             let structure_ir: Vec<f64> = (0..nodes.len())
-                .map(|k| lag_step(surface[k], surface_ir[k], structure[k], into, fx.lag_tau_s))
+                .map(|k| fx.structure_step(surface[k], surface_ir[k], structure[k], into))
                 .collect();
             for _ in 0..sc.ir.frames_per_cycle.max(1) {
                 let roi_c: Vec<(usize, f64)> = node_roi
@@ -783,8 +696,7 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
             for (k, n) in nodes.iter().enumerate() {
                 let before = surface[k];
                 surface[k] = n.step(before, a_mid, Some(speed), run.cycle_s);
-                structure[k] =
-                    lag_step(before, surface[k], structure[k], run.cycle_s, fx.lag_tau_s);
+                structure[k] = fx.structure_step(before, surface[k], structure[k], run.cycle_s);
             }
             t_s = cycle_t + run.cycle_s;
         }

@@ -5,12 +5,12 @@
 //! runs in chunks with the GIL released (`py.detach`); between chunks the bindings check for
 //! signals (Ctrl-C) and report progress through an optional `progress(done, total)` callback.
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use numpy::ndarray::Array2;
 use numpy::{
-    IntoPyArray, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2,
+    PyUntypedArrayMethods,
 };
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
@@ -20,12 +20,13 @@ use std::sync::Mutex;
 use thermrs_core::error::Error as CoreError;
 
 use pyo3::types::{PyDict, PyTuple};
+use thermrs_core::effects::Effects;
 use thermrs_core::explain;
 use thermrs_core::ingest;
-use thermrs_core::model::{
-    FlangeOutput, ForwardModel, JointOffset, LaserTilt, ModelParams, SPOT_WIDTH,
-};
-use thermrs_core::rig::{LengthRef, Rig};
+use thermrs_core::model::{FlangeOutput, ForwardModel, SPOT_WIDTH};
+use thermrs_core::rig::Rig;
+
+mod effects;
 
 create_exception!(
     thermrs._native,
@@ -118,6 +119,8 @@ impl PyRig {
 #[pyclass(frozen, module = "thermrs._native", name = "ForwardModel")]
 struct PyForwardModel {
     inner: ForwardModel,
+    /// The effects it was built with (lag and chip shifts act outside the geometry).
+    effects: Effects,
 }
 
 fn report(
@@ -191,50 +194,77 @@ impl PyForwardModel {
 #[pymethods]
 impl PyForwardModel {
     #[new]
-    #[pyo3(signature = (rig, *, alpha_per_k = None, reference_c = None, alpha_by_temperature = None, kappa_per_k = 0.0, extra_lengths = None, joint_offsets = None, laser_tilt = None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (rig, *, alpha_per_k = None, reference_c = None, effects_json = None))]
     fn new(
         rig: &PyRig,
         alpha_per_k: Option<f64>,
         reference_c: Option<f64>,
-        alpha_by_temperature: Option<BTreeMap<String, f64>>,
-        kappa_per_k: f64,
-        extra_lengths: Option<Vec<(String, String)>>,
-        joint_offsets: Option<Vec<(usize, String, f64)>>,
-        laser_tilt: Option<(f64, f64)>,
+        effects_json: Option<&str>,
     ) -> PyResult<PyForwardModel> {
-        let mut params = ModelParams::nominal(&rig.inner);
-        if let Some(a) = alpha_per_k {
-            params.alpha_per_k = a;
+        let list = match effects_json {
+            Some(j) => effects::parse_list(j)?,
+            None => Vec::new(),
+        };
+        let fx = Effects::build(
+            &rig.inner,
+            &list,
+            alpha_per_k.unwrap_or(rig.inner.expansion.alpha_per_k),
+            reference_c.unwrap_or(rig.inner.expansion.reference_c),
+        )
+        .map_err(to_py)?;
+        let inner = ForwardModel::new(&rig.inner, &fx.params).map_err(to_py)?;
+        Ok(PyForwardModel { inner, effects: fx })
+    }
+
+    /// Whether an effect lags the structure behind the surface temperatures.
+    fn has_lag(&self) -> bool {
+        self.effects.lag_tau_s.is_some()
+    }
+
+    /// Whether an effect shifts chips.
+    fn shifts_chips(&self) -> bool {
+        self.effects.shifts_chips()
+    }
+
+    /// A surface temperature series as the structure sees it (`thermal_lag`; unchanged
+    /// without it), times in seconds.
+    fn structure_temperatures<'py>(
+        &self,
+        py: Python<'py>,
+        t_s: PyReadonlyArray1<'py, f64>,
+        x: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let y = self
+            .effects
+            .structure_series(t_s.as_slice()?, x.as_slice()?)
+            .map_err(to_py)?;
+        Ok(y.into_pyarray(py))
+    }
+
+    /// The chip effects' apparent shift (N, 2) µm of one camera's spot, per sample of ambient
+    /// temperature and time since the run began (s).
+    fn chip_shifts<'py>(
+        &self,
+        py: Python<'py>,
+        camera: &str,
+        ambient_c: PyReadonlyArray1<'py, f64>,
+        t_since_start_s: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let cam = self.inner.camera_index(camera).map_err(to_py)?;
+        let (a, t) = (ambient_c.as_slice()?, t_since_start_s.as_slice()?);
+        if a.len() != t.len() {
+            return Err(InputError::new_err(format!(
+                "ambient_c and t_since_start_s must have equal lengths, got {} and {}",
+                a.len(),
+                t.len()
+            )));
         }
-        if let Some(r) = reference_c {
-            params.reference_c = r;
+        let mut out = Vec::with_capacity(2 * a.len());
+        for (&ak, &tk) in a.iter().zip(t) {
+            out.extend_from_slice(&self.effects.chip_shift_um(cam, ak, tk));
         }
-        params.alpha_by_temperature = alpha_by_temperature.unwrap_or_default();
-        params.kappa_per_k = kappa_per_k;
-        for (name, temperature) in extra_lengths.unwrap_or_default() {
-            let l = LengthRef::parse(&name).ok_or_else(|| {
-                InputError::new_err(format!(
-                    "unmodelled_length: {name:?} is not a DH length (a1..a6, d1..d6)"
-                ))
-            })?;
-            params.extra_lengths.push((l, temperature));
-        }
-        params.joint_offsets = joint_offsets
-            .unwrap_or_default()
-            .into_iter()
-            .map(|(joint, temperature, rad_per_k)| JointOffset {
-                joint,
-                temperature,
-                rad_per_k,
-            })
-            .collect();
-        params.laser_tilt = laser_tilt.map(|(tilt_deg, azimuth_deg)| LaserTilt {
-            tilt_deg,
-            azimuth_deg,
-        });
-        let inner = ForwardModel::new(&rig.inner, &params).map_err(to_py)?;
-        Ok(PyForwardModel { inner })
+        let arr = Array2::from_shape_vec((a.len(), 2), out).expect("shape");
+        Ok(arr.into_pyarray(py))
     }
 
     /// Temperature names, in the order `temperatures` columns are expected.
@@ -512,6 +542,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ScenarioError", py.get_type::<ScenarioError>())?;
     m.add_class::<PyRig>()?;
     m.add_class::<PyForwardModel>()?;
+    effects::register(m)?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(extract, m)?)?;
     m.add_function(wrap_pyfunction!(status_names, m)?)?;

@@ -1,0 +1,569 @@
+"""The unmodelled effects of SPEC §6, as Python objects.
+
+Each effect is a frozen dataclass whose fields are the SPEC's JSON keys. Its parameters are
+validated, and its action on the forward model is carried out, in one place: the Rust core's
+``effects`` module (``thermrs._native``), which the simulator uses too. This module is the face
+of that home for Python:
+
+- build effects (``ThermalLag(tau_min=25.0)``) or read them (:func:`from_dict`, the JSON shape
+  of SPEC §6 and of scenario files' ``[[effect]]`` tables);
+- give them to :class:`thermrs.ForwardModel` (``effects=[...]``), which moves the spot as the
+  effect does;
+- the diagnoser (:mod:`thermrs.diagnose`) asks each effect class for its *families*
+  (:meth:`Effect.families`): the effect's discrete choices (which camera, joint, length,
+  temperature) and its profiled non-linear parameters (time constants), each family giving the
+  signature columns the effect adds to the nominal model and reading its fitted amplitudes
+  back as the effect's SPEC parameters.
+
+Adding an effect: a variant in ``rust/thermrs-core/src/effects.rs``, a class here (registered
+with :func:`register`), and a row in the SPEC table. A user may also register an effect of their
+own whose :meth:`Effect.families` compute signature columns in Python; the diagnoser treats it
+like the built-in ones.
+
+Example
+-------
+>>> import thermrs
+>>> from thermrs.effects import ThermalLag, from_dict
+>>> lag = from_dict({"name": "thermal_lag", "tau_min": 25.0})
+>>> lag == ThermalLag(tau_min=25.0)
+True
+>>> lag.to_dict()
+{'name': 'thermal_lag', 'tau_min': 25.0}
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+import numpy.typing as npt
+
+from thermrs import _native
+from thermrs.errors import InputError
+
+if TYPE_CHECKING:
+    from thermrs.rig import Rig
+    from thermrs.signatures import VisitSet
+
+__all__ = [
+    "EFFECT_NAMES",
+    "AlphaPerLink",
+    "Effect",
+    "Family",
+    "FixtureDrift",
+    "JointOffset",
+    "LaserTilt",
+    "NonlinearAlpha",
+    "SensorDrift",
+    "ThermalLag",
+    "UnmodelledLength",
+    "effect_classes",
+    "from_dict",
+    "register",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+#: SPEC §6 names, in the SPEC's order (from the Rust core).
+EFFECT_NAMES: tuple[str, ...] = tuple(_native.effect_names())
+
+#: Time constants (min) the diagnoser profiles for first-order effects (then refines).
+TAU_GRID_MIN: tuple[float, ...] = (3, 6, 10, 15, 22, 33, 50, 75, 110, 160, 240, 360, 540)
+
+
+@dataclass(frozen=True)
+class Family:
+    """One way an effect can act on given runs, for the diagnoser.
+
+    An effect with discrete choices (a camera, a joint and a temperature) has one family per
+    choice; within a family the diagnoser profiles ``grid`` (non-linear parameters such as a
+    time constant, a list of dicts; ``[{}]`` for none) and fits the amplitudes of the signature
+    columns by linear least squares beside α and the offsets.
+
+    Attributes
+    ----------
+    effect
+        The SPEC §6 name.
+    label
+        A short human label, e.g. ``"sensor_drift camera=A"``.
+    choices
+        The fixed discrete parameters (SPEC keys), e.g. ``{"camera": "A"}``.
+    grid
+        Non-linear parameter values to profile, e.g. ``[{"tau_min": 3.0}, …]``.
+    columns
+        ``columns(visits, eta) -> (2n, k)`` array: the effect's signature per unit amplitude
+        on every visit's u (first n rows) and v (next n rows), from the nominal model at the
+        rig's α.
+    params
+        ``params(eta, alpha, beta, cov) -> (params, ci95)``: the effect's SPEC parameters from
+        the fitted α, amplitudes ``beta`` and their covariance (α first), with 95 % intervals
+        where they can be given.
+    driver
+        What the signature follows in time (for the placebo and the report), e.g. ``"link2"``,
+        ``"ambient"``, ``"time"``.
+    refine
+        Names of ``grid`` keys that may be refined continuously between grid points.
+    """
+
+    effect: str
+    label: str
+    choices: dict[str, Any]
+    grid: list[dict[str, float]]
+    columns: Callable[[VisitSet, dict[str, float]], FloatArray]
+    params: Callable[
+        [dict[str, float], float, FloatArray, FloatArray],
+        tuple[dict[str, Any], dict[str, Any]],
+    ]
+    driver: str = "temperature"
+    refine: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Effect:
+    """Base of every SPEC §6 effect: a frozen dataclass of the SPEC's JSON keys."""
+
+    name: ClassVar[str] = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The SPEC §6 JSON shape: ``{"name": …, key: value, …}``."""
+        d: dict[str, Any] = {"name": self.name}
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            d[f.name] = (
+                list(v) if isinstance(v, tuple) else dict(v) if isinstance(v, Mapping) else v
+            )
+        return d
+
+    def check(self, rig: Rig | None = None) -> Effect:
+        """Validate the values (and, with ``rig``, the names they use) in the Rust core.
+
+        Raises
+        ------
+        InputError
+            A value out of range or a name the rig does not have; the message names the key.
+        """
+        if self.name in _native.effect_names():
+            _native.effect_check(json.dumps(self.to_dict()), None if rig is None else rig._native)
+        return self
+
+    @classmethod
+    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+        """The diagnoser's families of this effect on these runs (none by default)."""
+        return []
+
+
+_REGISTRY: dict[str, type[Effect]] = {}
+
+
+def register(cls: type[Effect]) -> type[Effect]:
+    """Register an effect class under its ``name`` (a decorator)."""
+    if not cls.name:
+        raise TypeError(f"{cls.__name__} has no `name`")
+    _REGISTRY[cls.name] = cls
+    return cls
+
+
+def effect_classes() -> dict[str, type[Effect]]:
+    """Every registered effect class by name (SPEC §6 first, in the SPEC's order)."""
+    return dict(_REGISTRY)
+
+
+def from_dict(d: Mapping[str, Any], *, rig: Rig | None = None) -> Effect:
+    """An effect from its SPEC §6 JSON shape (``{"name": "thermal_lag", "tau_min": 25}``),
+    validated (and checked against ``rig`` if given).
+
+    Raises
+    ------
+    InputError
+        Unknown name, a missing or unknown key, a value out of range.
+    """
+    if not isinstance(d, Mapping) or "name" not in d:
+        raise InputError(f"an effect needs a `name`, got {d!r}")
+    name = str(d["name"])
+    cls = _REGISTRY.get(name)
+    if cls is None:
+        raise InputError(f"{name!r} is not an effect (known: {', '.join(_REGISTRY)})")
+    if name in _native.effect_names():
+        d = json.loads(
+            _native.effect_check(json.dumps(dict(d)), None if rig is None else rig._native)
+        )
+    kwargs = {k: v for k, v in d.items() if k != "name"}
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(kwargs) - names)
+    if unknown:
+        raise InputError(f"effect {name}: unknown keys {unknown} (it takes {sorted(names)})")
+    for f in dataclasses.fields(cls):
+        if isinstance(kwargs.get(f.name), list):
+            kwargs[f.name] = tuple(kwargs[f.name])
+    return cls(**kwargs)
+
+
+def to_json(effects: Iterable[Effect]) -> str:
+    """A JSON list of effects for the Rust core."""
+    return json.dumps([e.to_dict() for e in effects if e.name in EFFECT_NAMES])
+
+
+# --- signature helpers ---------------------------------------------------------------------------
+
+
+def _tau_params(
+    key: str = "tau_min",
+) -> Callable[[dict[str, float]], dict[str, Any]]:
+    return lambda eta: {key: float(eta[key])}
+
+
+def _ci(v: float, sd: float) -> list[float]:
+    return [v - 1.96 * sd, v + 1.96 * sd]
+
+
+def _sd(cov: FloatArray, i: int) -> float:
+    return float(np.sqrt(max(cov[i, i], 0.0)))
+
+
+def _ratio_ci(num: float, den: float, cov: FloatArray, i: int, j: int) -> tuple[float, float]:
+    """num/den (den = α at index j) and its standard deviation by the delta method."""
+    r = num / den
+    g = np.zeros(cov.shape[0])
+    g[i] = 1.0 / den
+    g[j] = -num / den**2
+    return r, float(np.sqrt(max(g @ cov @ g, 0.0)))
+
+
+# --- the SPEC §6 effects -------------------------------------------------------------------------
+
+
+@register
+@dataclass(frozen=True)
+class AlphaPerLink(Effect):
+    """Each mapped temperature has its own α (1/K)."""
+
+    name: ClassVar[str] = "alpha_per_link"
+    alpha_per_k: Mapping[str, float] = field(default_factory=dict)
+
+    @classmethod
+    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+        temps = list(dict.fromkeys(rig.mapped_temperatures))
+        if len(temps) < 2:
+            return []
+        rest = temps[1:]
+
+        def columns(vs: VisitSet, eta: dict[str, float]) -> FloatArray:
+            return np.column_stack([vs.alpha_column(only=t) for t in rest])
+
+        def params(
+            eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
+        ) -> tuple[dict[str, Any], dict[str, Any]]:
+            vals = {temps[0]: alpha}
+            cis = {temps[0]: _ci(alpha, _sd(cov, 0))}
+            for k, t in enumerate(rest):
+                g = np.zeros(cov.shape[0])
+                g[0] = 1.0
+                g[1 + k] = 1.0
+                vals[t] = alpha + float(beta[k])
+                cis[t] = _ci(vals[t], float(np.sqrt(max(g @ cov @ g, 0.0))))
+            return {"alpha_per_k": vals}, {"alpha_per_k": cis}
+
+        return [Family(cls.name, cls.name, {}, [{}], columns, params, driver=",".join(temps))]
+
+
+@register
+@dataclass(frozen=True)
+class ThermalLag(Effect):
+    """The structure lags the surface temperature the IR camera sees (first order)."""
+
+    name: ClassVar[str] = "thermal_lag"
+    tau_min: float = 0.0
+
+    @classmethod
+    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+        def columns(vs: VisitSet, eta: dict[str, float]) -> FloatArray:
+            lagged = vs.positions(effects=[ThermalLag(tau_min=eta["tau_min"])])
+            return ((lagged - vs.positions()) / vs.alpha0)[:, None]
+
+        def params(
+            eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
+        ) -> tuple[dict[str, Any], dict[str, Any]]:
+            w, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
+            return {"tau_min": eta["tau_min"]}, {"weight": _ci(w, sd)}
+
+        grid = [{"tau_min": float(t)} for t in TAU_GRID_MIN]
+        return [
+            Family(
+                cls.name,
+                cls.name,
+                {},
+                grid,
+                columns,
+                params,
+                driver=",".join(rig.mapped_temperatures),
+                refine=("tau_min",),
+            )
+        ]
+
+
+def _length_names(rig: Rig) -> list[str]:
+    """Every non-zero DH length the rig does not list in ``[expansion]``."""
+    listed = {m.name for m in rig.lengths}
+    out = []
+    for i, row in enumerate(rig.dh, start=1):
+        for kind, value in (("a", row.a_mm), ("d", row.d_mm)):
+            n = f"{kind}{i}"
+            if n not in listed and abs(value) > 1.0:
+                out.append(n)
+    return out
+
+
+def _temperature_names(rig: Rig, visits: VisitSet) -> list[str]:
+    """Temperatures the runs carry: every ROI, and ambient where it was recorded."""
+    names = [r.name for r in rig.rois]
+    if visits.has("ambient"):
+        names.append("ambient")
+    return [n for n in names if visits.has(n)]
+
+
+@register
+@dataclass(frozen=True)
+class UnmodelledLength(Effect):
+    """A DH length the rig does not list expands with a temperature (the same α)."""
+
+    name: ClassVar[str] = "unmodelled_length"
+    length: str = ""
+    temperature: str = ""
+
+    @classmethod
+    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+        fams = []
+        for length in _length_names(rig):
+            for temp in _temperature_names(rig, visits):
+                eff = UnmodelledLength(length=length, temperature=temp)
+
+                def columns(vs: VisitSet, eta: dict[str, float], eff: Effect = eff) -> FloatArray:
+                    return ((vs.positions(effects=[eff]) - vs.positions()) / vs.alpha0)[:, None]
+
+                def params(
+                    eta: dict[str, float],
+                    alpha: float,
+                    beta: FloatArray,
+                    cov: FloatArray,
+                    length: str = length,
+                    temp: str = temp,
+                ) -> tuple[dict[str, Any], dict[str, Any]]:
+                    w, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
+                    return {"length": length, "temperature": temp}, {"weight": _ci(w, sd)}
+
+                fams.append(
+                    Family(
+                        cls.name,
+                        f"{cls.name} length={length} temperature={temp}",
+                        {"length": length, "temperature": temp},
+                        [{}],
+                        columns,
+                        params,
+                        driver=temp,
+                    )
+                )
+        return fams
+
+
+def _chip_family(
+    name: str, rig: Rig, camera: str, grid: list[dict[str, float]], key: str, driver: str
+) -> Family:
+    """A family whose signature is one camera's chip shift along u and along v."""
+
+    def columns(vs: VisitSet, eta: dict[str, float]) -> FloatArray:
+        cols = []
+        for unit in ((1.0, 0.0), (0.0, 1.0)):
+            if name == "fixture_drift":
+                e: Effect = FixtureDrift(camera=camera, um_per_k=unit)
+            else:
+                e = SensorDrift(camera=camera, tau_min=eta["tau_min"], um=unit)
+            cols.append(vs.positions(effects=[e]) - vs.positions())
+        return np.column_stack(cols)
+
+    def params(
+        eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        vals = [float(beta[0]), float(beta[1])]
+        cis = [_ci(vals[0], _sd(cov, 1)), _ci(vals[1], _sd(cov, 2))]
+        p: dict[str, Any] = {"camera": camera, **{k: v for k, v in eta.items()}, key: vals}
+        return p, {key: cis}
+
+    return Family(
+        name,
+        f"{name} camera={camera}",
+        {"camera": camera},
+        grid,
+        columns,
+        params,
+        driver=driver,
+        refine=("tau_min",) if grid and "tau_min" in grid[0] else (),
+    )
+
+
+@register
+@dataclass(frozen=True)
+class FixtureDrift(Effect):
+    """One camera's mount moves with ambient temperature: ``um_per_k`` [u, v] µm/K."""
+
+    name: ClassVar[str] = "fixture_drift"
+    camera: str = ""
+    um_per_k: tuple[float, float] = (0.0, 0.0)
+
+    @classmethod
+    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+        if not visits.has("ambient"):
+            return []
+        return [
+            _chip_family(cls.name, rig, c.name, [{}], "um_per_k", "ambient") for c in rig.cameras
+        ]
+
+
+@register
+@dataclass(frozen=True)
+class LaserTilt(Effect):
+    """The true laser direction is the rig's turned by ``tilt_deg`` (about an axis turned by
+    ``azimuth_deg`` about the ray; an extension of SPEC §6)."""
+
+    name: ClassVar[str] = "laser_tilt"
+    tilt_deg: float = 0.0
+    azimuth_deg: float = 0.0
+
+    @classmethod
+    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+        step = 0.05
+
+        def columns(vs: VisitSet, eta: dict[str, float]) -> FloatArray:
+            cols = []
+            for az in (0.0, 90.0):
+                tilted = vs.positions(effects=[LaserTilt(tilt_deg=step, azimuth_deg=az)])
+                cols.append((tilted - vs.positions()) / step)
+            return np.column_stack(cols)
+
+        def params(
+            eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
+        ) -> tuple[dict[str, Any], dict[str, Any]]:
+            b0, b1 = float(beta[0]), float(beta[1])
+            tilt = float(np.hypot(b0, b1))
+            az = float(np.degrees(np.arctan2(b1, b0)))
+            sd = float(np.sqrt(max((cov[1, 1] + cov[2, 2]) / 2.0, 0.0)))
+            return {"tilt_deg": tilt, "azimuth_deg": az}, {"tilt_deg": _ci(tilt, sd)}
+
+        return [Family(cls.name, cls.name, {}, [{}], columns, params, driver="geometry")]
+
+
+@register
+@dataclass(frozen=True)
+class JointOffset(Effect):
+    """A joint's zero drifts by ``urad_per_k`` per kelvin of a temperature."""
+
+    name: ClassVar[str] = "joint_offset"
+    joint: str = ""
+    temperature: str = ""
+    urad_per_k: float = 0.0
+
+    @classmethod
+    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+        fams = []
+        for joint in rig.joint_names:
+            for temp in _temperature_names(rig, visits):
+                unit = JointOffset(joint=joint, temperature=temp, urad_per_k=1.0)
+
+                def columns(vs: VisitSet, eta: dict[str, float], unit: Effect = unit) -> FloatArray:
+                    return (vs.positions(effects=[unit]) - vs.positions())[:, None]
+
+                def params(
+                    eta: dict[str, float],
+                    alpha: float,
+                    beta: FloatArray,
+                    cov: FloatArray,
+                    joint: str = joint,
+                    temp: str = temp,
+                ) -> tuple[dict[str, Any], dict[str, Any]]:
+                    v = float(beta[0])
+                    return (
+                        {"joint": joint, "temperature": temp, "urad_per_k": v},
+                        {"urad_per_k": _ci(v, _sd(cov, 1))},
+                    )
+
+                fams.append(
+                    Family(
+                        cls.name,
+                        f"{cls.name} joint={joint} temperature={temp}",
+                        {"joint": joint, "temperature": temp},
+                        [{}],
+                        columns,
+                        params,
+                        driver=temp,
+                    )
+                )
+        return fams
+
+
+@register
+@dataclass(frozen=True)
+class NonlinearAlpha(Effect):
+    """strain = α·ΔT·(1 + κ·ΔT)."""
+
+    name: ClassVar[str] = "nonlinear_alpha"
+    kappa_per_k: float = 0.0
+
+    @classmethod
+    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+        step = 1e-3
+
+        def columns(vs: VisitSet, eta: dict[str, float]) -> FloatArray:
+            curved = vs.positions(effects=[NonlinearAlpha(kappa_per_k=step)])
+            return ((curved - vs.positions()) / (step * vs.alpha0))[:, None]
+
+        def params(
+            eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
+        ) -> tuple[dict[str, Any], dict[str, Any]]:
+            k, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
+            return {"kappa_per_k": k}, {"kappa_per_k": _ci(k, sd)}
+
+        return [
+            Family(
+                cls.name,
+                cls.name,
+                {},
+                [{}],
+                columns,
+                params,
+                driver=",".join(rig.mapped_temperatures),
+            )
+        ]
+
+
+@register
+@dataclass(frozen=True)
+class SensorDrift(Effect):
+    """One camera's chip drifts on its own, ``um``·(1 − e^(−t/τ)), t since the run began."""
+
+    name: ClassVar[str] = "sensor_drift"
+    camera: str = ""
+    tau_min: float = 0.0
+    um: tuple[float, float] = (0.0, 0.0)
+
+    @classmethod
+    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+        grid = [{"tau_min": float(t)} for t in TAU_GRID_MIN]
+        return [_chip_family(cls.name, rig, c.name, grid, "um", "time") for c in rig.cameras]
+
+
+def effects_from(
+    effects: Sequence[Effect | Mapping[str, Any]] | None, rig: Rig | None = None
+) -> list[Effect]:
+    """Effects given as objects or SPEC §6 dicts, as objects (validated)."""
+    out: list[Effect] = []
+    for e in effects or ():
+        if isinstance(e, Effect):
+            out.append(e.check(rig))
+        elif isinstance(e, Mapping):
+            out.append(from_dict(e, rig=rig))
+        else:
+            raise TypeError(f"an effect must be a thermrs.effects.Effect or a dict, got {e!r}")
+    return out

@@ -1,0 +1,169 @@
+"""Visits of several runs, ready for the forward model with effects: the spot every visit
+should show, and the signature columns the diagnoser fits.
+
+A :class:`VisitSet` holds the run tables' visits (sorted by run, camera and time) with their
+temperatures, and evaluates the forward model at the camera's taught pose with any SPEC §6
+effects (:mod:`thermrs.effects`): the structure's lag behind the surface (over each run's visit
+series of a camera), the expanded geometry, and the chip shifts (ambient, time since the run
+began). Positions are returned as one vector of length 2n: every visit's u (µm), then its v.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+import polars as pl
+
+from thermrs.effects import AlphaPerLink, Effect
+from thermrs.errors import InputError
+from thermrs.model import ForwardModel
+from thermrs.rig import Rig
+
+__all__ = ["VisitSet"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+class VisitSet:
+    """The visits of run tables, with the forward model at hand.
+
+    Parameters
+    ----------
+    tables
+        Run tables (:func:`thermrs.fit.run_table`), any number of runs; rows without a finite
+        u or v are dropped.
+    rig
+        The rig they were recorded on.
+    shift_drivers
+        Placebo: every temperature series and the time since the run began are shifted
+        circularly by half of each (run, camera) series, which keeps their smoothness but
+        breaks their alignment with the measured drift.
+    """
+
+    def __init__(self, tables: Sequence[pl.DataFrame], rig: Rig, *, shift_drivers: bool = False):
+        if isinstance(tables, pl.DataFrame):
+            tables = [tables]
+        if not tables:
+            raise InputError("no run tables given")
+        table = pl.concat(list(tables), how="diagonal_relaxed").sort("run", "camera", "t_ns")
+        table = table.filter(pl.col("u_um").is_finite() & pl.col("v_um").is_finite())
+        if table.height == 0:
+            raise InputError("the runs have no visits with a spot")
+        self.rig = rig
+        self.table = table
+        self.n = table.height
+        self.alpha0 = rig.alpha_per_k
+        self.run = table["run"].to_numpy().astype(str)
+        self.camera = table["camera"].to_numpy().astype(str)
+        t_ns = table["t_ns"].to_numpy()
+        self.t_s = (t_ns - t_ns.min()).astype(np.float64) / 1e9
+        self.y = np.concatenate([table["u_um"].to_numpy(), table["v_um"].to_numpy()])
+        self.groups: list[np.ndarray] = []
+        key = np.char.add(np.char.add(self.run, "\0"), self.camera)
+        for k in dict.fromkeys(key.tolist()):
+            self.groups.append(np.flatnonzero(key == k))
+        starts = {r: self.t_s[self.run == r].min() for r in np.unique(self.run)}
+        self.t_since_start = np.array([self.t_s[i] - starts[r] for i, r in enumerate(self.run)])
+        self.temps: dict[str, FloatArray] = {}
+        for c in table.columns:
+            if c.endswith("_c") and table[c].dtype.is_numeric():
+                v = table[c].to_numpy().astype(np.float64)
+                if np.all(np.isfinite(v)):
+                    self.temps[c[:-2]] = v
+        self.shifted = shift_drivers
+        if shift_drivers:
+            for name in self.temps:
+                self.temps[name] = self._shift(self.temps[name])
+            self.t_since_start = self._shift(self.t_since_start)
+        self._cache: dict[str, FloatArray] = {}
+
+    def _shift(self, a: FloatArray) -> FloatArray:
+        out = a.copy()
+        for g in self.groups:
+            out[g] = np.roll(a[g], len(g) // 2)
+        return out
+
+    def has(self, name: str) -> bool:
+        """Whether every visit has the temperature ``name`` (a ROI or ``ambient``)."""
+        return name in self.temps
+
+    def positions(
+        self, *, effects: Sequence[Effect] = (), alpha_per_k: float | None = None
+    ) -> FloatArray:
+        """Every visit's spot (u then v, µm) at the camera's taught pose under ``effects``.
+
+        Raises
+        ------
+        InputError
+            An effect needs a temperature the runs do not carry.
+        """
+        alpha = self.alpha0 if alpha_per_k is None else alpha_per_k
+        key = repr((alpha, [e.to_dict() for e in effects]))
+        hit = self._cache.get(key)
+        if hit is not None:
+            return hit
+        model = ForwardModel(self.rig, alpha_per_k=alpha, effects=effects)
+        native = model._native
+        names = model.temperature_names
+        missing = [n for n in names if n not in self.temps]
+        if missing:
+            raise InputError(f"the runs carry no {missing} temperature the model needs")
+        lag = native.has_lag()
+        chips = native.shifts_chips()
+        u = np.empty(self.n)
+        v = np.empty(self.n)
+        for g in self.groups:
+            cam = str(self.camera[g[0]])
+            temps = {}
+            for n in names:
+                x = np.ascontiguousarray(self.temps[n][g])
+                if lag and n != "ambient":
+                    x = native.structure_temperatures(np.ascontiguousarray(self.t_s[g]), x)
+                temps[n] = x
+            s = model.spots(cam, self.rig.camera_pose(cam).joints_rad, temperatures=temps)
+            su, sv = s.u_um, s.v_um
+            if chips:
+                amb = self.temps.get("ambient")
+                a = (
+                    np.ascontiguousarray(amb[g])
+                    if amb is not None
+                    else np.full(len(g), self.rig.reference_c)
+                )
+                d = native.chip_shifts(cam, a, np.ascontiguousarray(self.t_since_start[g]))
+                su = su + d[:, 0]
+                sv = sv + d[:, 1]
+            u[g] = su
+            v[g] = sv
+        out = np.concatenate([u, v])
+        if len(self._cache) < 256:
+            self._cache[key] = out
+        return out
+
+    def alpha_column(self, *, only: str | None = None) -> FloatArray:
+        """The spot's displacement per unit α from the reference temperature (u then v), from
+        every mapped temperature, or from ``only`` that one."""
+        cold = self.positions(alpha_per_k=0.0)
+        if only is None:
+            hot = self.positions()
+        else:
+            per = {t: (self.alpha0 if t == only else 0.0) for t in self.rig.mapped_temperatures}
+            hot = self.positions(effects=[AlphaPerLink(alpha_per_k=per)])
+        return (hot - cold) / self.alpha0
+
+    def offset_columns(self) -> tuple[FloatArray, list[str]]:
+        """Indicator columns (2n, 2g) of every (run, camera, axis): the unknown mounting."""
+        x = np.zeros((2 * self.n, 2 * len(self.groups)))
+        names = []
+        for j, g in enumerate(self.groups):
+            x[g, 2 * j] = 1.0
+            x[self.n + g, 2 * j + 1] = 1.0
+            label = f"{self.run[g[0]]}/{self.camera[g[0]]}"
+            names += [f"{label}/u", f"{label}/v"]
+        return x, names
+
+    @property
+    def axis(self) -> npt.NDArray[np.str_]:
+        """``u`` for the first n rows of a 2n vector, ``v`` for the rest."""
+        return np.array(["u"] * self.n + ["v"] * self.n)

@@ -1,0 +1,783 @@
+//! The unmodelled effects of SPEC §6 — their one home.
+//!
+//! Each effect is one variant of [`Effect`], with its parameters (the SPEC's JSON keys), its
+//! validation ([`Effect::validate`] on values, [`Effect::check`] against a rig) and its action
+//! on the forward model ([`Effects::build`]). The simulator, the bindings and, through them, the
+//! diagnoser all build on this module: adding an effect means a variant here, its Python face
+//! (`thermrs.effects`) and a row of the SPEC table.
+//!
+//! An effect acts in one of three places:
+//! - on the **geometry** the forward model computes ([`ModelParams`]): `alpha_per_link`,
+//!   `nonlinear_alpha`, `unmodelled_length`, `joint_offset`, `laser_tilt`;
+//! - on the **temperatures** before they reach the model: `thermal_lag` (the structure follows
+//!   the surface the IR camera sees through the first-order law [`crate::heat::lag_step`]);
+//! - on the **chip**, as an apparent shift of the spot: `fixture_drift` (with ambient) and
+//!   `sensor_drift` (with time since the run began) ([`Effects::chip_shift_um`]).
+//!
+//! Scenario files write effects as flat tables (`[[effect]] name = "…" key = value`); they are
+//! parsed into [`EffectSpec`] (so that a wrong key is named) and turned into an [`Effect`] by
+//! [`Effect::from_spec`]. JSON (the bindings) uses the same shape: `{"name": "thermal_lag",
+//! "tau_min": 25.0}`.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::model::{JointOffset, LaserTilt, ModelParams};
+use crate::rig::{LengthRef, Rig};
+
+/// Effect names of SPEC §6 (the contract), in the SPEC's order.
+pub const EFFECT_NAMES: [&str; 8] = [
+    "alpha_per_link",
+    "thermal_lag",
+    "unmodelled_length",
+    "fixture_drift",
+    "laser_tilt",
+    "joint_offset",
+    "nonlinear_alpha",
+    "sensor_drift",
+];
+
+/// Physical bounds on effect values: beyond them a value is a typo or a unit slip.
+pub mod bounds {
+    /// |α| of any length (1/K): every engineering solid is below 1e-4; 1e-3 leaves room.
+    pub const ALPHA_PER_K: f64 = 1e-3;
+    /// |κ| (1/K) of the quadratic strain term.
+    pub const KAPPA_PER_K: f64 = 0.1;
+    /// Time constants (min): above zero, below a week.
+    pub const TAU_MIN_MAX: f64 = 10_080.0;
+    /// |tilt| of the laser (degrees).
+    pub const TILT_DEG: f64 = 10.0;
+    /// |joint zero drift| (µrad/K).
+    pub const URAD_PER_K: f64 = 10_000.0;
+    /// |chip mount drift| (µm/K).
+    pub const UM_PER_K: f64 = 1_000.0;
+    /// |chip self-heating drift| (µm).
+    pub const UM: f64 = 10_000.0;
+}
+
+/// One SPEC §6 effect with its parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "name", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Effect {
+    /// Each mapped temperature has its own α (1/K); temperatures not listed keep the model's α.
+    AlphaPerLink { alpha_per_k: BTreeMap<String, f64> },
+    /// The structure lags the surface temperature the IR camera sees, first order, `tau_min`.
+    ThermalLag { tau_min: f64 },
+    /// A DH length (`a<i>`/`d<i>`) the rig does not list expands with `temperature`.
+    UnmodelledLength { length: String, temperature: String },
+    /// `camera`'s mount moves with ambient: `um_per_k` [u, v] per kelvin above reference.
+    FixtureDrift { camera: String, um_per_k: [f64; 2] },
+    /// The true laser direction is the rig's turned by `tilt_deg` (about the axis direction ×
+    /// flange z, itself turned by `azimuth_deg` about the ray; an extension, default 0).
+    LaserTilt {
+        tilt_deg: f64,
+        #[serde(default)]
+        azimuth_deg: f64,
+    },
+    /// `joint`'s zero moves by `urad_per_k` per kelvin of `temperature` above reference.
+    JointOffset {
+        joint: String,
+        temperature: String,
+        urad_per_k: f64,
+    },
+    /// strain = α·ΔT·(1 + κ·ΔT).
+    NonlinearAlpha { kappa_per_k: f64 },
+    /// `camera`'s chip drifts on its own: `um`·(1 − e^(−t/τ)), t since the run began.
+    SensorDrift {
+        camera: String,
+        tau_min: f64,
+        um: [f64; 2],
+    },
+}
+
+/// An effect as a scenario file writes it: a name and flat optional keys (parsed strictly, so
+/// that an unknown key is named), turned into an [`Effect`] by [`Effect::from_spec`].
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EffectSpec {
+    pub name: String,
+    #[serde(default)]
+    pub alpha_per_k: Option<BTreeMap<String, f64>>,
+    #[serde(default)]
+    pub tau_min: Option<f64>,
+    #[serde(default)]
+    pub length: Option<String>,
+    #[serde(default)]
+    pub temperature: Option<String>,
+    #[serde(default)]
+    pub camera: Option<String>,
+    #[serde(default)]
+    pub um_per_k: Option<[f64; 2]>,
+    #[serde(default)]
+    pub tilt_deg: Option<f64>,
+    #[serde(default)]
+    pub azimuth_deg: Option<f64>,
+    #[serde(default)]
+    pub joint: Option<String>,
+    #[serde(default)]
+    pub urad_per_k: Option<f64>,
+    #[serde(default)]
+    pub kappa_per_k: Option<f64>,
+    #[serde(default)]
+    pub um: Option<[f64; 2]>,
+}
+
+/// A problem with an effect: the key (relative to the effect) and what is wrong.
+pub type KeyError = (String, String);
+
+fn finite_within(key: &str, v: f64, bound: f64, unit: &str) -> std::result::Result<(), KeyError> {
+    if v.is_finite() && v.abs() <= bound {
+        Ok(())
+    } else {
+        Err((
+            key.into(),
+            format!("is {v}, expected a finite value with |value| ≤ {bound} {unit}"),
+        ))
+    }
+}
+
+fn time_constant(key: &str, v: f64) -> std::result::Result<(), KeyError> {
+    if v.is_finite() && v > 0.0 && v <= bounds::TAU_MIN_MAX {
+        Ok(())
+    } else {
+        Err((
+            key.into(),
+            format!(
+                "is {v}, expected a time constant 0 < τ ≤ {} min",
+                bounds::TAU_MIN_MAX
+            ),
+        ))
+    }
+}
+
+fn nonempty(key: &str, v: &str) -> std::result::Result<(), KeyError> {
+    if v.trim().is_empty() {
+        Err((key.into(), "is empty".into()))
+    } else {
+        Ok(())
+    }
+}
+
+impl Effect {
+    /// The SPEC §6 name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Effect::AlphaPerLink { .. } => "alpha_per_link",
+            Effect::ThermalLag { .. } => "thermal_lag",
+            Effect::UnmodelledLength { .. } => "unmodelled_length",
+            Effect::FixtureDrift { .. } => "fixture_drift",
+            Effect::LaserTilt { .. } => "laser_tilt",
+            Effect::JointOffset { .. } => "joint_offset",
+            Effect::NonlinearAlpha { .. } => "nonlinear_alpha",
+            Effect::SensorDrift { .. } => "sensor_drift",
+        }
+    }
+
+    /// The keys each effect requires (SPEC §6) and the optional ones it also takes.
+    pub fn keys(name: &str) -> Option<(&'static [&'static str], &'static [&'static str])> {
+        Some(match name {
+            "alpha_per_link" => (&["alpha_per_k"], &[]),
+            "thermal_lag" => (&["tau_min"], &[]),
+            "unmodelled_length" => (&["length", "temperature"], &[]),
+            "fixture_drift" => (&["camera", "um_per_k"], &[]),
+            "laser_tilt" => (&["tilt_deg"], &["azimuth_deg"]),
+            "joint_offset" => (&["joint", "temperature", "urad_per_k"], &[]),
+            "nonlinear_alpha" => (&["kappa_per_k"], &[]),
+            "sensor_drift" => (&["camera", "tau_min", "um"], &[]),
+            _ => return None,
+        })
+    }
+
+    /// The effect a scenario's flat table describes, its values checked
+    /// ([`Effect::validate`]); the error names the key.
+    pub fn from_spec(s: &EffectSpec) -> std::result::Result<Effect, KeyError> {
+        let Some((required, optional)) = Effect::keys(&s.name) else {
+            return Err((
+                "name".into(),
+                format!(
+                    "{:?} is not a SPEC §6 effect ({})",
+                    s.name,
+                    EFFECT_NAMES.join(", ")
+                ),
+            ));
+        };
+        let present = s.present_keys();
+        for r in required {
+            if !present.contains(r) {
+                return Err((String::new(), format!("effect {:?} needs `{r}`", s.name)));
+            }
+        }
+        for p in &present {
+            if !required.contains(p) && !optional.contains(p) {
+                let mut takes: Vec<&str> = required.to_vec();
+                takes.extend_from_slice(optional);
+                return Err((
+                    (*p).into(),
+                    format!(
+                        "is not a parameter of {:?} (it takes {})",
+                        s.name,
+                        takes.join(", ")
+                    ),
+                ));
+            }
+        }
+        let text = |o: &Option<String>| o.clone().unwrap_or_default();
+        let e = match s.name.as_str() {
+            "alpha_per_link" => Effect::AlphaPerLink {
+                alpha_per_k: s.alpha_per_k.clone().unwrap_or_default(),
+            },
+            "thermal_lag" => Effect::ThermalLag {
+                tau_min: s.tau_min.unwrap_or(f64::NAN),
+            },
+            "unmodelled_length" => Effect::UnmodelledLength {
+                length: text(&s.length),
+                temperature: text(&s.temperature),
+            },
+            "fixture_drift" => Effect::FixtureDrift {
+                camera: text(&s.camera),
+                um_per_k: s.um_per_k.unwrap_or([f64::NAN; 2]),
+            },
+            "laser_tilt" => Effect::LaserTilt {
+                tilt_deg: s.tilt_deg.unwrap_or(f64::NAN),
+                azimuth_deg: s.azimuth_deg.unwrap_or(0.0),
+            },
+            "joint_offset" => Effect::JointOffset {
+                joint: text(&s.joint),
+                temperature: text(&s.temperature),
+                urad_per_k: s.urad_per_k.unwrap_or(f64::NAN),
+            },
+            "nonlinear_alpha" => Effect::NonlinearAlpha {
+                kappa_per_k: s.kappa_per_k.unwrap_or(f64::NAN),
+            },
+            "sensor_drift" => Effect::SensorDrift {
+                camera: text(&s.camera),
+                tau_min: s.tau_min.unwrap_or(f64::NAN),
+                um: s.um.unwrap_or([f64::NAN; 2]),
+            },
+            _ => unreachable!("keys() knows every name"),
+        };
+        e.validate()?;
+        Ok(e)
+    }
+
+    /// Values in range, names well formed (rig-independent); the error names the key.
+    pub fn validate(&self) -> std::result::Result<(), KeyError> {
+        use bounds::*;
+        match self {
+            Effect::AlphaPerLink { alpha_per_k } => {
+                if alpha_per_k.is_empty() {
+                    return Err(("alpha_per_k".into(), "names no temperature".into()));
+                }
+                for (k, v) in alpha_per_k {
+                    nonempty("alpha_per_k", k)?;
+                    finite_within(&format!("alpha_per_k.{k}"), *v, ALPHA_PER_K, "1/K")?;
+                }
+            }
+            Effect::ThermalLag { tau_min } => time_constant("tau_min", *tau_min)?,
+            Effect::UnmodelledLength {
+                length,
+                temperature,
+            } => {
+                if LengthRef::parse(length).is_none() {
+                    return Err((
+                        "length".into(),
+                        format!("{length:?} is not a DH length (a1..a6, d1..d6)"),
+                    ));
+                }
+                nonempty("temperature", temperature)?;
+            }
+            Effect::FixtureDrift { camera, um_per_k } => {
+                nonempty("camera", camera)?;
+                for v in um_per_k {
+                    finite_within("um_per_k", *v, UM_PER_K, "µm/K")?;
+                }
+            }
+            Effect::LaserTilt {
+                tilt_deg,
+                azimuth_deg,
+            } => {
+                finite_within("tilt_deg", *tilt_deg, TILT_DEG, "°")?;
+                finite_within("azimuth_deg", *azimuth_deg, 360.0, "°")?;
+            }
+            Effect::JointOffset {
+                joint,
+                temperature,
+                urad_per_k,
+            } => {
+                nonempty("joint", joint)?;
+                nonempty("temperature", temperature)?;
+                finite_within("urad_per_k", *urad_per_k, URAD_PER_K, "µrad/K")?;
+            }
+            Effect::NonlinearAlpha { kappa_per_k } => {
+                finite_within("kappa_per_k", *kappa_per_k, KAPPA_PER_K, "1/K")?
+            }
+            Effect::SensorDrift {
+                camera,
+                tau_min,
+                um,
+            } => {
+                nonempty("camera", camera)?;
+                time_constant("tau_min", *tau_min)?;
+                for v in um {
+                    finite_within("um", *v, UM, "µm")?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The names an effect uses exist in `rig`: cameras, joints, temperatures (a ROI or
+    /// `ambient`), lengths (not already listed in `[expansion]`).
+    pub fn check(&self, rig: &Rig) -> Result<()> {
+        let name = self.name();
+        let bad = |m: String| Err(Error::Input(format!("effect {name}: {m}")));
+        let rois: Vec<String> = rig
+            .thermal
+            .iter()
+            .flat_map(|t| t.roi.iter().map(|r| r.name.clone()))
+            .collect();
+        let temperature_ok = |t: &str| t == "ambient" || rois.iter().any(|r| r == t);
+        let temps_known = || {
+            let mut v = rois.clone();
+            v.push("ambient".into());
+            v.join(", ")
+        };
+        let camera_ok = |c: &str| rig.camera_index(c).is_some();
+        let cameras = || {
+            rig.camera
+                .iter()
+                .map(|c| c.name.clone())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        match self {
+            Effect::AlphaPerLink { alpha_per_k } => {
+                for t in alpha_per_k.keys() {
+                    if !temperature_ok(t) {
+                        return bad(format!(
+                            "alpha_per_k names temperature {t:?}, neither a ROI of the rig nor ambient ({})",
+                            temps_known()
+                        ));
+                    }
+                }
+            }
+            Effect::UnmodelledLength {
+                length,
+                temperature,
+            } => {
+                if !temperature_ok(temperature) {
+                    return bad(format!(
+                        "temperature {temperature:?} is neither a ROI of the rig nor ambient ({})",
+                        temps_known()
+                    ));
+                }
+                if rig.expansion.length.iter().any(|l| l.name == *length) {
+                    return bad(format!(
+                        "length {length:?} already expands (the rig's [expansion] lists it)"
+                    ));
+                }
+            }
+            Effect::FixtureDrift { camera, .. } | Effect::SensorDrift { camera, .. } => {
+                if !camera_ok(camera) {
+                    return bad(format!(
+                        "camera {camera:?} is not in the rig ({})",
+                        cameras()
+                    ));
+                }
+            }
+            Effect::JointOffset {
+                joint, temperature, ..
+            } => {
+                if joint_index(rig, joint).is_none() {
+                    return bad(format!(
+                        "joint {joint:?} is not a joint of the rig ({}, or 1..6)",
+                        rig.robot.joint_names.join(", ")
+                    ));
+                }
+                if !temperature_ok(temperature) {
+                    return bad(format!(
+                        "temperature {temperature:?} is neither a ROI of the rig nor ambient ({})",
+                        temps_known()
+                    ));
+                }
+            }
+            Effect::ThermalLag { .. }
+            | Effect::LaserTilt { .. }
+            | Effect::NonlinearAlpha { .. } => {}
+        }
+        Ok(())
+    }
+}
+
+/// 0-based index of a joint given by its rig name or as a 1-based number `"1"`..`"6"`.
+pub fn joint_index(rig: &Rig, joint: &str) -> Option<usize> {
+    rig.robot
+        .joint_names
+        .iter()
+        .position(|n| n == joint)
+        .or_else(|| match joint.parse::<usize>() {
+            Ok(k) if (1..=6).contains(&k) => Some(k - 1),
+            _ => None,
+        })
+}
+
+impl EffectSpec {
+    fn present_keys(&self) -> Vec<&'static str> {
+        let mut k = Vec::new();
+        macro_rules! has {
+            ($($f:ident),*) => { $( if self.$f.is_some() { k.push(stringify!($f)); } )* };
+        }
+        has!(
+            alpha_per_k,
+            tau_min,
+            length,
+            temperature,
+            camera,
+            um_per_k,
+            tilt_deg,
+            azimuth_deg,
+            joint,
+            urad_per_k,
+            kappa_per_k,
+            um
+        );
+        k
+    }
+}
+
+/// A chip shift: an apparent spot displacement on one camera's chip.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum ChipShift {
+    /// `fixture_drift`: (camera index, µm per K above reference).
+    Fixture(usize, [f64; 2]),
+    /// `sensor_drift`: (camera index, τ min, µm).
+    Sensor(usize, f64, [f64; 2]),
+}
+
+/// A set of effects turned into what acts where: the forward model's parameters, the
+/// structure's lag behind the surface, and the chip shifts.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Effects {
+    /// The forward model's parameters with every geometric effect.
+    pub params: ModelParams,
+    /// `thermal_lag`'s time constant (s), if any.
+    pub lag_tau_s: Option<f64>,
+    chip: Vec<ChipShift>,
+}
+
+impl Effects {
+    /// `effects` on `rig` with the nominal expansion `alpha_per_k` at `reference_c`: each
+    /// effect validated and checked against the rig; an effect given twice is an error.
+    pub fn build(
+        rig: &Rig,
+        effects: &[Effect],
+        alpha_per_k: f64,
+        reference_c: f64,
+    ) -> Result<Effects> {
+        let mut params = ModelParams::nominal(rig);
+        params.alpha_per_k = alpha_per_k;
+        params.reference_c = reference_c;
+        let mut set = Effects {
+            params,
+            lag_tau_s: None,
+            chip: Vec::new(),
+        };
+        let mut seen: Vec<String> = Vec::new();
+        for e in effects {
+            e.validate()
+                .map_err(|(k, m)| Error::Input(format!("effect {}: {k}: {m}", e.name())))?;
+            e.check(rig)?;
+            // One of each, except where several instances are distinct mechanisms.
+            let key = match e {
+                Effect::UnmodelledLength { length, .. } => format!("unmodelled_length {length}"),
+                Effect::JointOffset { joint, .. } => format!("joint_offset {joint}"),
+                Effect::FixtureDrift { camera, .. } => format!("fixture_drift {camera}"),
+                Effect::SensorDrift { camera, .. } => format!("sensor_drift {camera}"),
+                other => other.name().to_string(),
+            };
+            if seen.contains(&key) {
+                return Err(Error::Input(format!("effect {key} is given twice")));
+            }
+            seen.push(key);
+            set.add(rig, e);
+        }
+        Ok(set)
+    }
+
+    /// The action of one (validated, checked) effect.
+    fn add(&mut self, rig: &Rig, e: &Effect) {
+        let p = &mut self.params;
+        let camera = |c: &str| rig.camera_index(c).expect("checked");
+        match e {
+            Effect::AlphaPerLink { alpha_per_k } => {
+                p.alpha_by_temperature = alpha_per_k.clone();
+            }
+            Effect::NonlinearAlpha { kappa_per_k } => p.kappa_per_k = *kappa_per_k,
+            Effect::ThermalLag { tau_min } => self.lag_tau_s = Some(tau_min * 60.0),
+            Effect::UnmodelledLength {
+                length,
+                temperature,
+            } => p.extra_lengths.push((
+                LengthRef::parse(length).expect("validated"),
+                temperature.clone(),
+            )),
+            Effect::JointOffset {
+                joint,
+                temperature,
+                urad_per_k,
+            } => p.joint_offsets.push(JointOffset {
+                joint: joint_index(rig, joint).expect("checked"),
+                temperature: temperature.clone(),
+                rad_per_k: urad_per_k * 1e-6,
+            }),
+            Effect::LaserTilt {
+                tilt_deg,
+                azimuth_deg,
+            } => {
+                p.laser_tilt = Some(LaserTilt {
+                    tilt_deg: *tilt_deg,
+                    azimuth_deg: *azimuth_deg,
+                })
+            }
+            Effect::FixtureDrift {
+                camera: c,
+                um_per_k,
+            } => self.chip.push(ChipShift::Fixture(camera(c), *um_per_k)),
+            Effect::SensorDrift {
+                camera: c,
+                tau_min,
+                um,
+            } => self.chip.push(ChipShift::Sensor(camera(c), *tau_min, *um)),
+        }
+    }
+
+    /// The structure temperature after `dt` seconds, from the surface's `x_prev` → `x_now`
+    /// (linear in between) and the structure's `y_prev` (`thermal_lag`; without it the
+    /// structure is the surface).
+    pub fn structure_step(&self, x_prev: f64, x_now: f64, y_prev: f64, dt: f64) -> f64 {
+        match self.lag_tau_s {
+            Some(tau) => crate::heat::lag_step(x_prev, x_now, y_prev, dt, tau),
+            None => x_now,
+        }
+    }
+
+    /// A surface temperature series (times `t_s`, seconds) as the structure sees it.
+    pub fn structure_series(&self, t_s: &[f64], x: &[f64]) -> Result<Vec<f64>> {
+        match self.lag_tau_s {
+            Some(tau) => crate::heat::first_order_lag(t_s, x, tau).map_err(Error::Input),
+            None => Ok(x.to_vec()),
+        }
+    }
+
+    /// Whether any effect shifts chips.
+    pub fn shifts_chips(&self) -> bool {
+        !self.chip.is_empty()
+    }
+
+    /// The apparent shift (u, v) µm of camera `camera`'s spot at an ambient temperature and a
+    /// time since the run began (s).
+    pub fn chip_shift_um(&self, camera: usize, ambient_c: f64, t_since_start_s: f64) -> [f64; 2] {
+        let mut d = [0.0; 2];
+        for s in &self.chip {
+            let add = match *s {
+                ChipShift::Fixture(c, k) if c == camera => {
+                    fixture_drift_um(k, self.params.reference_c, ambient_c)
+                }
+                ChipShift::Sensor(c, tau, um) if c == camera => {
+                    sensor_drift_um(um, tau, t_since_start_s)
+                }
+                _ => continue,
+            };
+            d[0] += add[0];
+            d[1] += add[1];
+        }
+        d
+    }
+}
+
+/// `fixture_drift`: the apparent spot shift (u, v) in µm on a chip whose mount moves with the
+/// ambient temperature, `um_per_k` per kelvin above `reference_c`.
+pub fn fixture_drift_um(um_per_k: [f64; 2], reference_c: f64, ambient_c: f64) -> [f64; 2] {
+    let d = ambient_c - reference_c;
+    [um_per_k[0] * d, um_per_k[1] * d]
+}
+
+/// `sensor_drift`: the apparent spot shift (u, v) in µm of a chip drifting on its own, first
+/// order with time since the run began: `um`·(1 − e^(−t/τ)).
+pub fn sensor_drift_um(um: [f64; 2], tau_min: f64, t_since_start_s: f64) -> [f64; 2] {
+    let f = if tau_min > 0.0 {
+        -(-t_since_start_s.max(0.0) / (tau_min * 60.0)).exp_m1()
+    } else {
+        1.0
+    };
+    [um[0] * f, um[1] * f]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rig() -> Rig {
+        Rig::from_toml(
+            include_str!("../../../python/thermrs/data/kr15-paper.toml"),
+            "kr15",
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn every_name_has_its_keys_and_round_trips_through_json() {
+        for name in EFFECT_NAMES {
+            assert!(Effect::keys(name).is_some(), "{name}");
+        }
+        let all = [
+            r#"{"name":"alpha_per_link","alpha_per_k":{"link2":2e-5}}"#,
+            r#"{"name":"thermal_lag","tau_min":25.0}"#,
+            r#"{"name":"unmodelled_length","length":"a3","temperature":"link3"}"#,
+            r#"{"name":"fixture_drift","camera":"A","um_per_k":[1.0,2.0]}"#,
+            r#"{"name":"laser_tilt","tilt_deg":0.5}"#,
+            r#"{"name":"joint_offset","joint":"joint_a2","temperature":"link2","urad_per_k":5.0}"#,
+            r#"{"name":"nonlinear_alpha","kappa_per_k":0.01}"#,
+            r#"{"name":"sensor_drift","camera":"B","tau_min":30.0,"um":[3.0,-1.0]}"#,
+        ];
+        let mut names = Vec::new();
+        for j in all {
+            let e: Effect = serde_json::from_str(j).unwrap();
+            e.validate().unwrap();
+            e.check(&rig()).unwrap();
+            let back: Effect = serde_json::from_str(&serde_json::to_string(&e).unwrap()).unwrap();
+            assert_eq!(back, e);
+            names.push(e.name());
+        }
+        assert_eq!(names, EFFECT_NAMES);
+        assert!(serde_json::from_str::<Effect>(r#"{"name":"thermal_lag","tau":3}"#).is_err());
+    }
+
+    #[test]
+    fn values_out_of_range_are_named() {
+        let bad = [
+            (r#"{"name":"thermal_lag","tau_min":-3.0}"#, "tau_min"),
+            (r#"{"name":"thermal_lag","tau_min":0.0}"#, "tau_min"),
+            (
+                r#"{"name":"sensor_drift","camera":"A","tau_min":1e9,"um":[1,1]}"#,
+                "tau_min",
+            ),
+            (
+                r#"{"name":"alpha_per_link","alpha_per_k":{"link2":23.2}}"#,
+                "alpha_per_k.link2",
+            ),
+            (
+                r#"{"name":"alpha_per_link","alpha_per_k":{}}"#,
+                "alpha_per_k",
+            ),
+            (
+                r#"{"name":"nonlinear_alpha","kappa_per_k":5.0}"#,
+                "kappa_per_k",
+            ),
+            (r#"{"name":"laser_tilt","tilt_deg":45.0}"#, "tilt_deg"),
+            (
+                r#"{"name":"unmodelled_length","length":"b3","temperature":"link3"}"#,
+                "length",
+            ),
+            (
+                r#"{"name":"fixture_drift","camera":"A","um_per_k":[1e6,0]}"#,
+                "um_per_k",
+            ),
+        ];
+        for (j, key) in bad {
+            let e: Effect = serde_json::from_str(j).unwrap();
+            let (k, m) = e.validate().unwrap_err();
+            assert_eq!(k, key, "{j}: {m}");
+        }
+    }
+
+    #[test]
+    fn names_are_checked_against_the_rig() {
+        let r = rig();
+        for (j, needle) in [
+            (
+                r#"{"name":"fixture_drift","camera":"Z","um_per_k":[1,1]}"#,
+                "camera \"Z\"",
+            ),
+            (
+                r#"{"name":"joint_offset","joint":"joint_a9","temperature":"link2","urad_per_k":1}"#,
+                "joint_a9",
+            ),
+            (
+                r#"{"name":"unmodelled_length","length":"a2","temperature":"link2"}"#,
+                "already listed",
+            ),
+            (
+                r#"{"name":"unmodelled_length","length":"a3","temperature":"link9"}"#,
+                "link9",
+            ),
+            (
+                r#"{"name":"alpha_per_link","alpha_per_k":{"link9":1e-5}}"#,
+                "link9",
+            ),
+        ] {
+            let e: Effect = serde_json::from_str(j).unwrap();
+            let m = e.check(&r).unwrap_err().to_string();
+            assert!(m.contains(needle), "{m}");
+        }
+        let twice = [
+            Effect::ThermalLag { tau_min: 3.0 },
+            Effect::ThermalLag { tau_min: 4.0 },
+        ];
+        assert!(Effects::build(&r, &twice, 2e-5, 20.0).is_err());
+    }
+
+    #[test]
+    fn spec_keys_are_checked_like_the_scenario_file() {
+        let s = EffectSpec {
+            name: "thermal_lag".into(),
+            tau_min: Some(3.0),
+            um: Some([1.0, 2.0]),
+            ..Default::default()
+        };
+        assert_eq!(Effect::from_spec(&s).unwrap_err().0, "um");
+        let s = EffectSpec {
+            name: "thermal_lag".into(),
+            ..Default::default()
+        };
+        assert!(Effect::from_spec(&s)
+            .unwrap_err()
+            .1
+            .contains("needs `tau_min`"));
+        let s = EffectSpec {
+            name: "thermal_lag".into(),
+            tau_min: Some(-1.0),
+            ..Default::default()
+        };
+        assert_eq!(Effect::from_spec(&s).unwrap_err().0, "tau_min");
+    }
+
+    #[test]
+    fn chip_shifts_have_their_closed_forms() {
+        let r = rig();
+        let fx = Effects::build(
+            &r,
+            &[
+                Effect::FixtureDrift {
+                    camera: "A".into(),
+                    um_per_k: [2.0, -1.0],
+                },
+                Effect::SensorDrift {
+                    camera: "A".into(),
+                    tau_min: 10.0,
+                    um: [4.0, 0.0],
+                },
+            ],
+            2e-5,
+            20.0,
+        )
+        .unwrap();
+        let d = fx.chip_shift_um(0, 23.0, 600.0);
+        let f = 1.0 - (-1.0f64).exp();
+        assert!((d[0] - (6.0 + 4.0 * f)).abs() < 1e-12);
+        assert!((d[1] + 3.0).abs() < 1e-12);
+        assert_eq!(fx.chip_shift_um(1, 23.0, 600.0), [0.0, 0.0]);
+    }
+}

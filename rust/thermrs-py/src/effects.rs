@@ -1,0 +1,45 @@
+//! The SPEC §6 effects (`thermrs_core::effects`) for Python: JSON in, checked, JSON out.
+
+use pyo3::prelude::*;
+use thermrs_core::effects::{Effect, EFFECT_NAMES};
+
+use crate::{to_py, InputError, PyRig};
+
+/// A JSON list of effects (`[{"name": …, key: value, …}, …]`), each one's values validated;
+/// the error names the effect and the key.
+pub(crate) fn parse_list(json: &str) -> PyResult<Vec<Effect>> {
+    let list: Vec<Effect> =
+        serde_json::from_str(json).map_err(|e| InputError::new_err(format!("effects: {e}")))?;
+    for e in &list {
+        e.validate()
+            .map_err(|(k, m)| InputError::new_err(format!("effect {}: {k}: {m}", e.name())))?;
+    }
+    Ok(list)
+}
+
+/// One effect as JSON, checked (values in range; with `rig`, the names it uses exist there);
+/// returns it normalised (every key, defaults filled in).
+#[pyfunction]
+#[pyo3(signature = (json, rig = None))]
+fn effect_check(json: &str, rig: Option<&PyRig>) -> PyResult<String> {
+    let e: Effect =
+        serde_json::from_str(json).map_err(|e| InputError::new_err(format!("effect: {e}")))?;
+    e.validate()
+        .map_err(|(k, m)| InputError::new_err(format!("effect {}: {k}: {m}", e.name())))?;
+    if let Some(r) = rig {
+        e.check(&r.inner).map_err(to_py)?;
+    }
+    Ok(serde_json::to_string(&e).expect("effects serialise"))
+}
+
+/// The SPEC §6 effect names, in the SPEC's order.
+#[pyfunction]
+fn effect_names() -> Vec<&'static str> {
+    EFFECT_NAMES.to_vec()
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(effect_check, m)?)?;
+    m.add_function(wrap_pyfunction!(effect_names, m)?)?;
+    Ok(())
+}
