@@ -701,3 +701,14 @@ def main(argv: list[str] | None = None) -> None:
             err=True,
         )
         sys.exit(EXIT_INTERNAL)
+
+
+def _register() -> None:
+    """Commands that live in their own modules."""
+    from thermrs.cli_diagnose import diagnose, diagnose_bench
+
+    cli.add_command(diagnose)
+    cli.add_command(diagnose_bench)
+
+
+_register()

@@ -1,0 +1,309 @@
+"""``thermrs diagnose`` and ``thermrs diagnose-bench``: parse, call :mod:`thermrs.diagnose`,
+render. Registered on the CLI group by :mod:`thermrs.cli`."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import click
+from rich.console import Console
+from rich.table import Table
+
+out = Console(highlight=False)
+
+
+def _f(x: Any, digits: int = 2) -> str:
+    if x is None:
+        return "—"
+    if isinstance(x, float):
+        return f"{x:.{digits}f}"
+    return str(x)
+
+
+def _params(p: dict[str, Any]) -> str:
+    from thermrs.diagnose import _fmt_params
+
+    return _fmt_params(p)
+
+
+def render_diagnosis(doc: dict[str, Any]) -> None:
+    """Print a diagnosis document (``Diagnosis.to_json()``) as tables."""
+    b = doc["baseline"]
+    a = b["alpha_per_k"]
+    out.print(
+        f"[bold]Baseline[/bold]: α = {a['value'] * 1e6:.3f}×10⁻⁶/K "
+        f"[{a['ci95'][0] * 1e6:.3f}, {a['ci95'][1] * 1e6:.3f}] on the training runs; rms "
+        f"{b['train_rms_um']:.2f} µm training, {b['holdout_rms_um']:.2f} µm held out "
+        f"(max {b['holdout_max_um']:.2f}); noise floor {doc['noise_floor_um']:.2f} µm"
+    )
+    t = Table(title="Where: largest shares of the residual (run, camera, chip axis, phase)")
+    for c in ("run", "role", "camera", "axis", "phase", "visits", "rms µm", "share"):
+        t.add_column(c, justify="right" if c in ("visits", "rms µm", "share") else "left")
+    for r in sorted(doc["location"], key=lambda r: -r["share"])[:8]:
+        t.add_row(
+            r["run"], r["role"], r["camera"], r["axis"], r["phase"], str(r["n"]),
+            f"{r['rms_um']:.2f}", f"{r['share']:.0%}",
+        )  # fmt: skip
+    out.print(t)
+    if doc["drivers"]:
+        d = doc["drivers"][0]
+        out.print(
+            f"Strongest driver: {d['driver']} (chip {d['axis']}: r = {d['corr']:.2f}, "
+            f"p = {d['p']:.2g}); held-out residual "
+            + ("white" if doc["whiteness"].get("white") else "not white")
+            + f" (Ljung–Box p = {_f(doc['whiteness'].get('ljung_box_p'), 3)})"
+        )
+    t = Table(title="Which: each effect fitted on the training runs, scored on the held-out runs")
+    for c in ("effect", "parameters", "held-out rms µm", "shrink", "gain z", "gap closed",
+              "placebo rms", "stability", "ok"):  # fmt: skip
+        t.add_column(c, justify="left" if c in ("effect", "parameters") else "right")
+    for r in doc["ranking"]:
+        e = r["evidence"]
+        t.add_row(
+            r["family"],
+            _params(r["params"]),
+            f"{r['holdout_rms_um']:.2f}",
+            f"{r['shrink']:.0%}",
+            _f(e["gain_z"], 1),
+            "—" if e["gap_closed"] is None else f"{e['gap_closed']:.0%}",
+            _f(e["placebo_holdout_rms_um"]),
+            _f(e["stability"]),
+            "yes" if e["qualifies"] else "no",
+        )
+    out.print(t)
+    for c in doc["confounded"]:
+        out.print(
+            f"Confounded: {' and '.join(c['families'])} (canonical correlation {c['cos']:.2f}); "
+            f"to separate them: {c['separate_by']}"
+        )
+    v = doc["verdict"]
+    hf = doc["how_far"]
+    out.print(f"[bold]Verdict: {v['status']}[/bold] — {v['reason']}")
+    if v["effect"]:
+        out.print(f"  {v['effect']}: {_params(v['params'])}")
+    gap = hf["gap_closed"]
+    out.print(
+        f"How far: held-out rms {hf['holdout_rms_before_um']:.2f} → "
+        f"{hf['holdout_rms_after_um']:.2f} µm, max {hf['holdout_max_before_um']:.2f} → "
+        f"{hf['holdout_max_after_um']:.2f} µm"
+        + ("" if gap is None else f", {gap:.0%} of the gap above the noise floor closed")
+    )
+
+
+def render_paper(doc: dict[str, Any]) -> None:
+    """Print the paper diagnosis (:func:`thermrs.diagnose.paper.paper_diagnosis`)."""
+    keys = list(doc["measured_um"])
+    runs = list(dict.fromkeys(k.split("/")[0] for k in keys))
+
+    def per_run(values: dict[str, float]) -> list[str]:
+        return ["/".join(f"{values[k]:.0f}" for k in keys if k.startswith(r + "/")) for r in runs]
+
+    t = Table(title="Table 4 (drift along chip y, µm, cameras A/B) and the effects that fit it")
+    t.add_column("model", justify="left", ratio=3)
+    for r in runs:
+        t.add_column(r, justify="right")
+    t.add_column("rms µm", justify="right")
+    t.add_column("possible", justify="right")
+    t.add_row("measured (Table 4)", *per_run(doc["measured_um"]), "", "")
+    nom = doc["nominal"]
+    t.add_row(
+        "nominal model, α = 23.2×10⁻⁶/K",
+        *per_run(nom["predicted_v_um"]),
+        f"{nom['rms_um']:.1f}",
+        "",
+    )
+    for c in doc["candidates"][:10]:
+        t.add_row(
+            f"{c['effect']}: {_params(c['params'])}",
+            *per_run(c["predicted_v_um"]),
+            f"{c['rms_um']:.1f}",
+            "yes" if c["plausible"] else "no",
+        )
+    out.print(t)
+    out.print(doc["summary"])
+    for s in doc["separate_by"]:
+        out.print(f"  To separate them: {s}")
+    for c in doc["cannot_act"]:
+        out.print(f"  {c['effect']}: cannot act here — {c['why']}")
+
+
+@click.command()
+@click.option(
+    "--rig",
+    "rig_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Rig file (default with --paper: the embedded paper rig).",
+)
+@click.option(
+    "--train",
+    "train",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    help="Training runs (recordings or extracted tables).",
+)
+@click.option(
+    "--holdout",
+    "holdout",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    help="Held-out runs, scored but never fitted.",
+)
+@click.option(
+    "--exclude",
+    "exclude",
+    multiple=True,
+    help="Effects the diagnoser may not name (SPEC §6 names).",
+)
+@click.option("--paper", "paper", is_flag=True, help="Diagnose the paper's own Table 4 numbers.")
+@click.option(
+    "--bootstrap",
+    default=30,
+    show_default=True,
+    type=click.IntRange(0, 10_000),
+    help="Block-bootstrap resamples for stability.",
+)
+@click.option(
+    "--seed",
+    default=0,
+    show_default=True,
+    type=click.IntRange(0, 2**32 - 1),
+    help="Seed of the resampling.",
+)
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Write the SPEC §7 JSON here (atomically).",
+)
+def diagnose(
+    rig_path: Path | None,
+    train: tuple[Path, ...],
+    holdout: tuple[Path, ...],
+    exclude: tuple[str, ...],
+    paper: bool,
+    bootstrap: int,
+    seed: int,
+    json_path: Path | None,
+) -> None:
+    """Diagnose the sim-to-real gap: where the nominal model's residual lies, which SPEC §6
+    effect causes it, and how far it shrinks — scored on held-out runs.
+
+    Exits 3 (after diagnosing) if part of a recording was lost.
+    """
+    from thermrs.cli import EXIT_DATA_LOSS, _run_tables, _write_json
+    from thermrs.errors import InputError
+    from thermrs.rig import load_rig
+
+    if paper:
+        if train or holdout:
+            raise click.UsageError(
+                "--paper diagnoses the paper's numbers; give no --train/--holdout"
+            )
+        from thermrs.diagnose.paper import paper_diagnosis
+
+        pdoc = paper_diagnosis(rig=load_rig(rig_path))
+        if json_path is not None:
+            _write_json(json_path, pdoc)
+        render_paper(pdoc)
+        return
+    if rig_path is None:
+        raise click.UsageError("Missing option '--rig' (or give --paper).")
+    if not train:
+        raise click.UsageError("Missing option '--train'.")
+    if not holdout:
+        raise InputError(
+            "no --holdout run: effects are scored on runs they were not fitted on; give at "
+            "least one held-out run"
+        )
+    from thermrs.diagnose import diagnose as run
+
+    r = load_rig(rig_path)
+    tt, loss1 = _run_tables(train, r, "--train")
+    th, loss2 = _run_tables(holdout, r, "--holdout")
+    with out.status("diagnosing…") as status:
+        d = run(tt, th, r, exclude=list(exclude), bootstrap=bootstrap, seed=seed,
+                progress=lambda m: status.update(f"diagnosing: {m}…"))  # fmt: skip
+    doc = d.to_json()
+    if json_path is not None:
+        _write_json(json_path, doc)
+    render_diagnosis(doc)
+    if loss1 or loss2:
+        sys.exit(EXIT_DATA_LOSS)
+
+
+@click.command("diagnose-bench")
+@click.option(
+    "--rig",
+    "rig_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Rig file (default: the embedded paper rig; needs ROIs link2 and link3).",
+)
+@click.option(
+    "--seeds",
+    default=3,
+    show_default=True,
+    type=click.IntRange(1, 1000),
+    help="Seeds per effect and magnitude.",
+)
+@click.option(
+    "--hours",
+    default=8.0,
+    show_default=True,
+    type=click.FloatRange(1.0, 48.0),
+    help="Length of each run.",
+)
+@click.option("--effect", "effects", multiple=True, help="Only these effects (default: all).")
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Write the results here (atomically).",
+)
+def diagnose_bench(
+    rig_path: Path | None,
+    seeds: int,
+    hours: float,
+    effects: tuple[str, ...],
+    json_path: Path | None,
+) -> None:
+    """The diagnoser on simulated runs with each SPEC §6 effect injected (and withheld from
+    its library), with what it does not model perturbed: confusion matrix, parameter
+    recovery, held-out shrink, false attributions."""
+    from thermrs.cli import _write_json
+    from thermrs.diagnose.bench import run_bench
+    from thermrs.effects import EFFECT_NAMES
+    from thermrs.errors import InputError
+    from thermrs.rig import load_rig
+
+    bad = sorted(set(effects) - set(EFFECT_NAMES))
+    if bad:
+        raise InputError(f"--effect {bad}: not effects (known: {', '.join(EFFECT_NAMES)})")
+    r = load_rig(rig_path)
+    with out.status("bench…") as status:
+        doc = run_bench(r, seeds=seeds, hours=hours, effects=tuple(effects) or None,
+                        progress=lambda m: status.update(m))  # fmt: skip
+    if json_path is not None:
+        _write_json(json_path, doc)
+    t = Table(title=f"Confusion over {doc['cases']} cases (rows: truth)")
+    cols = sorted({k for row in doc["confusion"].values() for k in row})
+    t.add_column("truth", justify="left")
+    for c in cols:
+        t.add_column(c, justify="right")
+    for truth, row in doc["confusion"].items():
+        t.add_row(truth, *[str(row.get(c, "")) for c in cols])
+    out.print(t)
+    g = doc["gap_closed_when_identified"]
+    out.print(
+        f"correct verdicts {doc['correct_rate']:.0%} (effects {doc['effect_correct_rate']:.0%}); "
+        f"effects named on none {doc['false_attribution_on_none']:.0%}; true effect excluded: "
+        f"unexplained/ambiguous {doc['excluded_ok_rate']:.0%}, confidently wrong "
+        f"{doc['excluded_confidently_wrong']}; gap closed when identified: median "
+        f"{_f(g['median'])}, ≥ 70 % in {_f(g['share_ge_70pct'])}; parameters within 25 %: "
+        f"{_f(doc['params_within_25pct'])}; {doc['seconds']:.0f} s"
+    )

@@ -1,0 +1,221 @@
+"""The diagnoser's fitting engine: the nominal model and each effect family fitted on the
+training runs, scored on the held-out runs.
+
+Model of every visit's measured spot (u and v rows, µm)::
+
+    y = offset[run, camera, axis] + α·s + E(η)·β + noise
+
+``s`` is the spot's displacement per unit α (nominal model, :meth:`VisitSet.alpha_column`),
+``E(η)`` a family's signature columns (:class:`thermrs.effects.Family`) at its profiled
+non-linear parameters η, β their amplitudes. α and β come from the training runs alone, by
+weighted least squares on unit-norm columns (QR, :func:`thermrs.stats.lstsq_qr`), each camera
+and chip axis weighted by the inverse of its residual variance under the nominal model (fixed
+for every candidate so that they are compared on one scale). A held-out run's offsets are
+unknown mountings, so they are the only thing fitted on it: its residual is the measurement
+minus α·s + E·β, centred per (camera, axis).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from scipy.optimize import minimize_scalar
+
+from thermrs.effects import Family
+from thermrs.signatures import VisitSet
+from thermrs.stats import LeastSquares, lstsq_qr
+
+__all__ = ["Design", "Fit"]
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+
+@dataclass
+class Fit:
+    """One model fitted on the training rows and applied to the held-out rows."""
+
+    label: str
+    alpha: float
+    beta: FloatArray
+    cov: FloatArray
+    eta: dict[str, float]
+    residual: FloatArray  # 2n, every row (held-out rows centred per group)
+    train_rss_w: float
+    train_rms_um: float
+    holdout_rms_um: float
+    holdout_max_um: float
+    n_params: int
+    lsq: LeastSquares | None = None
+    columns: FloatArray | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+class Design:
+    """The visits of training and held-out runs with everything the fits share.
+
+    Parameters
+    ----------
+    visits
+        Every run's visits (:class:`VisitSet`).
+    train_runs
+        Names of the training runs; the other runs are held out.
+    """
+
+    def __init__(self, visits: VisitSet, train_runs: set[str]):
+        self.vs = visits
+        n = visits.n
+        self.n = n
+        run2 = np.concatenate([visits.run, visits.run])
+        self.train: BoolArray = np.isin(run2, sorted(train_runs))
+        self.hold: BoolArray = ~self.train
+        self.s = visits.alpha_column()
+        self.y = visits.y
+        self.offsets, self.offset_names = visits.offset_columns()
+        self.group = np.argmax(self.offsets, axis=1)
+        cam2 = np.concatenate([visits.camera, visits.camera])
+        self.channel = np.char.add(np.char.add(cam2, "/"), visits.axis)
+        self.series = np.char.add(np.char.add(run2, "/"), cam2)
+        self.unit = np.concatenate([np.arange(n), np.arange(n)])
+        self.order = np.concatenate([visits.t_s, visits.t_s])
+        self.weights = np.ones(2 * n)
+        base = self.fit(None, {}, label="nominal")
+        # Weights: inverse residual variance per camera and axis, from the nominal training fit.
+        for ch in np.unique(self.channel):
+            m = self.channel == ch
+            mt = m & self.train
+            r = base.residual[mt]
+            var = float(np.mean(r**2)) if mt.sum() > 5 else float(np.mean(base.residual**2))
+            self.weights[m] = 1.0 / max(var, 1e-6)
+
+    # --- fitting -------------------------------------------------------------------------------
+    def fit(
+        self,
+        columns: FloatArray | None,
+        eta: dict[str, float],
+        *,
+        label: str,
+        rows: npt.NDArray[np.intp] | None = None,
+        covariance: str = "hac",
+    ) -> Fit:
+        """Fit α (and the columns' amplitudes) on the training rows (or the given subset of
+        them, a bootstrap resample), score on the held-out rows."""
+        k = 0 if columns is None else columns.shape[1]
+        tr = np.flatnonzero(self.train) if rows is None else rows
+        used = np.unique(self.group[tr])
+        xs = [self.s[:, None]]
+        if columns is not None:
+            xs.append(columns)
+        x_all = np.column_stack(xs)
+        x = np.column_stack([x_all[tr], self.offsets[np.ix_(tr, used)]])
+        lsq = lstsq_qr(
+            x,
+            self.y[tr],
+            weights=self.weights[tr],
+            covariance="hac" if covariance == "hac" else "iid",
+            series=self.series[tr] if covariance == "hac" else None,
+            units=self.unit[tr] if covariance == "hac" else None,
+            order=self.order[tr] if covariance == "hac" else None,
+        )
+        coef = lsq.coef[: 1 + k]
+        model = x_all @ coef
+        resid = self.y - model
+        # Training rows: their own offsets; held-out rows: offsets fitted with α, β fixed.
+        out = np.empty_like(resid)
+        for g in np.unique(self.group):
+            m = self.group == g
+            w = self.weights[m]
+            out[m] = resid[m] - np.sum(w * resid[m]) / np.sum(w)
+        hold = out[self.hold]
+        train = out[self.train]
+        return Fit(
+            label=label,
+            alpha=float(coef[0]),
+            beta=np.asarray(coef[1:], dtype=np.float64),
+            cov=np.asarray(lsq.cov[: 1 + k, : 1 + k], dtype=np.float64),
+            eta=dict(eta),
+            residual=out,
+            train_rss_w=float(np.sum(self.weights[tr] * lsq.residuals**2)),
+            train_rms_um=float(np.sqrt(np.mean(train**2))) if len(train) else float("nan"),
+            holdout_rms_um=float(np.sqrt(np.mean(hold**2))) if len(hold) else float("nan"),
+            holdout_max_um=float(np.max(np.abs(hold))) if len(hold) else float("nan"),
+            n_params=x.shape[1] + len(eta),
+            lsq=lsq,
+            columns=columns,
+        )
+
+    def identifiable(self, columns: FloatArray) -> float:
+        """How much of the columns is left once the nominal model (α, offsets) has taken what
+        it can, on the training rows: the smallest such fraction over the columns (0: the
+        effect is indistinguishable from the nominal model on these runs)."""
+        tr = np.flatnonzero(self.train)
+        w = np.sqrt(self.weights[tr])
+        used = np.unique(self.group[tr])
+        base = np.column_stack([self.s[tr], self.offsets[np.ix_(tr, used)]]) * w[:, None]
+        q, _ = np.linalg.qr(base / np.linalg.norm(base, axis=0))
+        fr = []
+        for j in range(columns.shape[1]):
+            c = columns[tr, j] * w
+            nc = np.linalg.norm(c)
+            if nc == 0 or not np.isfinite(nc):
+                return 0.0
+            fr.append(float(np.linalg.norm(c - q @ (q.T @ c)) / nc))
+        return min(fr)
+
+    def profile(self, fam: Family, visits: VisitSet | None = None) -> Fit | None:
+        """The family at its best non-linear parameters (least weighted training residual on
+        its grid, refined continuously on log scale where the family allows); None if it
+        cannot be fitted on these runs."""
+        vs = self.vs if visits is None else visits
+        best: tuple[float, dict[str, float], FloatArray] | None = None
+        scores: list[tuple[dict[str, float], float]] = []
+        for eta in fam.grid:
+            try:
+                cols = fam.columns(vs, eta)
+            except Exception:  # an effect that cannot act on these runs
+                return None
+            if not np.all(np.isfinite(cols)) or self.identifiable(cols) < 1e-6:
+                continue
+            f = self._try(cols, eta, fam.label)
+            if f is None:
+                continue
+            scores.append((eta, f.train_rss_w))
+            if best is None or f.train_rss_w < best[0]:
+                best = (f.train_rss_w, eta, cols)
+        if best is None:
+            return None
+        _, eta, cols = best
+        if fam.refine and len(fam.grid) > 2:
+            key = fam.refine[0]
+            grid = sorted(float(e[key]) for e in fam.grid)
+            i = grid.index(float(eta[key]))
+            lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
+
+            def rss(logt: float) -> float:
+                e = {**eta, key: float(np.exp(logt))}
+                c = fam.columns(vs, e)
+                f = self._try(c, e, fam.label)
+                return np.inf if f is None else f.train_rss_w
+
+            if hi > lo:
+                r = minimize_scalar(
+                    rss,
+                    bounds=(np.log(lo), np.log(hi)),
+                    method="bounded",
+                    options={"xatol": 0.01},
+                )
+                if np.isfinite(r.fun) and r.fun <= best[0]:
+                    eta = {**eta, key: float(np.exp(r.x))}
+                    cols = fam.columns(vs, eta)
+        f = self.fit(cols, eta, label=fam.label)
+        f.extra["profile"] = scores
+        return f
+
+    def _try(self, cols: FloatArray, eta: dict[str, float], label: str) -> Fit | None:
+        try:
+            return self.fit(cols, eta, label=label, covariance="iid")
+        except (ValueError, np.linalg.LinAlgError):
+            return None
