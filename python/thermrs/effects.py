@@ -230,7 +230,7 @@ def _ratio_ci(num: float, den: float, cov: FloatArray, i: int, j: int) -> tuple[
     g = np.zeros(cov.shape[0])
     g[i] = 1.0 / den
     g[j] = -num / den**2
-    return r, float(np.sqrt(max(g @ cov @ g, 0.0)))
+    return r, float(np.sqrt(max(float(g @ cov @ g), 0.0)))
 
 
 # --- the SPEC §6 effects -------------------------------------------------------------------------
@@ -264,7 +264,7 @@ class AlphaPerLink(Effect):
                 g[0] = 1.0
                 g[1 + k] = 1.0
                 vals[t] = alpha + float(beta[k])
-                cis[t] = _ci(vals[t], float(np.sqrt(max(g @ cov @ g, 0.0))))
+                cis[t] = _ci(vals[t], float(np.sqrt(max(float(g @ cov @ g), 0.0))))
             return {"alpha_per_k": vals}, {"alpha_per_k": cis}
 
         return [Family(cls.name, cls.name, {}, [{}], columns, params, driver=",".join(temps))]

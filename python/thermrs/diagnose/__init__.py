@@ -280,7 +280,7 @@ def diagnose(
         No training or no held-out run, a run used twice, a run without visits, an unknown
         effect name in ``exclude``.
     """
-    from threadpoolctl import threadpool_limits
+    from threadpoolctl import threadpool_limits  # type: ignore[import-untyped]
 
     # Thousands of small least-squares problems: one BLAS thread each is several times faster
     # than a pool that spins (and fights other processes for the cores).
@@ -335,8 +335,9 @@ def _diagnose(
     unknown = sorted(set(exclude) - set(classes) - set(EFFECT_NAMES))
     if unknown:
         raise InputError(f"--exclude {unknown}: not effects (known: {', '.join(EFFECT_NAMES)})")
-    for n in exclude:
-        classes.pop(n, None)
+    # Excluded effects may not be named; their signatures still count as rivals, so that an
+    # effect confounded with one of them is never reported as identified.
+    hidden = set(exclude)
     rng = np.random.default_rng(seed)
 
     say("baseline")
@@ -425,14 +426,15 @@ def _diagnose(
     scored.sort(key=lambda s: s["fit"].holdout_rms_um)
 
     # Placebos and stability for the leading candidates (one per effect name).
-    top: list[dict[str, Any]] = []
+    top_all: list[dict[str, Any]] = []
     seen: set[str] = set()
     for s in scored:
         if s["family"].effect not in seen:
             seen.add(s["family"].effect)
-            top.append(s)
+            top_all.append(s)
+    top = [s for s in top_all if s["family"].effect not in hidden]
     say("placebos")
-    for s in top:
+    for s in top_all:
         fam, f = s["family"], s["fit"]
         try:
             pc = fam.columns(placebo_vs, f.eta)
@@ -505,6 +507,7 @@ def _diagnose(
     # Verdict.
     structured = base_rms > STRUCTURED * floor
     good = [s for s in top if qualifies(s)]
+    good_all = [s for s in top_all if qualifies(s)]
     status = "none"
     chosen: dict[str, Any] | None = None
     rivals: list[str] = []
@@ -513,11 +516,17 @@ def _diagnose(
         best = good[0]
         closed = best["closed"] if best["closed"] is not None else 0.0
         # Rivals: other qualifying effects whose held-out errors are not significantly worse.
-        for s in good[1:]:
+        hidden_rival = False
+        for s in good_all:
+            if s is best:
+                continue
             d = s["fit"].residual[hold] ** 2 - best["fit"].residual[hold] ** 2
             se = _block_se(d, groups3[hold], design.order[hold], rng, draws=100)
             if d.mean() < 2.0 * se:
-                rivals.append(s["family"].effect)
+                if s["family"].effect in hidden:
+                    hidden_rival = True
+                else:
+                    rivals.append(s["family"].effect)
         conf_names = {
             e for c in confounded if best["family"].effect in c["effects"] for e in c["effects"]
         } - {best["family"].effect}
@@ -534,13 +543,14 @@ def _diagnose(
                 f"the best candidate, {best['family'].label}, closes only {closed:.0%} of the gap "
                 "above the noise floor on the held-out runs"
             )
-        elif rivals:
+        elif rivals or hidden_rival:
             status = "ambiguous"
             chosen = best
             rivals = sorted(set(rivals) | (conf_names & {s["family"].effect for s in good}))
+            others = [*rivals, *(["an effect excluded from the library"] if hidden_rival else [])]
             reason = (
-                f"{best['family'].effect} and {', '.join(rivals)} explain the held-out runs about "
-                "equally well"
+                f"{best['family'].effect} and {' and '.join(others)} explain the held-out runs "
+                "about equally well"
             )
         else:
             status = "identified"
@@ -571,6 +581,7 @@ def _diagnose(
         for s in good:
             if s is chosen or s["family"].effect in rivals:
                 continue
+            assert final.columns is not None
             cols = np.column_stack([final.columns, s["fit"].columns])
             eta = {**final.eta, **{f"{s['family'].effect}.{k}": v for k, v in s["fit"].eta.items()}}
             try:
@@ -686,7 +697,7 @@ def _diagnose(
         verdict=verdict,
         how_far=how_far,
         selected=sel,
-        library=sorted(classes),
+        library=sorted(set(classes) - hidden),
         excluded=sorted(exclude),
         summary="",
         residuals=residuals,
@@ -740,10 +751,7 @@ def _summary(d: Diagnosis) -> str:
             f"{(hf['gap_closed'] or 0):.0%} of the gap above the floor."
         )
     elif v["status"] == "ambiguous":
-        what = (
-            f" Verdict: ambiguous — {v['effect']} and {', '.join(v['confounded_with'])} explain it "
-            "about equally well on these runs."
-        )
+        what = f" Verdict: ambiguous — {v['reason']} on these runs."
         sep = [c["separate_by"] for c in d.confounded if v["effect"] in c["effects"]]
         if sep:
             what += f" To tell them apart: {sep[0]}."

@@ -70,7 +70,7 @@ class BenchCase:
 
 def _rise(link: str, speed: float) -> float:
     _, r0, span, s0 = LINKS[link]
-    return r0 + span * (1.0 - np.exp(-speed / s0))
+    return float(r0 + span * (1.0 - np.exp(-speed / s0)))
 
 
 def _lag(t_s: FloatArray, x: FloatArray, tau_s: float) -> FloatArray:

@@ -55,7 +55,7 @@ def _variogram_sigma(r: FloatArray, max_lag: int = 8) -> tuple[float, float] | N
     return best[1], float(len(r))
 
 
-def noise_floor(visits: VisitSet, residual: FloatArray, groups: FloatArray) -> float:
+def noise_floor(visits: VisitSet, residual: FloatArray, groups: npt.NDArray[np.str_]) -> float:
     """The measurement's own repeatability (µm rms), from residual series (module docs).
 
     Parameters
@@ -155,7 +155,7 @@ def drivers(visits: VisitSet, residual: FloatArray) -> list[dict[str, Any]]:
     """Correlation of the residual (per chip axis) with each available driver: every
     temperature and its rate (K/h), and the time since the run began; p-values from the
     correlation's t statistic on the effective sample size."""
-    out = []
+    out: list[dict[str, Any]] = []
     cands: dict[str, FloatArray] = {}
     for name, x in visits.temps.items():
         cands[f"{name} temperature"] = x

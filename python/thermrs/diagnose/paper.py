@@ -130,7 +130,7 @@ def paper_diagnosis(*, rig: Rig | None = None, data: PaperData | None = None) ->
                 if fam.effect in ("thermal_lag", "unmodelled_length"):
                     w = float(beta[0] / HANDBOOK_ALPHA)
                     plausible = plausible and 0.25 <= w <= 4.0
-                c = {
+                c: dict[str, Any] = {
                     "effect": fam.effect,
                     "family": fam.label,
                     "params": params,
