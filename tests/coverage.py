@@ -34,7 +34,7 @@ def random_rig(rng: np.random.Generator) -> thermrs.Rig:
     """A random KR 16-like rig whose two chips each sit in the laser's path at their pose."""
     import roboticstoolbox as rtb
 
-    s = rng.uniform(0.7, 1.3, 5)
+    s = [float(v) for v in rng.uniform(0.7, 1.3, 5)]
     dh = [  # a_mm, alpha_deg, d_mm, theta_offset_deg, sign
         (260.0 * s[0], 90.0, 675.0 * s[1], 0.0, 1),
         (680.0 * s[2], 0.0, 0.0, 0.0, 1),

@@ -141,7 +141,9 @@ def runs_from_gaps(
         The runs table (``source`` ``"gap"``); empty without visits.
     """
     if gap_factor <= 0 or min_gap_s < 0:
-        raise InputError(f"gap_factor must be > 0 and min_gap_s ≥ 0 (got {gap_factor}, {min_gap_s})")
+        raise InputError(
+            f"gap_factor must be > 0 and min_gap_s ≥ 0 (got {gap_factor}, {min_gap_s})"
+        )
     if visits.height == 0:
         return pl.DataFrame(schema=RUNS_SCHEMA)
     cad = cadence_s(visits)
