@@ -188,9 +188,7 @@ def test_without_markers_the_idle_gap_splits(
 
 
 def cli(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "thermrs", *args], capture_output=True, text=True
-    )
+    return subprocess.run([sys.executable, "-m", "thermrs", *args], capture_output=True, text=True)
 
 
 def test_paper_protocol_through_the_cli(

@@ -262,9 +262,7 @@ def extract(
         frames_by_status=dict(zip(counts["status"], counts["len"], strict=True)),
     )
     visits = find_visits(frames, joints, rig, tolerance_deg=visit_tolerance_deg)
-    runs = find_runs(
-        report.metadata, visits, gap_factor=run_gap_factor, min_gap_s=run_min_gap_s
-    )
+    runs = find_runs(report.metadata, visits, gap_factor=run_gap_factor, min_gap_s=run_min_gap_s)
     visits = with_runs(visits, runs)
     return Extraction(
         frames=frames,
