@@ -342,7 +342,10 @@ def fit_alpha_start_end(
     visit of a run usually precedes its first thermal frame, so its temperature is
     extrapolated), through the model's sensitivity to each temperature. Two visits carry
     no information about either error, so both are inputs, not estimates; the time-series
-    estimator needs neither.
+    estimator needs neither. The two visits are far apart, so the spot errors enter with
+    their full (marginal) variance whatever their autocorrelation. The mean's interval treats
+    the cameras' spot errors as independent and a temperature reading's error as common to
+    every camera (their first, and their last, visits read the same thermal frames).
     """
     if axis not in ("u", "v", "auto"):
         raise InputError(f"axis must be 'u', 'v' or 'auto', got {axis!r}")
@@ -354,8 +357,12 @@ def fit_alpha_start_end(
         grads.append((gu - su, gv - sv))
     res = fit_alpha([table], rig).residuals if visit_noise_um is None else None
     per: dict[str, tuple[float, tuple[float, float]]] = {}
-    variances = []
+    spot_vars = []
     noises = []
+    # ∂α_c/∂T per (mapped temperature, first or last visit): the cameras' first (last) visits
+    # lie in one cycle and read the same thermal frames, so a reading error is common to all
+    # cameras and enters their mean coherently, not independently.
+    dtemp: dict[tuple[int, str], list[float]] = {}
     for cam in sorted(set(table["camera"].to_list())):
         idx = np.flatnonzero((table["camera"] == cam).to_numpy())
         idx = idx[np.argsort(table["t_ns"].to_numpy()[idx])]
@@ -379,15 +386,23 @@ def fit_alpha_start_end(
         noises.append(noise)
         a = (y[last] - y[first]) / ds
         k = 0 if ax == "u" else 1
-        temp_var = sum(
-            (a * g[k][i] * temperature_noise_c) ** 2 for g in grads for i in (first, last)
-        )
-        half = 1.96 * np.sqrt(2.0 * noise**2 + temp_var) / abs(ds)
+        temp_var = 0.0
+        for j, g in enumerate(grads):
+            for end, i, sign in (("first", first, 1.0), ("last", last, -1.0)):
+                d = sign * a * g[k][i] / ds
+                temp_var += (d * temperature_noise_c) ** 2
+                dtemp.setdefault((j, end), []).append(d)
+        spot_var = 2.0 * noise**2 / ds**2
+        half = 1.96 * np.sqrt(spot_var + temp_var)
         per[cam] = (float(a), (float(a - half), float(a + half)))
-        variances.append((half / 1.96) ** 2)
+        spot_vars.append(spot_var)
     if not per:
         raise InputError("no camera has two visits: nothing to estimate")
+    c = len(per)
     m = float(np.mean([v[0] for v in per.values()]))
-    half_m = 1.96 * float(np.sqrt(np.sum(variances))) / len(per)
+    var_m = float(np.sum(spot_vars)) / c**2 + sum(
+        (sum(d) / c * temperature_noise_c) ** 2 for d in dtemp.values()
+    )
+    half_m = 1.96 * float(np.sqrt(var_m))
     noise = float(np.sqrt(np.mean(np.square(noises))))
     return StartEndFit(per_camera=per, mean=(m, (m - half_m, m + half_m)), visit_noise_um=noise)
