@@ -1548,4 +1548,31 @@ mod tests {
         assert!("gzip".parse::<RecordCompression>().is_err());
         assert_eq!(RecordCompression::Zstd.to_string(), "zstd");
     }
+
+    #[test]
+    fn run_marker_is_a_metadata_record_other_readers_see() {
+        let mut w =
+            RecordingWriter::new(Cursor::new(Vec::new()), &RecordOptions::default()).unwrap();
+        w.write_run_marker("run2", 1_750_000_000_000_000_000, 1_750_000_060_000_000_000)
+            .unwrap();
+        assert!(matches!(
+            w.write_run_marker("bad", i64::MAX, i64::MAX),
+            Err(RecordError::StampOutOfRange { .. })
+        ));
+        let file = w.finish().unwrap().into_inner();
+        // Read back with the mcap crate's own linear reader, record by record.
+        let found: Vec<_> = mcap::read::LinearReader::new(&file)
+            .unwrap()
+            .filter_map(|r| match r {
+                Ok(mcap::records::Record::Metadata(m)) => Some(m),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(found.len(), 1);
+        assert_eq!(found[0].name, RUN_METADATA);
+        let v = &found[0].metadata;
+        assert_eq!(v["name"], "run2");
+        assert_eq!(v["start_ns"], "1750000000000000000");
+        assert_eq!(v["end_ns"], "1750000060000000000");
+    }
 }
