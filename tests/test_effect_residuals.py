@@ -133,10 +133,15 @@ def baseline(tmp_path_factory: pytest.TempPathFactory) -> dict[str, float]:
 
 
 def test_no_effect_leaves_residuals_at_the_noise_level(baseline: dict[str, float]) -> None:
-    """The nominal model on a `none` recording: residual RMS within 1.3× the measurement's own
-    visit-to-visit noise, α within 1 % of the simulator's, and the noise-free version exact."""
+    """The nominal model on a `none` recording: residual RMS within 2× the measurement's own
+    visit-to-visit noise, α within 1 % of the simulator's, and the noise-free version exact.
+
+    (Issue #9: the noise is 0.11–0.15 µm per axis, as the within-visit centroid scatter
+    says independently (0.10–0.12 µm); the von Neumann estimator used before read 0.29–0.35
+    µm because the drift's own step from visit to visit was in it. The residual, 0.20 µm,
+    also carries the ROI readings' error.)"""
     assert baseline["ideal"] < 1e-6
-    assert baseline["rms"] < 1.3 * baseline["noise"], baseline
+    assert baseline["rms"] < 2.0 * baseline["noise"], baseline
     assert baseline["noise"] < 0.5, baseline
     assert baseline["alpha"] == pytest.approx(23.2e-6, rel=0.01)
 

@@ -327,21 +327,25 @@ def _write_json(path: Path, doc: object) -> None:
 
 
 def _run_tables(paths: tuple[Path, ...], rig: Any, what: str) -> tuple[list[Any], bool]:
-    """Run tables of recordings or extracted tables, and whether any recording lost data."""
-    from thermrs.fit import load_run_table
+    """Run tables of recordings or extracted tables (``FILE`` or ``FILE#RUN``), and whether
+    any recording lost data; lists the runs found in each file on stderr."""
+    from thermrs.runs import load_runs, split_run_spec
 
     tables, loss = [], False
-    names = [p.name for p in paths]
+    files = {split_run_spec(p)[0] for p in paths}
+    names = [f.name for f in files]
     for p in paths:
         # Two files of one name in different folders: name the runs by their paths.
-        run = str(p) if names.count(p.name) > 1 else None
-        t, lost = load_run_table(p, rig, run=run)
-        if t.height == 0:
-            raise InputError(f"{what} {p}: no visit with a spot")
-        if lost:
+        base = split_run_spec(p)[0]
+        rt = load_runs(p, rig, name=str(base) if names.count(base.name) > 1 else None)
+        click.echo(f"thermrs: {what} {rt.describe()}", err=True)
+        for t in rt.tables:
+            if t.height == 0:
+                raise InputError(f"{what} {p}: no visit with a spot")
+        if rt.data_loss:
             click.echo(f"thermrs: warning: {p}: part of the recording was lost", err=True)
-        tables.append(t)
-        loss |= lost
+        tables.extend(rt.tables)
+        loss |= rt.data_loss
     return tables, loss
 
 
@@ -353,13 +357,14 @@ def runs_option(what: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]
         required=True,
         multiple=True,
         type=click.Path(path_type=Path),
-        help=f"{what}: recordings (MCAP) or tables written by `thermrs extract`.",
+        help=f"{what}: recordings (MCAP) or tables written by `thermrs extract`; FILE#RUN "
+        "takes one run of a file (FILE alone: each of its runs).",
     )
 
 
 TRAIN_HELP = (
-    "Training runs: recordings (MCAP) or tables written by `thermrs extract`, one run each "
-    "(--train A B or --train A --train B)."
+    "Training runs: recordings (MCAP) or tables written by `thermrs extract` (--train A B or "
+    "--train A --train B); FILE#RUN takes one run of a file (FILE alone: each of its runs)."
 )
 
 
@@ -397,7 +402,7 @@ def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None
     doc["start_end"] = {run: se.to_json() for run, se in start_end.items()}
     if json_path is not None:
         _write_json(json_path, doc)
-    t = Table(title=f"α from {len(train)} run(s), {f.n_visits} visits")
+    t = Table(title=f"α from {len(tables)} run(s), {f.n_visits} visits")
     for col in ("estimator", "run", "camera", "α (×10⁻⁶/K)", "95 % interval", "rms (µm)"):
         t.add_column(col, justify="right" if col not in ("estimator", "run") else "left")
     t.add_row(

@@ -6,8 +6,9 @@ Run tables
     between their own samples with a shape-preserving cubic (PCHIP) and extrapolated beyond
     them (a run's first visits come before its first thermal frame; holding that later,
     warmer reading, or joining samples by straight lines along a curved warm-up, biases α by
-    a few per cent when thermal frames are sparse). A recording should hold one run:
-    temperatures are not measured while the robot idles between runs.
+    a few per cent when thermal frames are sparse). A recording of several runs gives one run
+    table per run (:mod:`thermrs.runs`), each from its own temperature readings: they are not
+    measured while the robot idles between runs.
 
     ROI maxima (SPEC §3) are maxima of noisy pixels: they read high by an amount that shrinks
     as a link's hot region forms (0.05 K pixel noise: about 0.11 K at a 0.3 K rise, 0.03 K at
@@ -23,9 +24,22 @@ Time-series estimator
     interest; ``s_i`` is evaluated at the rig's α). The offsets absorb each camera's unknown
     mounting in each run (SPEC §4: absolute positions carry unknown offsets), so no single
     anchor visit carries the noise. α and the offsets come from one linear least-squares fit,
-    weighted per camera and chip axis by the inverse of that axis's residual variance (feasible
-    weighted least squares: an unweighted fit first gives the variances); the 95 % interval is
-    Student-t on the weighted residual variance.
+    weighted per camera and chip axis by the inverse of that axis's residual variance
+    (feasible weighted least squares: an unweighted fit first gives the variances), solved
+    by QR on unit-norm columns (:func:`thermrs.stats.lstsq_qr`: the sensitivity column,
+    of order 10⁶–10⁷ µm per unit α, beside unit offset columns, loses no precision; a
+    pseudo-inverse of the normal matrix at the default cutoff dropped the offsets' directions
+    and gave intervals 4× too narrow).
+
+    The errors of a visit series are not independent: pose repeatability, centroid bias and
+    anything the model leaves out drift from visit to visit, and u moves with v within a
+    visit. The covariance of α is therefore a Newey–West sandwich over each (run, camera)
+    series of visits (a visit's u and v rows together as one unit), prewhitened by an AR(1)
+    of α's influence series from visit to visit, with a data-chosen bandwidth, and the 95 %
+    interval Student-t with degrees of freedom that shrink as that AR(1) grows
+    (:meth:`thermrs.stats.LeastSquares.interval`). :class:`AlphaFit` says so (``interval``)
+    and gives the effective number of independent visits (``n_eff``). Coverage on three rig
+    geometries with AR(1), u–v-correlated visit errors: BENCHMARKS.md.
 """
 
 from __future__ import annotations
@@ -36,13 +50,13 @@ from pathlib import Path
 
 import numpy as np
 import polars as pl
-from scipy import stats
 from scipy.interpolate import PchipInterpolator
 
 from thermrs.errors import InputError
 from thermrs.ingest import Extraction
 from thermrs.model import ForwardModel
 from thermrs.rig import Rig
+from thermrs.stats import lstsq_qr
 
 __all__ = [
     "AlphaFit",
@@ -136,37 +150,15 @@ def load_run_table(
 ) -> tuple[pl.DataFrame, bool]:
     """The run table of a recording (``.mcap``, extracted here) or of the tables ``thermrs
     extract`` wrote (any of ``OUT.parquet``, ``OUT.visits.parquet``, … : the visits and
-    temperatures files beside it are read). The run is named ``run`` (default: the file's
-    stem). Returns the table and whether the recording lost data (always False for tables).
+    temperatures files beside it are read); ``path#run`` selects one run of the file (see
+    :mod:`thermrs.runs`), and a file of several runs gives them all, one after the other,
+    each named ``<run>#<name>``. The run is named ``run`` (default: the file's stem). Returns
+    the table and whether the recording lost data (always False for tables).
     """
-    path = Path(path)
-    if not path.exists():
-        raise InputError(f"{path}: no such file")
-    if path.name.endswith(".parquet"):
-        stem = path.name[: -len(".parquet")]
-        for part in (".visits", ".temperatures", ".joints"):
-            if stem.endswith(part):
-                stem = stem[: -len(part)]
-        need = {k: path.with_name(f"{stem}.{k}.parquet") for k in ("visits", "temperatures")}
-        for k, p in need.items():
-            if not p.exists():
-                raise InputError(f"{path}: the {k} table {p.name} is not beside it")
-        try:
-            visits = pl.read_parquet(need["visits"])
-            temps = pl.read_parquet(need["temperatures"])
-        except (OSError, pl.exceptions.PolarsError) as e:
-            raise InputError(f"{path}: cannot read the extracted tables: {e}") from None
-        missing = [c for c in ("camera", "t_ns", "n_ok", "u_um", "v_um") if c not in visits.columns]
-        if missing:
-            raise InputError(f"{need['visits']}: not a visits table (no {missing})")
-        table = run_table_from(visits, temps, rig, run=run or stem, temperature=temperature)
-        return table, False
-    from thermrs.ingest import extract
+    from thermrs.runs import load_runs
 
-    ex = extract(path, rig)
-    stem = path.name[: -len(".mcap")] if path.name.endswith(".mcap") else path.stem
-    table = run_table(ex, rig, run=run or stem, temperature=temperature)
-    return table, ex.report.data_loss
+    rt = load_runs(path, rig, name=run, temperature=temperature)
+    return pl.concat(rt.tables, how="diagonal_relaxed"), rt.data_loss
 
 
 @dataclass(frozen=True)
@@ -178,13 +170,29 @@ class AlphaFit:
     rms_um: float
     n_visits: int
     residuals: pl.DataFrame
+    #: Standard error of α (1/K).
+    stderr: float = float("nan")
+    #: How the interval was obtained, in words.
+    interval: str = ""
+    #: Effective number of independent visits (autocorrelation taken into account).
+    n_eff: float = float("nan")
+    #: AR(1) coefficient of α's influence series from visit to visit (what the standard
+    #: error was prewhitened with; 0 for independent visits).
+    ar1: float = float("nan")
 
     def to_json(self) -> dict[str, object]:
         """The SPEC §7 ``thermrs fit --json`` document (extended)."""
         return {
-            "alpha_per_k": {"value": self.alpha_per_k, "ci95": list(self.ci95)},
+            "alpha_per_k": {
+                "value": self.alpha_per_k,
+                "ci95": list(self.ci95),
+                "stderr": self.stderr,
+            },
             "rms_um": self.rms_um,
             "n_visits": self.n_visits,
+            "n_eff": self.n_eff,
+            "interval": self.interval,
+            "ar1": self.ar1,
             "estimator": "time-series least squares on the forward model, "
             "per-camera-and-run offsets",
         }
@@ -232,30 +240,42 @@ def fit_alpha(tables: Sequence[pl.DataFrame], rig: Rig) -> AlphaFit:
     y = np.concatenate([table["u_um"].to_numpy(), table["v_um"].to_numpy()])
     ok = np.isfinite(y) & np.isfinite(x[:, 0])
     x, y = x[ok], y[ok]
+    x = x[:, np.any(x != 0, axis=0) | (np.arange(x.shape[1]) == 0)]  # offsets with no row
     dof = len(y) - x.shape[1]
     if dof < 1:
         raise InputError(f"{len(y)} measurements for {x.shape[1]} parameters: too few to fit α")
-    # Feasible weighted least squares: an ordinary fit, then every (camera, axis) weighted by
-    # the inverse of its own residual variance (pose repeatability and centroid noise project
-    # differently onto the chips' axes), refitted; the interval comes from the weighted fit.
-    beta, *_ = np.linalg.lstsq(x, y, rcond=None)
-    r = y - x @ beta
-    cams = table["camera"].to_list()
-    noise_group = np.array([f"{c}/u" for c in cams] + [f"{c}/v" for c in cams])[ok]
-    sd = np.empty(len(y))
-    pooled = float(np.sqrt(r @ r / dof))
-    for grp in set(noise_group.tolist()):
-        m = noise_group == grp
-        sd[m] = np.sqrt(np.mean(r[m] ** 2)) if m.sum() >= 5 else pooled
-    sd = np.maximum(sd, 1e-6 * max(pooled, 1e-12))
-    xw, yw = x / sd[:, None], y / sd
-    beta, *_ = np.linalg.lstsq(xw, yw, rcond=None)
-    rw = yw - xw @ beta
-    r = y - x @ beta
-    s2 = float(rw @ rw) / dof
-    cov = s2 * np.linalg.pinv(xw.T @ xw)
-    half = float(stats.t.ppf(0.975, dof) * np.sqrt(cov[0, 0]))
-    a = float(beta[0])
+    # Row labels: noise group (camera, axis), unit (the visit: its u and v rows) and series
+    # (run, camera), ordered by time.
+    cams = np.asarray(table["camera"].to_list(), dtype=object)
+    gkey = np.asarray(groups.to_list(), dtype=object)
+    axis = np.repeat(np.array(["/u", "/v"], dtype=object), n)
+    noise = (np.concatenate([cams, cams]) + axis)[ok]
+    series = np.concatenate([gkey, gkey])[ok]
+    unit = np.concatenate([np.arange(n), np.arange(n)])[ok]
+    t_ns = table["t_ns"].to_numpy()
+    order = np.concatenate([t_ns, t_ns]).astype(np.float64)[ok]
+    try:
+        # Feasible weighted least squares: an ordinary fit, then every (camera, axis) weighted
+        # by the inverse of its own residual variance (pose repeatability and centroid noise
+        # project differently onto the chips' axes), refitted with the autocorrelation-aware
+        # covariance (see the module docstring).
+        r0 = lstsq_qr(x, y).residuals
+        w = np.empty(len(y))
+        pooled = float(r0 @ r0) / dof
+        for grp in set(noise.tolist()):
+            m = noise == grp
+            var = float(np.mean(r0[m] ** 2)) if m.sum() >= 5 else pooled
+            w[m] = 1.0 / max(var, 1e-12 * max(pooled, 1e-300))
+        w /= float(np.median(w))
+        fit = lstsq_qr(
+            x, y, w, covariance="hac", series=series, units=unit, order=order, prewhiten=True
+        )
+    except ValueError as e:
+        raise InputError(f"cannot fit α: {e}") from None
+    se = float(fit.stderr()[0])
+    a = float(fit.coef[0])
+    lo, hi = fit.interval(0)
+    r = fit.residuals
     full = np.full(2 * n, np.nan)
     full[ok] = r
     res = table.select("run", "camera", "visit", "t_ns").with_columns(
@@ -263,10 +283,14 @@ def fit_alpha(tables: Sequence[pl.DataFrame], rig: Rig) -> AlphaFit:
     )
     return AlphaFit(
         alpha_per_k=a,
-        ci95=(a - half, a + half),
+        ci95=(lo, hi),
         rms_um=float(np.sqrt(np.mean(r**2))),
         n_visits=n,
         residuals=res,
+        stderr=se,
+        interval=f"Student-t ({fit.t_dof:.1f} dof) on the {fit.method}",
+        n_eff=fit.n_eff,
+        ar1=float(fit.ar1[0]),
     )
 
 
@@ -318,7 +342,10 @@ def fit_alpha_start_end(
     visit of a run usually precedes its first thermal frame, so its temperature is
     extrapolated), through the model's sensitivity to each temperature. Two visits carry
     no information about either error, so both are inputs, not estimates; the time-series
-    estimator needs neither.
+    estimator needs neither. The two visits are far apart, so the spot errors enter with
+    their full (marginal) variance whatever their autocorrelation. The mean's interval treats
+    the cameras' spot errors as independent and a temperature reading's error as common to
+    every camera (their first, and their last, visits read the same thermal frames).
     """
     if axis not in ("u", "v", "auto"):
         raise InputError(f"axis must be 'u', 'v' or 'auto', got {axis!r}")
@@ -330,8 +357,12 @@ def fit_alpha_start_end(
         grads.append((gu - su, gv - sv))
     res = fit_alpha([table], rig).residuals if visit_noise_um is None else None
     per: dict[str, tuple[float, tuple[float, float]]] = {}
-    variances = []
+    spot_vars = []
     noises = []
+    # ∂α_c/∂T per (mapped temperature, first or last visit): the cameras' first (last) visits
+    # lie in one cycle and read the same thermal frames, so a reading error is common to all
+    # cameras and enters their mean coherently, not independently.
+    dtemp: dict[tuple[int, str], list[float]] = {}
     for cam in sorted(set(table["camera"].to_list())):
         idx = np.flatnonzero((table["camera"] == cam).to_numpy())
         idx = idx[np.argsort(table["t_ns"].to_numpy()[idx])]
@@ -355,15 +386,23 @@ def fit_alpha_start_end(
         noises.append(noise)
         a = (y[last] - y[first]) / ds
         k = 0 if ax == "u" else 1
-        temp_var = sum(
-            (a * g[k][i] * temperature_noise_c) ** 2 for g in grads for i in (first, last)
-        )
-        half = 1.96 * np.sqrt(2.0 * noise**2 + temp_var) / abs(ds)
+        temp_var = 0.0
+        for j, g in enumerate(grads):
+            for end, i, sign in (("first", first, 1.0), ("last", last, -1.0)):
+                d = sign * a * g[k][i] / ds
+                temp_var += (d * temperature_noise_c) ** 2
+                dtemp.setdefault((j, end), []).append(d)
+        spot_var = 2.0 * noise**2 / ds**2
+        half = 1.96 * np.sqrt(spot_var + temp_var)
         per[cam] = (float(a), (float(a - half), float(a + half)))
-        variances.append((half / 1.96) ** 2)
+        spot_vars.append(spot_var)
     if not per:
         raise InputError("no camera has two visits: nothing to estimate")
+    c = len(per)
     m = float(np.mean([v[0] for v in per.values()]))
-    half_m = 1.96 * float(np.sqrt(np.sum(variances))) / len(per)
+    var_m = float(np.sum(spot_vars)) / c**2 + sum(
+        (sum(d) / c * temperature_noise_c) ** 2 for d in dtemp.values()
+    )
+    half_m = 1.96 * float(np.sqrt(var_m))
     noise = float(np.sqrt(np.mean(np.square(noises))))
     return StartEndFit(per_camera=per, mean=(m, (m - half_m, m + half_m)), visit_noise_um=noise)

@@ -27,7 +27,8 @@ import polars as pl
 
 from thermrs import _native
 from thermrs.rig import Rig
-from thermrs.visits import DEFAULT_TOLERANCE_DEG, find_visits
+from thermrs.runs import DEFAULT_GAP_FACTOR, DEFAULT_MIN_GAP_S, RUNS_SCHEMA, find_runs
+from thermrs.visits import DEFAULT_TOLERANCE_DEG, find_visits, with_runs
 
 __all__ = ["ExtractReport", "Extraction", "extract", "write_parquet_atomic"]
 
@@ -48,6 +49,9 @@ class ExtractReport:
     losses: list[dict[str, Any]]
     recovered_messages: int
     frames_by_status: dict[str, int] = field(default_factory=dict)
+    #: The file's MCAP Metadata records in file order, each ``{"name": …, "values": {…}}``
+    #: (run markers among them, see :mod:`thermrs.runs`).
+    metadata: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def data_loss(self) -> bool:
@@ -78,6 +82,9 @@ class Extraction:
         ``t_ns`` and one column per rig joint name (radians).
     report
         What was read, skipped and lost.
+    runs
+        The runs the recording holds (:mod:`thermrs.runs`): ``run``, ``start_ns``, ``end_ns``,
+        ``source`` (``marker`` or ``gap``); the visits' ``run`` column names them.
     """
 
     frames: pl.DataFrame
@@ -85,11 +92,12 @@ class Extraction:
     temperatures: pl.DataFrame
     joints: pl.DataFrame
     report: ExtractReport
+    runs: pl.DataFrame = field(default_factory=lambda: pl.DataFrame(schema=RUNS_SCHEMA))
 
     def write(self, out: str | Path) -> dict[str, Path]:
         """Write the frames to ``out`` and the other tables beside it
-        (``<stem>.visits.parquet``, ``.temperatures.parquet``, ``.joints.parquet``), each
-        atomically. Returns the paths written."""
+        (``<stem>.visits.parquet``, ``.temperatures.parquet``, ``.joints.parquet``,
+        ``.runs.parquet``), each atomically. Returns the paths written."""
         out = Path(out)
         stem = out.name[: -len(".parquet")] if out.name.endswith(".parquet") else out.name
         paths = {
@@ -97,6 +105,7 @@ class Extraction:
             "visits": out.with_name(f"{stem}.visits.parquet"),
             "temperatures": out.with_name(f"{stem}.temperatures.parquet"),
             "joints": out.with_name(f"{stem}.joints.parquet"),
+            "runs": out.with_name(f"{stem}.runs.parquet"),
         }
         for name, path in paths.items():
             write_parquet_atomic(getattr(self, name), path)
@@ -141,6 +150,8 @@ def extract(
     visit_tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
     min_sigma_px: float | None = None,
     threshold_sigma: float | None = None,
+    run_gap_factor: float = DEFAULT_GAP_FACTOR,
+    run_min_gap_s: float = DEFAULT_MIN_GAP_S,
 ) -> Extraction:
     """Extract every table of a recording.
 
@@ -157,6 +168,10 @@ def extract(
         a spot frame to count as part of a visit.
     min_sigma_px, threshold_sigma
         Spot detection: smallest spot σ to be sure to find, threshold in noise σ.
+    run_gap_factor, run_min_gap_s
+        Without run markers, a recording splits into runs where no camera is visited for
+        longer than ``max(run_min_gap_s, run_gap_factor × visit cadence)`` (see
+        :mod:`thermrs.runs`).
 
     Raises
     ------
@@ -247,8 +262,15 @@ def extract(
         frames_by_status=dict(zip(counts["status"], counts["len"], strict=True)),
     )
     visits = find_visits(frames, joints, rig, tolerance_deg=visit_tolerance_deg)
+    runs = find_runs(report.metadata, visits, gap_factor=run_gap_factor, min_gap_s=run_min_gap_s)
+    visits = with_runs(visits, runs)
     return Extraction(
-        frames=frames, visits=visits, temperatures=temperatures, joints=joints, report=report
+        frames=frames,
+        visits=visits,
+        temperatures=temperatures,
+        joints=joints,
+        report=report,
+        runs=runs,
     )
 
 

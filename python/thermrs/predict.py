@@ -16,8 +16,9 @@ Comparison with the measurement
     measured value; ``rms_um`` compares anchored series, ``rms_centred_um`` removes the mean
     difference first (what is left is the model's error plus each visit's own noise). The noise
     level of the measurement itself, ``noise_um``, is estimated from the measured series alone
-    with the von Neumann estimator (the RMS of successive differences over √2), which a slow
-    drift hardly touches: that is the floor a perfect model reaches.
+    from its successive differences, which a slow drift hardly touches, allowing for noise
+    that is autocorrelated from visit to visit (:func:`noise_um`; the von Neumann estimator
+    when it is white): that is the floor a perfect model reaches.
 """
 
 from __future__ import annotations
@@ -36,13 +37,27 @@ __all__ = ["noise_um", "predict", "prediction_table"]
 
 
 def noise_um(values: np.ndarray) -> float:
-    """The white noise level of a slowly varying series: RMS of successive differences / √2
-    (von Neumann). NaN with fewer than three finite values."""
+    """The noise level (standard deviation) of a slowly varying series whose noise may be
+    autocorrelated from sample to sample. NaN with fewer than three finite values.
+
+    Successive differences d = Δy remove a slow drift. For white noise of variance σ², d has
+    variance 2σ² (von Neumann); for AR(1) noise with coefficient ρ, 2σ²(1−ρ), and the lag-1
+    autocorrelation of d is −(1−ρ)/2. So ρ̂ = 1 + 2·r₁(d) (clipped to [0, 0.95]) and
+    σ̂² = var(d)/(2(1−ρ̂)): the von Neumann estimator when the noise is white, and the
+    noise's full (marginal) level, not only its fast part, when it is not.
+    """
     v = np.asarray(values, dtype=np.float64)
     v = v[np.isfinite(v)]
     if len(v) < 3:
         return float("nan")
-    return float(np.sqrt(np.mean(np.diff(v) ** 2) / 2.0))
+    d = np.diff(v)
+    d = d - d.mean()
+    var = float(np.mean(d**2))
+    if var <= 0:
+        return 0.0
+    r1 = float(d[1:] @ d[:-1]) / (var * len(d)) if len(d) >= 3 else -0.5
+    rho = min(max(1.0 + 2.0 * r1, 0.0), 0.95)
+    return float(np.sqrt(var / (2.0 * (1.0 - rho))))
 
 
 def predict(

@@ -8,9 +8,10 @@ its frames (cameras that record only at visits have no dark frames between them)
 any joint states in the recording, every spot frame counts as at the pose (the spot itself
 says where the robot is).
 
-Per visit: its time span, frame counts, the mean centroid over ``ok`` frames and its scatter
-(sample standard deviation), in pixels and chip micrometres, and the drift from the camera's
-first visit in the run (SPEC §1: drift is anchored at the first visit).
+Per visit: its run (see :mod:`thermrs.runs`; null when the recording's runs are not given),
+its time span, frame counts, the mean centroid over ``ok`` frames and its scatter (sample
+standard deviation), in pixels and chip micrometres, and the drift from the camera's first
+visit in its run (SPEC §1: drift is anchored at the run's first visit of each camera).
 """
 
 from __future__ import annotations
@@ -20,8 +21,15 @@ import math
 import polars as pl
 
 from thermrs.rig import Rig
+from thermrs.runs import label_runs
 
-__all__ = ["DEFAULT_MAX_GAP_S", "DEFAULT_TOLERANCE_DEG", "find_visits"]
+__all__ = [
+    "DEFAULT_MAX_GAP_S",
+    "DEFAULT_TOLERANCE_DEG",
+    "anchor_drift",
+    "find_visits",
+    "with_runs",
+]
 
 #: Default joint tolerance (degrees): well above controller jitter, far below a pose change.
 DEFAULT_TOLERANCE_DEG = 0.05
@@ -29,6 +37,7 @@ DEFAULT_TOLERANCE_DEG = 0.05
 DEFAULT_MAX_GAP_S = 2.0
 
 VISIT_SCHEMA = {
+    "run": pl.String,
     "camera": pl.String,
     "visit": pl.Int64,
     "t_start_ns": pl.Int64,
@@ -56,6 +65,7 @@ def find_visits(
     *,
     tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
     max_gap_s: float = DEFAULT_MAX_GAP_S,
+    runs: pl.DataFrame | None = None,
 ) -> pl.DataFrame:
     """Group spot frames into visits (see the module docstring).
 
@@ -72,6 +82,10 @@ def find_visits(
         Largest joint deviation from the taught pose, degrees.
     max_gap_s
         Longest pause between two frames of one visit, seconds.
+    runs
+        The recording's runs table (:mod:`thermrs.runs`): each visit is labelled with the run
+        its mean time falls in, and its drift anchored at that run's first visit of its
+        camera. Default: no run labels, drift anchored at the recording's first visit.
     """
     if frames.height == 0:
         return pl.DataFrame(schema=VISIT_SCHEMA)
@@ -125,9 +139,30 @@ def find_visits(
         )
         .sort("camera", "visit")
     )
-    first = pl.col("camera")
+    return with_runs(v, runs)
+
+
+def with_runs(visits: pl.DataFrame, runs: pl.DataFrame | None) -> pl.DataFrame:
+    """The visits labelled with their runs (the run holding each visit's mean time; null
+    without ``runs``) and their drift anchored per run (:func:`anchor_drift`)."""
+    v = visits
+    t_mid = pl.col("t_ns").fill_null((pl.col("t_start_ns") + pl.col("t_end_ns")) // 2)
+    if runs is not None and runs.height:
+        v = v.with_columns(run=label_runs(v.select(t_mid).to_series(), runs))
+    else:
+        v = v.with_columns(run=pl.lit(None, dtype=pl.String))
+    return anchor_drift(v)
+
+
+def anchor_drift(visits: pl.DataFrame) -> pl.DataFrame:
+    """``drift_u_um``, ``drift_v_um`` of each visit from its camera's first visit (with a
+    centroid) in its run (SPEC §1), visits in time order; the columns of the visits table."""
+    v = visits.sort("camera", "t_start_ns")
+    if "run" not in v.columns:
+        v = v.with_columns(run=pl.lit(None, dtype=pl.String))
+    key = ["run", "camera"]
     v = v.with_columns(
-        drift_u_um=pl.col("u_um") - pl.col("u_um").drop_nulls().first().over(first),
-        drift_v_um=pl.col("v_um") - pl.col("v_um").drop_nulls().first().over(first),
+        drift_u_um=pl.col("u_um") - pl.col("u_um").drop_nulls().first().over(key),
+        drift_v_um=pl.col("v_um") - pl.col("v_um").drop_nulls().first().over(key),
     )
     return v.select(list(VISIT_SCHEMA)).cast(VISIT_SCHEMA)  # type: ignore[arg-type]

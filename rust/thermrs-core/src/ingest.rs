@@ -199,6 +199,15 @@ pub struct Report {
     pub losses: Vec<Loss>,
     /// Complete messages recovered from a chunk the file was cut inside.
     pub recovered_messages: u64,
+    /// The file's MCAP Metadata records, in file order (e.g. run markers, `thermrs.run`).
+    pub metadata: Vec<MetadataRecord>,
+}
+
+/// One MCAP Metadata record: its name and string map.
+#[derive(Debug, Default, Clone, serde::Serialize)]
+pub struct MetadataRecord {
+    pub name: String,
+    pub values: BTreeMap<String, String>,
 }
 
 impl Report {
@@ -1198,6 +1207,14 @@ fn extract_in(
                     ),
                 }),
             },
+            op::METADATA => {
+                if let Ok(Record::Metadata(m)) = mcap::read::parse_record(opcode, rec) {
+                    report.metadata.push(MetadataRecord {
+                        name: m.name,
+                        values: m.metadata,
+                    });
+                }
+            }
             op::DATA_END | op::FOOTER => return false,
             _ => {}
         }

@@ -59,7 +59,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 use std::io::{Seek, Write};
 
-use mcap::records::MessageHeader;
+use mcap::records::{MessageHeader, Metadata};
 use mcap::{Compression, McapError, WriteOptions, Writer};
 
 // ---------------------------------------------------------------------------
@@ -609,6 +609,11 @@ impl From<std::io::Error> for RecordError {
     }
 }
 
+/// Name of the MCAP Metadata record that marks one run of a recording (a thermrs extension of
+/// SPEC §2; recordings of other writers do not carry it). Its keys: `name` (the run's name),
+/// `start_ns` and `end_ns` (header stamps, decimal nanoseconds since the epoch, inclusive).
+pub const RUN_METADATA: &str = "thermrs.run";
+
 /// One channel: its MCAP id, type and next sequence number.
 #[derive(Debug, Clone, Copy)]
 struct ChannelInfo {
@@ -857,6 +862,29 @@ impl<W: Write + Seek> RecordingWriter<W> {
         check_len(topic, "Temperature.header.frame_id", frame_id.len(), true)?;
         encode_temperature(&mut self.buf, stamp_ns, frame_id, temperature, variance);
         self.emit(topic, T, log_time_ns)
+    }
+
+    /// Writes a run marker: an MCAP Metadata record named [`RUN_METADATA`] with the run's
+    /// `name` and its first and last header stamps (`start_ns` ≤ `end_ns`).
+    pub fn write_run_marker(
+        &mut self,
+        name: &str,
+        start_ns: i64,
+        end_ns: i64,
+    ) -> Result<(), RecordError> {
+        check_stamp(RUN_METADATA, start_ns)?;
+        check_stamp(RUN_METADATA, end_ns)?;
+        check_len(RUN_METADATA, "name", name.len(), false)?;
+        let metadata = BTreeMap::from([
+            ("name".to_owned(), name.to_owned()),
+            ("start_ns".to_owned(), start_ns.to_string()),
+            ("end_ns".to_owned(), end_ns.max(start_ns).to_string()),
+        ]);
+        self.writer.write_metadata(&Metadata {
+            name: RUN_METADATA.to_owned(),
+            metadata,
+        })?;
+        Ok(())
     }
 
     /// Closes the current chunk, writes the data-end record, the summary (if
@@ -1519,5 +1547,32 @@ mod tests {
         );
         assert!("gzip".parse::<RecordCompression>().is_err());
         assert_eq!(RecordCompression::Zstd.to_string(), "zstd");
+    }
+
+    #[test]
+    fn run_marker_is_a_metadata_record_other_readers_see() {
+        let mut w =
+            RecordingWriter::new(Cursor::new(Vec::new()), &RecordOptions::default()).unwrap();
+        w.write_run_marker("run2", 1_750_000_000_000_000_000, 1_750_000_060_000_000_000)
+            .unwrap();
+        assert!(matches!(
+            w.write_run_marker("bad", i64::MAX, i64::MAX),
+            Err(RecordError::StampOutOfRange { .. })
+        ));
+        let file = w.finish().unwrap().into_inner();
+        // Read back with the mcap crate's own linear reader, record by record.
+        let found: Vec<_> = mcap::read::LinearReader::new(&file)
+            .unwrap()
+            .filter_map(|r| match r {
+                Ok(mcap::records::Record::Metadata(m)) => Some(m),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(found.len(), 1);
+        assert_eq!(found[0].name, RUN_METADATA);
+        let v = &found[0].metadata;
+        assert_eq!(v["name"], "run2");
+        assert_eq!(v["start_ns"], "1750000000000000000");
+        assert_eq!(v["end_ns"], "1750000060000000000");
     }
 }

@@ -700,6 +700,9 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
             }
             t_s = cycle_t + run.cycle_s;
         }
+        let stamp = |t: f64| T0_NS + (t * 1e9).round() as i64;
+        wr.write_run_marker(&run.name, stamp(run_start_s), stamp(t_s))
+            .map_err(werr)?;
     }
     let out = wr.finish().map_err(werr)?;
     Ok((out, truth))

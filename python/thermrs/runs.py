@@ -1,0 +1,328 @@
+"""Runs inside a recording: find them, name them, select one (``rec.mcap#run2``).
+
+A run (SPEC §1) is one stretch of work from a start temperature; its drift is anchored at the
+first visit of each camera in the run. One recording may hold several runs (a session
+restarted, a cool-down recorded in the same file, the paper's three runs simulated in one
+go). Runs are found in one of two ways:
+
+Run markers
+    MCAP Metadata records named ``thermrs.run`` (written by ``thermrs simulate``; a thermrs
+    extension of SPEC §2 that other writers leave out) with keys ``name``, ``start_ns`` and
+    ``end_ns`` (header stamps, inclusive). When a recording has any, they define its runs.
+Idle gaps
+    Otherwise a recording splits where no camera is visited for longer than the idle
+    threshold: ``max(min_gap_s, gap_factor × cadence)``, the cadence being the median time
+    between consecutive visits of one camera (the work cycle). The robot idled there, or the
+    recorder was stopped (its joint states stop too). Runs are named ``run1``, ``run2``, … in
+    time order. A run found this way spans from its first visit to one cadence after its last
+    (the rest of its last cycle, where a thermal frame may close it).
+
+The ``runs`` table has one row per run: ``run`` (name), ``start_ns``, ``end_ns`` and
+``source`` (``"marker"`` or ``"gap"``). Visits carry a ``run`` column (null for a visit no
+marker covers).
+
+Selecting runs: a path ``rec.mcap#run2`` (or ``rec.visits.parquet#run2``) names one run of a
+file; a path without ``#`` names all of them, each giving one run table named ``<stem>#<run>``
+(``<stem>`` alone when the file holds one run).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from thermrs.errors import InputError
+
+__all__ = [
+    "DEFAULT_GAP_FACTOR",
+    "DEFAULT_MIN_GAP_S",
+    "RUNS_SCHEMA",
+    "RUN_METADATA",
+    "RunTables",
+    "find_runs",
+    "label_runs",
+    "load_runs",
+    "runs_from_gaps",
+    "runs_from_markers",
+    "split_run_spec",
+]
+
+#: Name of the MCAP Metadata record of a run marker (see the Rust ``record::RUN_METADATA``).
+RUN_METADATA = "thermrs.run"
+#: Idle threshold in visit cadences: a visit gap this many cycles long ends a run.
+DEFAULT_GAP_FACTOR = 5.0
+#: Shortest idle gap (seconds) that ends a run, whatever the cadence.
+DEFAULT_MIN_GAP_S = 600.0
+
+RUNS_SCHEMA: dict[str, Any] = {
+    "run": pl.String,
+    "start_ns": pl.Int64,
+    "end_ns": pl.Int64,
+    "source": pl.String,
+}
+
+
+def runs_from_markers(metadata: Sequence[Mapping[str, Any]]) -> pl.DataFrame:
+    """The runs the recording's ``thermrs.run`` Metadata records mark, in time order.
+
+    Parameters
+    ----------
+    metadata
+        The file's Metadata records, each ``{"name": str, "values": {str: str}}``
+        (:attr:`thermrs.ingest.ExtractReport.metadata`).
+
+    Raises
+    ------
+    InputError
+        A marker without a name, with stamps that are not integers, ending before it starts,
+        or two markers of one name.
+    """
+    rows = []
+    for k, m in enumerate(metadata):
+        if m.get("name") != RUN_METADATA:
+            continue
+        v = m.get("values", {})
+        try:
+            name = str(v["name"])
+            start, end = int(v["start_ns"]), int(v["end_ns"])
+        except (KeyError, ValueError, TypeError) as e:
+            raise InputError(
+                f"run marker {k + 1} ({RUN_METADATA} metadata): bad or missing {e}"
+            ) from None
+        if not name or "#" in name:
+            raise InputError(f"run marker {k + 1}: run name {name!r} is empty or contains '#'")
+        if end < start:
+            raise InputError(f"run marker {name!r}: end_ns {end} before start_ns {start}")
+        rows.append({"run": name, "start_ns": start, "end_ns": end, "source": "marker"})
+    df = pl.DataFrame(rows, schema=RUNS_SCHEMA).sort("start_ns")
+    dup = df.filter(pl.col("run").is_duplicated())["run"].unique().to_list()
+    if dup:
+        raise InputError(f"run markers: run name(s) {sorted(dup)} marked more than once")
+    return df
+
+
+def cadence_s(visits: pl.DataFrame) -> float:
+    """Median time (s) between consecutive visits of one camera; NaN with fewer than two."""
+    d = (
+        visits.sort("camera", "t_start_ns")
+        .select(pl.col("t_start_ns").diff().over("camera").alias("d"))["d"]
+        .drop_nulls()
+        .to_numpy()
+    )
+    d = d[d > 0]
+    return float(np.median(d)) / 1e9 if len(d) else float("nan")
+
+
+def runs_from_gaps(
+    visits: pl.DataFrame,
+    *,
+    gap_factor: float = DEFAULT_GAP_FACTOR,
+    min_gap_s: float = DEFAULT_MIN_GAP_S,
+) -> pl.DataFrame:
+    """Split the visits into runs at idle gaps (see the module docstring).
+
+    Parameters
+    ----------
+    visits
+        ``camera``, ``t_start_ns``, ``t_end_ns`` per visit.
+    gap_factor
+        Idle threshold in cadences.
+    min_gap_s
+        Shortest idle threshold, seconds.
+
+    Returns
+    -------
+    polars.DataFrame
+        The runs table (``source`` ``"gap"``); empty without visits.
+    """
+    if gap_factor <= 0 or min_gap_s < 0:
+        raise InputError(
+            f"gap_factor must be > 0 and min_gap_s ≥ 0 (got {gap_factor}, {min_gap_s})"
+        )
+    if visits.height == 0:
+        return pl.DataFrame(schema=RUNS_SCHEMA)
+    cad = cadence_s(visits)
+    cad_ns = 0 if not np.isfinite(cad) else int(cad * 1e9)
+    threshold_ns = max(min_gap_s * 1e9, gap_factor * cad_ns)
+    v = visits.sort("t_start_ns")
+    starts = v["t_start_ns"].to_numpy()
+    # End of activity so far at each visit (visits of other cameras may overlap).
+    ends = np.maximum.accumulate(v["t_end_ns"].to_numpy())
+    cut = np.flatnonzero(starts[1:] - ends[:-1] > threshold_ns) + 1
+    first = np.concatenate([[0], cut])
+    last = np.concatenate([cut - 1, [len(starts) - 1]])
+    rows = []
+    for k, (i, j) in enumerate(zip(first, last, strict=True)):
+        end = int(ends[j]) + cad_ns
+        if k + 1 < len(first):
+            end = min(end, int(starts[first[k + 1]]) - 1)
+        rows.append(
+            {"run": f"run{k + 1}", "start_ns": int(starts[i]), "end_ns": end, "source": "gap"}
+        )
+    return pl.DataFrame(rows, schema=RUNS_SCHEMA)
+
+
+def find_runs(
+    metadata: Sequence[Mapping[str, Any]],
+    visits: pl.DataFrame,
+    *,
+    gap_factor: float = DEFAULT_GAP_FACTOR,
+    min_gap_s: float = DEFAULT_MIN_GAP_S,
+) -> pl.DataFrame:
+    """The recording's runs: from its run markers when it has any, else from idle gaps."""
+    marked = runs_from_markers(metadata)
+    if marked.height:
+        return marked
+    return runs_from_gaps(visits, gap_factor=gap_factor, min_gap_s=min_gap_s)
+
+
+def label_runs(t_ns: pl.Series | np.ndarray, runs: pl.DataFrame) -> pl.Series:
+    """Per time stamp, the name of the run whose [start_ns, end_ns] holds it (null if none;
+    the later run if two overlap)."""
+    t = np.asarray(t_ns, dtype=np.int64)
+    out = np.full(len(t), None, dtype=object)
+    for r in runs.sort("start_ns").iter_rows(named=True):
+        out[(t >= r["start_ns"]) & (t <= r["end_ns"])] = r["run"]
+    return pl.Series("run", out, dtype=pl.String)
+
+
+def split_run_spec(spec: str | Path) -> tuple[Path, str | None]:
+    """``"rec.mcap#run2"`` → (``rec.mcap``, ``"run2"``); a path without ``#`` (or one that
+    exists as written) → (path, None)."""
+    s = str(spec)
+    if "#" not in s or Path(s).exists():
+        return Path(s), None
+    path, _, run = s.rpartition("#")
+    if not run:
+        raise InputError(f"{s}: no run name after '#'")
+    return Path(path), run
+
+
+@dataclass(frozen=True)
+class RunTables:
+    """The run tables read from one file (:func:`load_runs`).
+
+    Attributes
+    ----------
+    path
+        The file.
+    runs
+        Every run the file holds (the runs table), whether selected or not.
+    tables
+        One run table per selected run (:func:`thermrs.fit.run_table_from`), its ``run``
+        column ``<stem>#<run>`` (``<stem>`` alone when the file holds one run).
+    data_loss
+        Whether the recording lost data (always False for extracted tables).
+    """
+
+    path: Path
+    runs: pl.DataFrame
+    tables: list[pl.DataFrame]
+    data_loss: bool
+
+    def describe(self) -> str:
+        """One line: the runs found, their source and length, and which were selected."""
+        if self.runs.height == 0:
+            return f"{self.path}: one run (no run markers, no idle gap)"
+        src = set(self.runs["source"].to_list())
+        how = "run markers" if src == {"marker"} else "idle gaps" if src == {"gap"} else "file"
+        parts = [
+            f"{r['run']} ({(r['end_ns'] - r['start_ns']) / 3.6e12:.1f} h)"
+            for r in self.runs.iter_rows(named=True)
+        ]
+        chosen = ", ".join(str(t["run"][0]) for t in self.tables if t.height)
+        n = self.runs.height
+        return f"{self.path}: {n} run{'s' * (n != 1)} ({how}): {', '.join(parts)}; using {chosen}"
+
+
+def _read_tables(path: Path) -> tuple[pl.DataFrame, pl.DataFrame, pl.DataFrame | None]:
+    """Visits, temperatures and (if written) runs tables that ``thermrs extract`` wrote."""
+    stem = path.name[: -len(".parquet")]
+    for part in (".visits", ".temperatures", ".joints", ".runs"):
+        if stem.endswith(part):
+            stem = stem[: -len(part)]
+    need = {k: path.with_name(f"{stem}.{k}.parquet") for k in ("visits", "temperatures")}
+    for k, p in need.items():
+        if not p.exists():
+            raise InputError(f"{path}: the {k} table {p.name} is not beside it")
+    runs_path = path.with_name(f"{stem}.runs.parquet")
+    try:
+        visits = pl.read_parquet(need["visits"])
+        temps = pl.read_parquet(need["temperatures"])
+        runs = pl.read_parquet(runs_path) if runs_path.exists() else None
+    except (OSError, pl.exceptions.PolarsError) as e:
+        raise InputError(f"{path}: cannot read the extracted tables: {e}") from None
+    missing = [c for c in ("camera", "t_ns", "n_ok", "u_um", "v_um") if c not in visits.columns]
+    if missing:
+        raise InputError(f"{need['visits']}: not a visits table (no {missing})")
+    return visits, temps, runs
+
+
+def load_runs(
+    spec: str | Path,
+    rig: Any,
+    *,
+    name: str | None = None,
+    temperature: str = "peak",
+) -> RunTables:
+    """Run tables of one file: a recording (``.mcap``, extracted here) or the tables
+    ``thermrs extract`` wrote (any of its ``.parquet`` files), with an optional ``#run``.
+
+    Parameters
+    ----------
+    spec
+        ``path`` (every run of the file) or ``path#run`` (that run).
+    rig
+        The rig (:class:`thermrs.Rig`).
+    name
+        The base name of the run tables (default the file's stem).
+    temperature
+        ``"peak"`` or ``"max"`` (see :func:`thermrs.fit.run_table_from`).
+
+    Raises
+    ------
+    InputError
+        No such file, or no such run in it (the message lists the runs it has).
+    """
+    from thermrs.fit import run_table_from
+    from thermrs.visits import anchor_drift
+
+    path, wanted = split_run_spec(spec)
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    loss = False
+    if path.name.endswith(".parquet"):
+        visits, temps, runs = _read_tables(path)
+        stem = path.name[: -len(".parquet")]
+        for part in (".visits", ".temperatures", ".joints", ".runs"):
+            stem = stem.removesuffix(part)
+        if runs is None or "run" not in visits.columns:
+            runs = pl.DataFrame(schema=RUNS_SCHEMA)
+    else:
+        from thermrs.ingest import extract
+
+        ex = extract(path, rig)
+        visits, temps, runs, loss = ex.visits, ex.temperatures, ex.runs, ex.report.data_loss
+        stem = path.name[: -len(".mcap")] if path.name.endswith(".mcap") else path.stem
+    base = name or stem
+    if runs.height == 0 or "run" not in visits.columns:
+        if wanted is not None:
+            raise InputError(f"{spec}: {path} holds no named runs (use it without '#')")
+        table = run_table_from(visits, temps, rig, run=base, temperature=temperature)
+        return RunTables(path, runs, [table], loss)
+    names = runs["run"].to_list()
+    if wanted is not None and wanted not in names:
+        raise InputError(f"{spec}: no run {wanted!r} in {path} (it has {', '.join(names)})")
+    selected = [wanted] if wanted is not None else names
+    tables = []
+    for r in runs.filter(pl.col("run").is_in(selected)).iter_rows(named=True):
+        v = anchor_drift(visits.filter(pl.col("run") == r["run"]))
+        tt = temps.filter(pl.col("t_ns").is_between(r["start_ns"], r["end_ns"]))
+        label = base if runs.height == 1 else f"{base}#{r['run']}"
+        tables.append(run_table_from(v, tt, rig, run=label, temperature=temperature))
+    return RunTables(path, runs, tables, loss)
