@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -86,3 +87,133 @@ def test_temperature_names_follow_effects(paper_rig: thermrs.Rig) -> None:
     assert m.temperature_names == ["link2", "link3", "base"]
     with pytest.raises(thermrs.InputError, match="missing"):
         m.flange_positions(np.zeros(6), temperatures={"link2": 1.0, "link3": 1.0})
+
+
+# --- the effects' one home (issue #9) ---------------------------------------------------------
+
+
+def test_effect_names_are_the_spec_table() -> None:
+    from thermrs.effects import EFFECT_NAMES, effect_classes
+
+    spec = [
+        "alpha_per_link",
+        "thermal_lag",
+        "unmodelled_length",
+        "fixture_drift",
+        "laser_tilt",
+        "joint_offset",
+        "nonlinear_alpha",
+        "sensor_drift",
+    ]
+    assert list(EFFECT_NAMES) == spec
+    assert list(effect_classes())[: len(spec)] == spec
+
+
+@pytest.mark.parametrize(
+    ("effect", "key"),
+    [
+        ({"name": "thermal_lag", "tau_min": -5.0}, "tau_min"),  # once silently "no lag"
+        ({"name": "sensor_drift", "camera": "A", "tau_min": 0.0, "um": [1, 1]}, "tau_min"),
+        ({"name": "alpha_per_link", "alpha_per_k": {"link2": 23.2}}, "alpha_per_k.link2"),
+        ({"name": "nonlinear_alpha", "kappa_per_k": 2.0}, "kappa_per_k"),
+        ({"name": "laser_tilt", "tilt_deg": 30.0}, "tilt_deg"),
+        ({"name": "fixture_drift", "camera": "A", "um_per_k": [1e5, 0]}, "um_per_k"),
+        ({"name": "thermal_lag", "tau": 5.0}, "tau"),
+    ],
+)
+def test_effect_values_are_range_checked(effect: dict[str, object], key: str) -> None:
+    from thermrs.effects import from_dict
+
+    with pytest.raises(thermrs.InputError, match=key):
+        from_dict(effect)
+
+
+def test_scenario_effects_are_checked_in_the_same_place(tmp_path: Path) -> None:
+    sc = tmp_path / "s.toml"
+    sc.write_text(
+        'format = "thermrs-scenario/1"\n[[run]]\nname = "r"\nspeed_pct = 30\n'
+        'duration_min = 10\ncycle_s = 60\n[[effect]]\nname = "thermal_lag"\ntau_min = -3\n'
+    )
+    from thermrs.simulate import simulate
+
+    with pytest.raises(thermrs.ThermrsError, match=r"effect\[0\]\.tau_min"):
+        simulate(thermrs.load_rig(), sc, tmp_path / "x.mcap")
+
+
+def test_effects_and_keywords_build_the_same_model(paper_rig: thermrs.Rig) -> None:
+    from thermrs.effects import JointOffset, UnmodelledLength
+
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-1, 1, (50, 6))
+    temps = {"link2": rng.uniform(20, 40, 50), "link3": rng.uniform(20, 40, 50)}
+    a = ForwardModel(
+        paper_rig,
+        effects=[
+            UnmodelledLength(length="a3", temperature="link3"),
+            JointOffset(joint="joint_a2", temperature="link2", urad_per_k=7.0),
+        ],
+    )
+    b = ForwardModel(
+        paper_rig, extra_lengths={"a3": "link3"}, joint_offsets=[("joint_a2", "link2", 7.0)]
+    )
+    assert np.array_equal(
+        a.flange_positions(q, temperatures=temps), b.flange_positions(q, temperatures=temps)
+    )
+
+
+def test_lag_and_chip_shifts_match_independent_closed_forms(paper_rig: thermrs.Rig) -> None:
+    from thermrs.diagnose.bench import _lag
+    from thermrs.effects import FixtureDrift, SensorDrift, ThermalLag
+
+    t = np.linspace(0, 6 * 3600, 400)
+    x = 23 + 6 * (1 - np.exp(-t / 5000)) + 0.3 * np.sin(t / 900)
+    m = ForwardModel(paper_rig, effects=[ThermalLag(tau_min=40.0)])
+    got = m._native.structure_temperatures(t, x)
+    assert np.max(np.abs(got - _lag(t, x, 40 * 60.0))) < 1e-9
+    amb = 23 + 0.1 * t / 3600
+    m = ForwardModel(
+        paper_rig,
+        effects=[
+            FixtureDrift(camera="A", um_per_k=(2.0, -1.0)),
+            SensorDrift(camera="A", tau_min=30.0, um=(5.0, 3.0)),
+        ],
+    )
+    d = m._native.chip_shifts("A", amb, t)
+    f = 1 - np.exp(-t / 1800.0)
+    ref = paper_rig.reference_c
+    assert np.allclose(d[:, 0], 2.0 * (amb - ref) + 5.0 * f, atol=1e-12)
+    assert np.allclose(d[:, 1], -1.0 * (amb - ref) + 3.0 * f, atol=1e-12)
+    assert np.all(m._native.chip_shifts("B", amb, t) == 0)
+
+
+def test_a_users_own_effect_enters_the_diagnoser(paper_rig: thermrs.Rig) -> None:
+    """An effect class written in Python (here: a chip that drifts linearly with time) is read
+    and fitted like the built-in ones."""
+    from dataclasses import dataclass
+    from typing import Any, ClassVar
+
+    from thermrs.diagnose import diagnose
+    from thermrs.diagnose.bench import make_runs
+    from thermrs.effects import Effect, Family, ThermalLag
+    from thermrs.signatures import VisitSet
+
+    @dataclass(frozen=True)
+    class LinearCreep(Effect):
+        name: ClassVar[str] = "linear_creep"
+
+        @classmethod
+        def families(cls, rig: thermrs.Rig, visits: VisitSet) -> list[Family]:
+            def columns(vs: VisitSet, eta: dict[str, float]) -> np.ndarray:
+                t_h = vs.t_since_start / 3600.0
+                z = np.zeros_like(t_h)
+                return np.column_stack([np.concatenate([t_h, z]), np.concatenate([z, t_h])])
+
+            def params(eta: Any, alpha: float, beta: np.ndarray, cov: np.ndarray) -> Any:
+                return {"um_per_h": [float(beta[0]), float(beta[1])]}, {}
+
+            return [Family(cls.name, cls.name, {}, [{}], columns, params, driver="time")]
+
+    runs = make_runs(paper_rig, None, seed=21, hours=4.0)
+    d = diagnose(runs[:1], runs[1:], paper_rig, library=[ThermalLag, LinearCreep], bootstrap=0)
+    assert {r["effect"] for r in d.ranking} == {"thermal_lag", "linear_creep"}
+    assert d.status == "none"
