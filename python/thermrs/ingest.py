@@ -36,7 +36,15 @@ Progress = Callable[[int, int, int], object]
 
 @dataclass(frozen=True)
 class ExtractReport:
-    """What an extraction read, skipped and lost."""
+    """What an extraction read, skipped and lost.
+
+    Each entry of ``losses`` has ``kind`` (``truncated``, ``corrupt_chunk`` or
+    ``corrupt_record``), ``offset`` and ``bytes`` (the lost byte range is
+    ``offset .. offset + bytes``), ``detail`` (one line) and ``messages_lost`` (messages per
+    topic the range held, where the file tells: its message indexes, the summary's chunk index
+    or the damaged chunk's own records). ``crc_failures`` counts chunks skipped because their
+    CRC-32 did not match; ``lost_messages`` sums ``messages_lost`` per topic.
+    """
 
     file_bytes: int
     used_summary: bool
@@ -48,6 +56,8 @@ class ExtractReport:
     losses: list[dict[str, Any]]
     recovered_messages: int
     frames_by_status: dict[str, int] = field(default_factory=dict)
+    crc_failures: int = 0
+    lost_messages: dict[str, int] = field(default_factory=dict)
 
     @property
     def data_loss(self) -> bool:
@@ -141,6 +151,7 @@ def extract(
     visit_tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
     min_sigma_px: float | None = None,
     threshold_sigma: float | None = None,
+    verify_crc: bool = True,
 ) -> Extraction:
     """Extract every table of a recording.
 
@@ -157,11 +168,16 @@ def extract(
         a spot frame to count as part of a visit.
     min_sigma_px, threshold_sigma
         Spot detection: smallest spot σ to be sure to find, threshold in noise σ.
+    verify_crc
+        Check each chunk's CRC-32 where the writer stored one; a chunk that fails is skipped
+        and reported as a loss (default). ``False`` trusts the chunks (benchmarks).
 
     Raises
     ------
     RecordingError
         Not an MCAP file, or none of the rig's topics in it.
+    InternalError
+        A bug in thermrs (a panic in the core), as one line.
     InputError
         The file cannot be read.
     KeyboardInterrupt
@@ -173,6 +189,7 @@ def extract(
         progress=progress,
         min_sigma_px=min_sigma_px,
         threshold_sigma=threshold_sigma,
+        verify_crc=verify_crc,
     )
     statuses = _native.status_names()
     cam_names = [c.name for c in rig.cameras]
