@@ -843,6 +843,8 @@ impl<'r> Context<'r> {
                 let local = Registry::default();
                 for (h, d) in msgs {
                     if !self.message(reg, &local, h, d, &mut part) {
+                        // Perhaps defined in a chunk of the same window: run again later.
+                        part.retry = true;
                         part.report
                             .skip("?", format!("message on unknown channel {}", h.channel_id));
                     }
@@ -1050,7 +1052,9 @@ pub fn decode_png(
     };
     let total = dec.total_bytes();
     if total > frame {
-        return Err(format!("PNG of {total} bytes is larger than the rig's frame"));
+        return Err(format!(
+            "PNG of {total} bytes is larger than the rig's frame"
+        ));
     }
     let mut buf = vec![0u8; total as usize];
     dec.read_image(&mut buf).map_err(|e| format!("PNG: {e}"))?;
@@ -1223,7 +1227,11 @@ fn extract_in(
     // Where the summary's index says chunks start (offsets in `body`).
     let mut chunk_starts: Vec<usize> = chunk_index
         .iter()
-        .filter_map(|c| usize::try_from(c.chunk_start_offset).ok()?.checked_sub(MAGIC.len()))
+        .filter_map(|c| {
+            usize::try_from(c.chunk_start_offset)
+                .ok()?
+                .checked_sub(MAGIC.len())
+        })
         .collect();
     chunk_starts.sort_unstable();
     chunk_starts.dedup();
@@ -1252,9 +1260,12 @@ fn extract_in(
             .collect();
         for (i, mut p) in again {
             if p.retry {
-                // Still unknown: count the chunk's messages as skipped rather than loop.
-                p.report
-                    .skip("?", "message on a channel the file never defines");
+                // Still unknown: count the chunk's messages as skipped rather than loop
+                // (loose messages are counted one by one).
+                if matches!(window[i], Work::Chunk { .. }) {
+                    p.report
+                        .skip("?", "message on a channel the file never defines");
+                }
                 p.retry = false;
             }
             done[i] = Some(p);
@@ -1337,7 +1348,8 @@ fn extract_in(
                     Err(e) => damage = Some(format!("a chunk record that does not parse ({e})")),
                 },
                 op::MESSAGE_INDEX => {
-                    if let (Some(c), Some((ch, n))) = (last_chunk, recovery::message_index_count(rec))
+                    if let (Some(c), Some((ch, n))) =
+                        (last_chunk, recovery::message_index_count(rec))
                     {
                         *indexed.entry(c).or_default().entry(ch).or_insert(0) += n;
                     }
@@ -1371,7 +1383,11 @@ fn extract_in(
                     let to = next.unwrap_or(body.len());
                     let to_at = (to + MAGIC.len()) as u64;
                     let mut loss = Loss::new(
-                        if is_chunk { "corrupt_chunk" } else { "corrupt_record" },
+                        if is_chunk {
+                            "corrupt_chunk"
+                        } else {
+                            "corrupt_record"
+                        },
                         at,
                         to_at - at,
                         format!(
@@ -1384,8 +1400,7 @@ fn extract_in(
                             }
                         ),
                     );
-                    loss.channels_lost =
-                        recovery::indexed_losses(buf, &chunk_index, at, to_at);
+                    loss.channels_lost = recovery::indexed_losses(buf, &chunk_index, at, to_at);
                     report.losses.push(loss);
                     last_chunk = Some(at);
                     match next {
@@ -1402,7 +1417,13 @@ fn extract_in(
                 window.push(Work::Loose(std::mem::take(&mut loose)));
             }
             window_bytes = 0;
-            if !flush(&mut window, &mut reg, &mut tables, &mut report, pos.min(body.len())) {
+            if !flush(
+                &mut window,
+                &mut reg,
+                &mut tables,
+                &mut report,
+                pos.min(body.len()),
+            ) {
                 return Err(Error::Interrupted);
             }
         }

@@ -13,6 +13,7 @@
 //!
 //! Budget: `THERMRS_FUZZ_ITERS` inputs per target (default 300) and at most
 //! `THERMRS_FUZZ_SECS` seconds per target (default 20). Each target prints how many inputs ran.
+//! `THERMRS_FUZZ_SEED_DIR` adds the `.mcap` files of a folder to the recording seeds.
 
 use std::collections::BTreeMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -222,15 +223,15 @@ fn mutate(rng: &mut StdRng, buf: &mut Vec<u8>) {
             let v = if rng.random_range(0..2) == 0 {
                 interesting[rng.random_range(0..interesting.len())]
             } else {
-                len.wrapping_add(rng.random_range(0..64u64)).wrapping_sub(32)
+                len.wrapping_add(rng.random_range(0..64u64))
+                    .wrapping_sub(32)
             };
             buf[pos + 1..pos + 9].copy_from_slice(&v.to_le_bytes());
         }
         4 => {
             // a chunk header's sizes: uncompressed size (+16), CRC (+24), compressed size
             let chunks: Vec<_> = recs.iter().filter(|r| r.1 == 0x06).collect();
-            if let Some(&&(_, _, ref body)) = chunks.get(rng.random_range(0..chunks.len().max(1)))
-            {
+            if let Some(&&(_, _, ref body)) = chunks.get(rng.random_range(0..chunks.len().max(1))) {
                 let field = [16usize, 24, 28][rng.random_range(0..3)];
                 let v = interesting[rng.random_range(0..interesting.len())];
                 let at = body.start + field;
@@ -377,6 +378,14 @@ fn mutated_recordings_never_panic() {
     for (_, d) in files_in("fixtures/hostile/seeds") {
         seeds.push(d);
     }
+    // More seeds (e.g. real recordings too large for the repository) from a folder.
+    if let Ok(dir) = std::env::var("THERMRS_FUZZ_SEED_DIR") {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            if e.path().extension().is_some_and(|x| x == "mcap") {
+                seeds.push(std::fs::read(e.path()).unwrap());
+            }
+        }
+    }
     let paper = Rig::from_toml(&rig_text(), "kr15-paper.toml").unwrap();
     fuzz("mcap", &seeds, 12, |b| {
         let _ = extract(&rig, b);
@@ -447,7 +456,11 @@ fn one_bad_chunk_in_the_middle_loses_only_itself() {
     for (name, opts) in &layouts()[..3] {
         let clean = seed(&rig, opts, 60);
         let (_, clean_rep) = extract(&rig, &clean).unwrap();
-        assert!(clean_rep.losses.is_empty(), "{name}: {:?}", clean_rep.losses);
+        assert!(
+            clean_rep.losses.is_empty(),
+            "{name}: {:?}",
+            clean_rep.losses
+        );
         let total: u64 = clean_rep.messages.values().sum();
         let chunks = chunk_messages(&clean);
         assert!(chunks.len() >= 5, "{name}: {} chunks", chunks.len());

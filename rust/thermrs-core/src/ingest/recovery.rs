@@ -156,7 +156,9 @@ mod tests {
 
     #[test]
     fn scanning_skips_garbage_to_the_next_record_chain() {
-        let mut body = vec![0x06, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x7f, 1, 2, 3];
+        let mut body = vec![
+            0x06, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x7f, 1, 2, 3,
+        ];
         let good = body.len();
         body.extend(rec(op::DATA_END, &[0, 0, 0, 0]));
         body.extend(rec(op::MESSAGE_INDEX, &[1, 0, 0, 0, 0, 0]));
