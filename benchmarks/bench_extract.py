@@ -9,7 +9,8 @@ Routes, each in its own process, file to tables:
 - python: the ``mcap`` Python reader, the Image payload viewed with numpy (header offsets read
   with ``struct``, no copy), detection by the frame maximum against a threshold, then a
   background-subtracted windowed centre of gravity: what a user would otherwise write;
-- thermrs-1 / thermrs-2: ``thermrs.extract`` with 1 and 2 rayon threads.
+- thermrs-1 / thermrs-2: ``thermrs.extract`` with 1 and 2 rayon threads (chunk CRCs checked,
+  the default), and beside them with ``verify_crc=False``: the cost of the check.
 Each file is read once before timing so that all routes see it in the page cache; best of
 ``--repeats``. Also reported: the time ``zstd``/``lz4`` take to decompress the same chunks in
 one thread (the decompressor's own speed), from the ``zstandard``/``lz4`` Python bindings.
@@ -147,6 +148,13 @@ def thermrs_route(path: Path) -> int:
     return ex.frames.height
 
 
+def thermrs_no_crc_route(path: Path) -> int:
+    import thermrs
+
+    ex = thermrs.extract(path, thermrs.load_rig(), verify_crc=False)
+    return ex.frames.height
+
+
 def decompress_only(path: Path) -> int:
     """Decompress every chunk on one thread and nothing else (same zstd/lz4 libraries as
     thermrs, via ``thermrs._native.decompress_chunks``): the decompressor's own speed."""
@@ -164,7 +172,12 @@ def warm(path: Path) -> None:
 
 
 def child(route: str, path: Path, repeats: int) -> None:
-    fn = {"python": python_route, "thermrs": thermrs_route, "decompress": decompress_only}[route]
+    fn = {
+        "python": python_route,
+        "thermrs": thermrs_route,
+        "thermrs-no-crc": thermrs_no_crc_route,
+        "decompress": decompress_only,
+    }[route]
     warm(path)
     best, n = float("inf"), 0
     for _ in range(repeats):
@@ -227,6 +240,9 @@ def main() -> None:
             res = [("python (mcap + numpy)", py)]
             res.append(("thermrs, 1 thread", spawn("thermrs", path, 1, args.repeats)))
             res.append(("thermrs, 2 threads", spawn("thermrs", path, 2, args.repeats)))
+            for t in (1, 2):
+                label = f"thermrs, {t} thread{'s' if t > 1 else ''}, no CRC check"
+                res.append((label, spawn("thermrs-no-crc", path, t, args.repeats)))
             if comp != "none":
                 res.append(
                     (

@@ -23,6 +23,11 @@ class ScenarioError(ThermrsError):
 class InputError(ThermrsError):
     """Arguments or data that do not fit: shapes, names, values, unreadable files."""
 
+class InternalError(ThermrsError):
+    """A bug in thermrs (a panic in the core), reported as one line instead of a crash."""
+
+def _panic_for_tests(*, guarded: bool = True) -> None: ...
+
 Progress = Callable[[int, int], object]
 
 class Rig:
@@ -87,6 +92,7 @@ def extract(
     progress: Callable[[int, int, int], object] | None = None,
     min_sigma_px: float | None = None,
     threshold_sigma: float | None = None,
+    verify_crc: bool = True,
 ) -> tuple[
     dict[str, npt.NDArray[Any]],
     dict[str, npt.NDArray[Any]],

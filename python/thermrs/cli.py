@@ -675,7 +675,13 @@ def _debug() -> bool:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Entry point: run the CLI and map errors to SPEC §7 exit codes."""
+    """Entry point: run the CLI and map errors to SPEC §7 exit codes.
+
+    Anything unexpected (a Python exception, or a Rust panic: pyo3's ``PanicException`` is a
+    ``BaseException``) exits 1 with one line; ``THERMRS_DEBUG=1`` adds the traceback.
+    """
+    from thermrs.errors import InternalError
+
     try:
         args = sys.argv[1:] if argv is None else argv
         cli.main(args=_expand_multi(list(args)), prog_name="thermrs", standalone_mode=False)
@@ -694,14 +700,22 @@ def main(argv: list[str] | None = None) -> None:
     except KeyboardInterrupt:
         click.echo("thermrs: interrupted", err=True)
         sys.exit(130)
+    except InternalError as e:  # a panic in the core, caught by the bindings: exit 1
+        if _debug():
+            traceback.print_exc()
+        click.echo(f"thermrs: {e}", err=True)
+        sys.exit(EXIT_INTERNAL)
     except ThermrsError as e:
         click.echo(f"thermrs: error: {e}", err=True)
         sys.exit(EXIT_BAD_INPUT)
-    except Exception as e:
+    except (SystemExit, GeneratorExit):
+        raise
+    except BaseException as e:  # noqa: BLE001 - includes pyo3's PanicException
         if _debug():
             traceback.print_exc()
+        first = str(e).strip().splitlines()
         click.echo(
-            f"thermrs: internal error: {type(e).__name__}: {e} "
+            f"thermrs: internal error: {type(e).__name__}: {first[0] if first else ''} "
             "(THERMRS_DEBUG=1 shows the traceback)",
             err=True,
         )

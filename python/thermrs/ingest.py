@@ -37,7 +37,15 @@ Progress = Callable[[int, int, int], object]
 
 @dataclass(frozen=True)
 class ExtractReport:
-    """What an extraction read, skipped and lost."""
+    """What an extraction read, skipped and lost.
+
+    Each entry of ``losses`` has ``kind`` (``truncated``, ``corrupt_chunk`` or
+    ``corrupt_record``), ``offset`` and ``bytes`` (the lost byte range is
+    ``offset .. offset + bytes``), ``detail`` (one line) and ``messages_lost`` (messages per
+    topic the range held, where the file tells: its message indexes, the summary's chunk index
+    or the damaged chunk's own records). ``crc_failures`` counts chunks skipped because their
+    CRC-32 did not match; ``lost_messages`` sums ``messages_lost`` per topic.
+    """
 
     file_bytes: int
     used_summary: bool
@@ -52,6 +60,8 @@ class ExtractReport:
     #: The file's MCAP Metadata records in file order, each ``{"name": …, "values": {…}}``
     #: (run markers among them, see :mod:`thermrs.runs`).
     metadata: list[dict[str, Any]] = field(default_factory=list)
+    crc_failures: int = 0
+    lost_messages: dict[str, int] = field(default_factory=dict)
 
     @property
     def data_loss(self) -> bool:
@@ -152,6 +162,7 @@ def extract(
     threshold_sigma: float | None = None,
     run_gap_factor: float = DEFAULT_GAP_FACTOR,
     run_min_gap_s: float = DEFAULT_MIN_GAP_S,
+    verify_crc: bool = True,
 ) -> Extraction:
     """Extract every table of a recording.
 
@@ -172,11 +183,16 @@ def extract(
         Without run markers, a recording splits into runs where no camera is visited for
         longer than ``max(run_min_gap_s, run_gap_factor × visit cadence)`` (see
         :mod:`thermrs.runs`).
+    verify_crc
+        Check each chunk's CRC-32 where the writer stored one; a chunk that fails is skipped
+        and reported as a loss (default). ``False`` trusts the chunks (benchmarks).
 
     Raises
     ------
     RecordingError
         Not an MCAP file, or none of the rig's topics in it.
+    InternalError
+        A bug in thermrs (a panic in the core), as one line.
     InputError
         The file cannot be read.
     KeyboardInterrupt
@@ -188,6 +204,7 @@ def extract(
         progress=progress,
         min_sigma_px=min_sigma_px,
         threshold_sigma=threshold_sigma,
+        verify_crc=verify_crc,
     )
     statuses = _native.status_names()
     cam_names = [c.name for c in rig.cameras]

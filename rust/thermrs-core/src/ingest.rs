@@ -15,8 +15,17 @@
 //!
 //! Nothing is lost silently: a file cut short yields every complete message before the cut,
 //! including those in the intact part of a cut chunk, and the loss is reported; a chunk that
-//! does not decompress or parse is skipped and reported; a frame whose encoding, size or
-//! payload is wrong becomes a row with status `invalid` and is counted with its reason.
+//! does not decompress, parse or match its checksum is skipped and reported; a frame whose
+//! encoding, size or payload is wrong becomes a row with status `invalid` and is counted with
+//! its reason.
+//!
+//! Nothing in the file is trusted: every length, size and count is checked against what
+//! remains and against a limit before it is used (`recovery::MAX_CHUNK_BYTES`; PNG frames
+//! are decoded with limits set from the rig's frame size). A record whose length or opcode
+//! is bad does not end the walk: it resumes at the next chunk of the summary's chunk index,
+//! or where there is no index at the next intact record found by scanning (`recovery`), so a
+//! damaged stretch loses only itself; each loss names its byte range and, where the file
+//! tells, how many messages of each topic it held.
 //! Pages already processed are released from the mapping, so the resident set does not grow
 //! with the file.
 
@@ -32,6 +41,9 @@ use crate::centroid::{self, FrameView, SpotParams, SpotStatus};
 use crate::error::{Error, Result};
 use crate::rig::Rig;
 use crate::thermal::{roi_maxima, ThermalFormat, ThermalView};
+
+mod recovery;
+pub use recovery::MAX_CHUNK_BYTES;
 
 const MAGIC: &[u8] = b"\x89MCAP0\r\n";
 const IMAGE: &str = "sensor_msgs/msg/Image";
@@ -69,6 +81,9 @@ pub struct ExtractOptions {
     pub spot: SpotParams,
     /// Compressed bytes of chunks processed per parallel window (bounds memory).
     pub window_bytes: usize,
+    /// Check each chunk's CRC-32 (where the writer stored one); a chunk that fails is skipped
+    /// and reported.
+    pub verify_crc: bool,
 }
 
 impl Default for ExtractOptions {
@@ -76,6 +91,7 @@ impl Default for ExtractOptions {
         ExtractOptions {
             spot: SpotParams::default(),
             window_bytes: 64 << 20,
+            verify_crc: true,
         }
     }
 }
@@ -172,14 +188,34 @@ impl Tables {
 /// Data that could not be read.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Loss {
-    /// `truncated` (file cut short) or `corrupt_chunk`.
+    /// `truncated` (file cut short), `corrupt_chunk` (a chunk that does not decompress,
+    /// parse or match its checksum) or `corrupt_record` (a stretch of bad records).
     pub kind: &'static str,
     /// Byte offset of the damaged record.
     pub offset: u64,
-    /// Bytes not used.
+    /// Bytes not used: the lost range is `offset..offset + bytes`.
     pub bytes: u64,
-    /// One line: what happened and what was recovered.
+    /// One line: what happened, the byte range, what was recovered and lost.
     pub detail: String,
+    /// Messages lost per topic, where the file tells (message indexes, the summary's chunk
+    /// index, or the damaged chunk's own records); empty where it does not.
+    pub messages_lost: BTreeMap<String, u64>,
+    /// The same by channel id, until the topics are known.
+    #[serde(skip)]
+    channels_lost: BTreeMap<u16, u64>,
+}
+
+impl Loss {
+    fn new(kind: &'static str, offset: u64, bytes: u64, detail: String) -> Loss {
+        Loss {
+            kind,
+            offset,
+            bytes,
+            detail,
+            messages_lost: BTreeMap::new(),
+            channels_lost: BTreeMap::new(),
+        }
+    }
 }
 
 /// What an extraction read, skipped and lost.
@@ -201,6 +237,10 @@ pub struct Report {
     pub recovered_messages: u64,
     /// The file's MCAP Metadata records, in file order (e.g. run markers, `thermrs.run`).
     pub metadata: Vec<MetadataRecord>,
+    /// Chunks skipped because their CRC-32 did not match.
+    pub crc_failures: u64,
+    /// Messages lost per topic, summed over `losses` (where known).
+    pub lost_messages: BTreeMap<String, u64>,
 }
 
 /// One MCAP Metadata record: its name and string map.
@@ -264,6 +304,7 @@ impl Report {
         }
         self.losses.extend(o.losses.iter().cloned());
         self.recovered_messages += o.recovered_messages;
+        self.crc_failures += o.crc_failures;
     }
 }
 
@@ -329,6 +370,7 @@ struct Context<'r> {
     /// The mapped file the walked bytes come from, if any.
     source: Option<Source<'r>>,
     routes: RouteChooser,
+    verify_crc: bool,
 }
 
 /// A file and its read-only memory map (whose bytes [`extract_bytes`] walks).
@@ -462,6 +504,7 @@ impl<'r> Context<'r> {
                 forced: route,
                 ..RouteChooser::default()
             },
+            verify_crc: true,
         }
     }
 
@@ -486,6 +529,8 @@ struct Part {
 enum Work<'a> {
     Chunk {
         offset: u64,
+        /// Bytes of the whole chunk record (opcode and length included).
+        bytes: u64,
         header: ChunkHeader,
         data: &'a [u8],
         /// The chunk was cut short: decode what is there.
@@ -508,7 +553,16 @@ fn decompress(
     out: &mut Vec<u8>,
 ) -> std::result::Result<(), String> {
     out.clear();
-    let want = usize::try_from(header.uncompressed_size).unwrap_or(usize::MAX);
+    // The header's size is checked before anything is reserved for it, and no decoder may
+    // write past it: memory follows what the data really holds, up to the limit.
+    if header.uncompressed_size > MAX_CHUNK_BYTES {
+        return Err(format!(
+            "the chunk header claims {} uncompressed bytes, more than the {} MiB limit",
+            header.uncompressed_size,
+            MAX_CHUNK_BYTES >> 20
+        ));
+    }
+    let want = header.uncompressed_size as usize;
     match header.compression.as_str() {
         "zstd" if !partial => {
             out.reserve(want);
@@ -526,9 +580,11 @@ fn decompress(
             if partial {
                 read_until_error(dec, out, want);
             } else {
-                let mut dec = dec;
+                // One byte more than claimed tells a lying header from a true one.
                 out.reserve(want);
-                dec.read_to_end(out).map_err(|e| format!("lz4: {e}"))?;
+                dec.take(want as u64 + 1)
+                    .read_to_end(out)
+                    .map_err(|e| format!("lz4: {e}"))?;
             }
         }
         other => return Err(format!("unsupported chunk compression {other:?}")),
@@ -547,7 +603,8 @@ fn decompress(
 fn read_until_error(mut r: impl Read, out: &mut Vec<u8>, limit: usize) {
     let mut buf = vec![0u8; 1 << 16];
     while out.len() < limit {
-        match r.read(&mut buf) {
+        let room = (limit - out.len()).min(buf.len());
+        match r.read(&mut buf[..room]) {
             Ok(0) | Err(_) => break,
             Ok(n) => out.extend_from_slice(&buf[..n]),
         }
@@ -694,10 +751,7 @@ impl<'r> Context<'r> {
                 .map_err(|e| format!("bad CompressedImage: {e}"))
                 .and_then(|im| {
                     let t = if im.stamp_ns == 0 { log_t } else { im.stamp_ns };
-                    let (pixels, pw, ph, bpp) = decode_png(im.format, im.data)?;
-                    if (pw, ph) != (w, hgt) {
-                        return Err(format!("frame is {pw}x{ph}, the rig says {w}x{hgt}"));
-                    }
+                    let (pixels, bpp) = decode_png(im.format, im.data, (w, hgt))?;
                     let view =
                         FrameView::new(&pixels, w, hgt, w * bpp, bpp, cfg!(target_endian = "big"))?;
                     Ok((t, centroid::find_spot(&view, &self.spot)))
@@ -758,12 +812,9 @@ impl<'r> Context<'r> {
                 .map_err(|e| format!("bad CompressedImage: {e}"))
                 .and_then(|im| {
                     let t = if im.stamp_ns == 0 { log_t } else { im.stamp_ns };
-                    let (pixels, pw, ph, bpp) = decode_png(im.format, im.data)?;
+                    let (pixels, bpp) = decode_png(im.format, im.data, (w, hgt))?;
                     if bpp != 2 {
                         return Err("thermal PNG must be 16-bit grey".into());
-                    }
-                    if (pw, ph) != (w, hgt) {
-                        return Err(format!("frame is {pw}x{ph}, the rig says {w}x{hgt}"));
                     }
                     let v = ThermalView::new(
                         &pixels,
@@ -801,6 +852,8 @@ impl<'r> Context<'r> {
                 let local = Registry::default();
                 for (h, d) in msgs {
                     if !self.message(reg, &local, h, d, &mut part) {
+                        // Perhaps defined in a chunk of the same window: run again later.
+                        part.retry = true;
                         part.report
                             .skip("?", format!("message on unknown channel {}", h.channel_id));
                     }
@@ -808,6 +861,7 @@ impl<'r> Context<'r> {
             }
             Work::Chunk {
                 offset,
+                bytes,
                 header,
                 data,
                 partial,
@@ -849,16 +903,35 @@ impl<'r> Context<'r> {
                         data
                     } else {
                         if let Err(e) = decompress(header, data, *partial, &mut scratch) {
-                            part.report.losses.push(Loss {
-                                kind: "corrupt_chunk",
-                                offset: *offset,
-                                bytes: data.len() as u64,
-                                detail: format!("chunk at byte {offset} skipped: {e}"),
-                            });
+                            part.report.losses.push(Loss::new(
+                                "corrupt_chunk",
+                                *offset,
+                                *bytes,
+                                format!("chunk at bytes {offset}..{} skipped: {e}", offset + bytes),
+                            ));
                             return;
                         }
                         &scratch
                     };
+                    if self.verify_crc && !*partial && header.uncompressed_crc != 0 {
+                        let crc = crc32fast::hash(buf);
+                        if crc != header.uncompressed_crc {
+                            part.report.crc_failures = 1;
+                            let mut loss = Loss::new(
+                                "corrupt_chunk",
+                                *offset,
+                                *bytes,
+                                format!(
+                                    "chunk at bytes {offset}..{} skipped: its CRC-32 is {crc:08x}, the header says {:08x}",
+                                    offset + bytes,
+                                    header.uncompressed_crc
+                                ),
+                            );
+                            loss.channels_lost = recovery::count_messages(buf);
+                            part.report.losses.push(loss);
+                            return;
+                        }
+                    }
                     let mut local = Registry::default();
                     let mut err: Option<String> = None;
                     let mut n = 0u64;
@@ -896,19 +969,19 @@ impl<'r> Context<'r> {
                         return;
                     }
                     if let Some(e) = err {
-                        part.report.losses.push(Loss {
-                            kind: "corrupt_chunk",
-                            offset: *offset,
-                            bytes: data.len() as u64,
-                            detail: format!("chunk at byte {offset}: {e}; {n} messages before it kept"),
-                        });
+                        part.report.losses.push(Loss::new(
+                            "corrupt_chunk",
+                            *offset,
+                            *bytes,
+                            format!("chunk at bytes {offset}..{}: {e}; {n} messages before it kept", offset + bytes),
+                        ));
                     } else if stop.is_some() && !*partial {
-                        part.report.losses.push(Loss {
-                            kind: "corrupt_chunk",
-                            offset: *offset,
-                            bytes: (buf.len() - stop.unwrap_or(0)) as u64,
-                            detail: format!("chunk at byte {offset} ends inside a record; {n} messages before it kept"),
-                        });
+                        part.report.losses.push(Loss::new(
+                            "corrupt_chunk",
+                            *offset,
+                            *bytes,
+                            format!("chunk at bytes {offset}..{} ends inside a record; {n} messages before it kept", offset + bytes),
+                        ));
                     } else if *partial {
                         part.report.recovered_messages = n;
                     }
@@ -946,27 +1019,67 @@ fn invalid_frame(f: &mut FrameTable, cam: usize, t: i64) {
     f.status.push(STATUS_INVALID);
 }
 
-/// Decode a lossless PNG (8- or 16-bit grey) to native-endian pixel bytes: (bytes, w, h, bpp).
-fn decode_png(
+/// Decode a lossless PNG (8- or 16-bit grey) of the rig's frame size `(w, h)` to
+/// native-endian pixel bytes: (bytes, bytes per pixel). The header's size is compared with the
+/// rig's before anything is allocated, and the decoder runs with limits set from it (image
+/// size and memory), so a crafted header or a decompression bomb costs at most one frame.
+pub fn decode_png(
     format: &str,
     data: &[u8],
-) -> std::result::Result<(Vec<u8>, usize, usize, usize), String> {
+    (w, h): (usize, usize),
+) -> std::result::Result<(Vec<u8>, usize), String> {
     use image::ImageDecoder;
     if !format.to_ascii_lowercase().contains("png") {
         return Err(format!("compressed format {format:?} is not PNG"));
     }
-    let dec = image::codecs::png::PngDecoder::new(std::io::Cursor::new(data))
-        .map_err(|e| format!("PNG: {e}"))?;
-    let (w, h) = dec.dimensions();
+    // A 16-bit grey frame of the rig's size, and the decoder's own row buffers beside it.
+    let frame = (w as u64).saturating_mul(h as u64).saturating_mul(2);
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(u32::try_from(w).unwrap_or(u32::MAX));
+    limits.max_image_height = Some(u32::try_from(h).unwrap_or(u32::MAX));
+    limits.max_alloc = Some(frame.saturating_mul(2).saturating_add(1 << 20));
+    let dec = match image::codecs::png::PngDecoder::with_limits(std::io::Cursor::new(data), limits)
+    {
+        Err(image::ImageError::Limits(_)) => {
+            // Say what the header claims, read without decoding anything.
+            return Err(match png_size(data) {
+                Some((pw, ph)) => format!("frame is {pw}x{ph}, the rig says {w}x{h}"),
+                None => format!("PNG larger than the rig's {w}x{h} frame"),
+            });
+        }
+        Err(e) => return Err(format!("PNG: {e}")),
+        Ok(d) => d,
+    };
+    let (pw, ph) = dec.dimensions();
+    if (pw as usize, ph as usize) != (w, h) {
+        return Err(format!("frame is {pw}x{ph}, the rig says {w}x{h}"));
+    }
     let bpp = match dec.color_type() {
         image::ColorType::L8 => 1,
         image::ColorType::L16 => 2,
         c => return Err(format!("PNG colour type {c:?} is not 8- or 16-bit grey")),
     };
-    let mut buf =
-        vec![0u8; usize::try_from(dec.total_bytes()).map_err(|_| "PNG too large".to_string())?];
+    let total = dec.total_bytes();
+    if total > frame {
+        return Err(format!(
+            "PNG of {total} bytes is larger than the rig's frame"
+        ));
+    }
+    let mut buf = vec![0u8; total as usize];
     dec.read_image(&mut buf).map_err(|e| format!("PNG: {e}"))?;
-    Ok((buf, w as usize, h as usize, bpp))
+    Ok((buf, bpp))
+}
+
+/// Width and height from a PNG's IHDR chunk, without decoding.
+fn png_size(data: &[u8]) -> Option<(u32, u32)> {
+    let ihdr = data.get(12..24)?;
+    if &ihdr[..4] != b"IHDR" {
+        return None;
+    }
+    Some((
+        u32::from_be_bytes(ihdr[4..8].try_into().ok()?),
+        u32::from_be_bytes(ihdr[8..12].try_into().ok()?),
+    ))
 }
 
 /// Parse the fixed part of a chunk record that was cut short: its header and whatever records
@@ -1087,14 +1200,18 @@ fn extract_in(
             "{name}: not an MCAP file (no MCAP magic at the start)"
         )));
     }
-    let ctx = Context::new(rig, opts.spot.clone(), source, route);
+    let mut ctx = Context::new(rig, opts.spot.clone(), source, route);
+    ctx.verify_crc = opts.verify_crc;
+    let ctx = ctx;
     let mut report = Report {
         file_bytes: buf.len() as u64,
         ..Report::default()
     };
     let mut reg = Registry::default();
+    let mut chunk_index = Vec::new();
     if let Ok(Some(summary)) = mcap::read::Summary::read(buf) {
         report.used_summary = true;
+        chunk_index = summary.chunk_indexes;
         for (id, s) in &summary.schemas {
             reg.schemas.insert(*id, s.name.clone());
         }
@@ -1115,8 +1232,18 @@ fn extract_in(
     let mut window_bytes = 0usize;
     let mut window_start = 0usize;
     let mut loose: Vec<(MessageHeader, &[u8])> = Vec::new();
-    let mut interrupted = false;
     let mut frames_done = 0u64;
+    // Where the summary's index says chunks start (offsets in `body`).
+    let mut chunk_starts: Vec<usize> = chunk_index
+        .iter()
+        .filter_map(|c| {
+            usize::try_from(c.chunk_start_offset)
+                .ok()?
+                .checked_sub(MAGIC.len())
+        })
+        .collect();
+    chunk_starts.sort_unstable();
+    chunk_starts.dedup();
 
     let mut flush = |window: &mut Vec<Work<'_>>,
                      reg: &mut Registry,
@@ -1142,9 +1269,12 @@ fn extract_in(
             .collect();
         for (i, mut p) in again {
             if p.retry {
-                // Still unknown: count the chunk's messages as skipped rather than loop.
-                p.report
-                    .skip("?", "message on a channel the file never defines");
+                // Still unknown: count the chunk's messages as skipped rather than loop
+                // (loose messages are counted one by one).
+                if matches!(window[i], Work::Chunk { .. }) {
+                    p.report
+                        .skip("?", "message on a channel the file never defines");
+                }
                 p.retry = false;
             }
             done[i] = Some(p);
@@ -1162,61 +1292,140 @@ fn extract_in(
         progress((upto + MAGIC.len()) as u64, buf.len() as u64, frames_done)
     };
 
-    let cut = walk(body, |pos, opcode, rec| {
-        match opcode {
-            op::SCHEMA | op::CHANNEL => {
-                if let Ok(r) = mcap::read::parse_record(opcode, rec) {
-                    reg.absorb(&r);
-                }
+    // Top-level walk. A damaged stretch (bad opcode, a length past the end of a complete
+    // file, a chunk that does not parse) is skipped to the next intact record; a record
+    // running past the end of a file without its closing magic is where the file was cut.
+    let closed = recovery::closed(body);
+    let mut pos = 0usize;
+    let mut cut: Option<usize> = None;
+    // Message index records follow their chunk: counted per chunk (file offset), so that a
+    // lost chunk's messages can be told by topic where there is no summary.
+    let mut last_chunk: Option<u64> = None;
+    let mut indexed: HashMap<u64, BTreeMap<u16, u64>> = HashMap::new();
+    while pos < body.len() {
+        let at = (pos + MAGIC.len()) as u64;
+        let rec = recovery::record_at(body, pos);
+        let mut damage = match rec {
+            None if body.len() - pos < 9 => Some("an incomplete record header".to_string()),
+            None => Some(format!(
+                "a record whose length ({} bytes) runs past the end of the file",
+                u64::from_le_bytes(body[pos + 1..pos + 9].try_into().expect("8 bytes"))
+            )),
+            Some((o, _, _)) if !(recovery::valid_opcode(o) || o == op::HEADER && pos == 0) => {
+                Some(format!("a record with the invalid opcode 0x{o:02x}"))
             }
-            op::MESSAGE => {
-                if let Ok(Record::Message { header, data }) = mcap::read::parse_record(opcode, rec)
-                {
-                    let data: &[u8] = match data {
-                        std::borrow::Cow::Borrowed(b) => b,
-                        std::borrow::Cow::Owned(_) => return true,
-                    };
-                    window_bytes += data.len();
-                    loose.push((header, data));
-                    if loose.len() >= 256 {
-                        window.push(Work::Loose(std::mem::take(&mut loose)));
+            Some(_) => None,
+        };
+        if let Some((opcode, from, end)) = rec.filter(|_| damage.is_none()) {
+            let rec = &body[from..end];
+            match opcode {
+                op::SCHEMA | op::CHANNEL => {
+                    if let Ok(r) = mcap::read::parse_record(opcode, rec) {
+                        reg.absorb(&r);
+                    }
+                }
+                op::MESSAGE => {
+                    last_chunk = None;
+                    if let Ok(Record::Message {
+                        header,
+                        data: std::borrow::Cow::Borrowed(data),
+                    }) = mcap::read::parse_record(opcode, rec)
+                    {
+                        window_bytes += data.len();
+                        loose.push((header, data));
+                        if loose.len() >= 256 {
+                            window.push(Work::Loose(std::mem::take(&mut loose)));
+                        }
+                    }
+                }
+                op::CHUNK => match mcap::read::parse_record(opcode, rec) {
+                    Ok(Record::Chunk {
+                        header,
+                        data: std::borrow::Cow::Borrowed(data),
+                    }) => {
+                        last_chunk = Some(at);
+                        window_bytes += data.len();
+                        window.push(Work::Chunk {
+                            offset: at,
+                            bytes: (end - pos) as u64,
+                            header,
+                            data,
+                            partial: false,
+                        });
+                    }
+                    Ok(_) => {}
+                    Err(e) => damage = Some(format!("a chunk record that does not parse ({e})")),
+                },
+                op::METADATA => {
+                    if let Ok(Record::Metadata(m)) = mcap::read::parse_record(opcode, rec) {
+                        report.metadata.push(MetadataRecord {
+                            name: m.name,
+                            values: m.metadata,
+                        });
+                    }
+                }
+                op::MESSAGE_INDEX => {
+                    if let (Some(c), Some((ch, n))) =
+                        (last_chunk, recovery::message_index_count(rec))
+                    {
+                        *indexed.entry(c).or_default().entry(ch).or_insert(0) += n;
+                    }
+                }
+                op::DATA_END | op::FOOTER => break,
+                _ => {}
+            }
+            if damage.is_none() {
+                pos = end;
+            }
+        }
+        if let Some(why) = damage {
+            let is_chunk = body[pos] == op::CHUNK;
+            // A file cut inside a chunk: decode what is there (below), nothing follows.
+            let cut_chunk = !closed
+                && rec.is_none()
+                && is_chunk
+                && body.len() - pos > 9
+                && partial_chunk(&body[pos + 9..]).is_some();
+            let next = if cut_chunk {
+                None
+            } else {
+                recovery::resync(body, pos, &chunk_starts)
+            };
+            match next {
+                None if !closed && rec.is_none() => {
+                    cut = Some(pos);
+                    break;
+                }
+                next => {
+                    let to = next.unwrap_or(body.len());
+                    let to_at = (to + MAGIC.len()) as u64;
+                    let mut loss = Loss::new(
+                        if is_chunk {
+                            "corrupt_chunk"
+                        } else {
+                            "corrupt_record"
+                        },
+                        at,
+                        to_at - at,
+                        format!(
+                            "bytes {at}..{to_at} skipped: {why} at byte {at}; {}",
+                            match next {
+                                Some(_) if chunk_starts.binary_search(&to).is_ok() =>
+                                    "reading resumed at the next chunk of the summary's index",
+                                Some(_) => "reading resumed at the next intact record",
+                                None => "nothing intact after it",
+                            }
+                        ),
+                    );
+                    loss.channels_lost = recovery::indexed_losses(buf, &chunk_index, at, to_at);
+                    report.losses.push(loss);
+                    last_chunk = Some(at);
+                    match next {
+                        Some(n) => pos = n,
+                        None => break,
                     }
                 }
             }
-            op::CHUNK => match mcap::read::parse_record(opcode, rec) {
-                Ok(Record::Chunk { header, data }) => {
-                    let data: &[u8] = match data {
-                        std::borrow::Cow::Borrowed(b) => b,
-                        std::borrow::Cow::Owned(_) => return true,
-                    };
-                    window_bytes += data.len();
-                    window.push(Work::Chunk {
-                        offset: (pos + MAGIC.len()) as u64,
-                        header,
-                        data,
-                        partial: false,
-                    });
-                }
-                _ => report.losses.push(Loss {
-                    kind: "corrupt_chunk",
-                    offset: (pos + MAGIC.len()) as u64,
-                    bytes: rec.len() as u64,
-                    detail: format!(
-                        "chunk record at byte {} does not parse; skipped",
-                        pos + MAGIC.len()
-                    ),
-                }),
-            },
-            op::METADATA => {
-                if let Ok(Record::Metadata(m)) = mcap::read::parse_record(opcode, rec) {
-                    report.metadata.push(MetadataRecord {
-                        name: m.name,
-                        values: m.metadata,
-                    });
-                }
-            }
-            op::DATA_END | op::FOOTER => return false,
-            _ => {}
         }
         if window_bytes >= opts.window_bytes
             || window.len() >= 16 * rayon::current_num_threads().max(1)
@@ -1225,27 +1434,30 @@ fn extract_in(
                 window.push(Work::Loose(std::mem::take(&mut loose)));
             }
             window_bytes = 0;
-            if !flush(&mut window, &mut reg, &mut tables, &mut report, pos) {
-                interrupted = true;
-                return false;
+            if !flush(
+                &mut window,
+                &mut reg,
+                &mut tables,
+                &mut report,
+                pos.min(body.len()),
+            ) {
+                return Err(Error::Interrupted);
             }
         }
-        true
-    });
-    if interrupted {
-        return Err(Error::Interrupted);
     }
     if let Some(pos) = cut {
         let rest = &body[pos..];
         let offset = (pos + MAGIC.len()) as u64;
         let mut detail = format!(
-            "the file is cut short: the record at byte {offset} is incomplete ({} of its bytes present)",
-            rest.len()
+            "the file is cut short: the record at byte {offset} is incomplete ({} of its bytes present, bytes {offset}..{} lost)",
+            rest.len(),
+            offset + rest.len() as u64
         );
         if rest.first() == Some(&op::CHUNK) && rest.len() > 9 {
             if let Some((header, data)) = partial_chunk(&rest[9..]) {
                 window.push(Work::Chunk {
                     offset,
+                    bytes: rest.len() as u64,
                     header,
                     data,
                     partial: true,
@@ -1253,12 +1465,9 @@ fn extract_in(
                 detail.push_str("; complete messages in the cut chunk are recovered");
             }
         }
-        report.losses.push(Loss {
-            kind: "truncated",
-            offset,
-            bytes: rest.len() as u64,
-            detail,
-        });
+        report
+            .losses
+            .push(Loss::new("truncated", offset, rest.len() as u64, detail));
     }
     if !loose.is_empty() {
         window.push(Work::Loose(std::mem::take(&mut loose)));
@@ -1266,6 +1475,34 @@ fn extract_in(
     // Always: the last call reports the whole file done.
     if !flush(&mut window, &mut reg, &mut tables, &mut report, body.len()) {
         return Err(Error::Interrupted);
+    }
+    // What each loss held, by topic: the message indexes the file wrote after the chunk
+    // where they survive, else the summary's index or the chunk's own records.
+    report.losses.sort_by_key(|l| l.offset);
+    for loss in &mut report.losses {
+        if let Some(m) = indexed.get(&loss.offset) {
+            loss.channels_lost = m.clone();
+        }
+        for (ch, n) in &loss.channels_lost {
+            let topic = reg
+                .channels
+                .get(ch)
+                .map(|c| c.topic.clone())
+                .unwrap_or_else(|| format!("channel {ch}"));
+            *loss.messages_lost.entry(topic).or_insert(0) += n;
+        }
+        if !loss.messages_lost.is_empty() {
+            let list: Vec<String> = loss
+                .messages_lost
+                .iter()
+                .map(|(t, n)| format!("{n} on {t}"))
+                .collect();
+            loss.detail
+                .push_str(&format!("; messages lost: {}", list.join(", ")));
+        }
+        for (t, n) in &loss.messages_lost {
+            *report.lost_messages.entry(t.clone()).or_insert(0) += n;
+        }
     }
     // A recording with none of the rig's topics is an error naming them.
     let present: Vec<&str> = reg.channels.values().map(|c| c.topic.as_str()).collect();

@@ -28,6 +28,8 @@ use thermrs_core::rig::Rig;
 
 mod effects;
 
+mod panic;
+
 create_exception!(
     thermrs._native,
     ThermrsError,
@@ -347,7 +349,7 @@ fn columns<'py>(
 /// (handed over without copying) and the report as JSON. Runs without the GIL; `progress` is
 /// called as progress(bytes_done, bytes_total, frames_done); Ctrl-C stops it.
 #[pyfunction]
-#[pyo3(signature = (path, rig, *, progress = None, min_sigma_px = None, threshold_sigma = None))]
+#[pyo3(signature = (path, rig, *, progress = None, min_sigma_px = None, threshold_sigma = None, verify_crc = true))]
 fn extract<'py>(
     py: Python<'py>,
     path: PathBuf,
@@ -355,8 +357,12 @@ fn extract<'py>(
     progress: Option<Py<PyAny>>,
     min_sigma_px: Option<f64>,
     threshold_sigma: Option<f64>,
+    verify_crc: bool,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let mut opts = ingest::ExtractOptions::default();
+    let mut opts = ingest::ExtractOptions {
+        verify_crc,
+        ..ingest::ExtractOptions::default()
+    };
     if let Some(v) = min_sigma_px {
         opts.spot.min_sigma_px = v;
     }
@@ -380,11 +386,15 @@ fn extract<'py>(
         })
     };
     let inner = &rig.inner;
-    let res = py.detach(|| ingest::extract(&path, inner, &opts, &cb));
+    let res = py.detach(|| {
+        panic::guard(&format!("reading {}", path.display()), || {
+            ingest::extract(&path, inner, &opts, &cb)
+        })
+    });
     if let Some(e) = pending.lock().expect("lock").take() {
         return Err(e);
     }
-    let (t, report) = res.map_err(to_py)?;
+    let (t, report) = res.map_err(panic::to_py)?.map_err(to_py)?;
     let f = t.frames;
     let frames = columns(
         py,
@@ -536,6 +546,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("ThermrsError", py.get_type::<ThermrsError>())?;
+    panic::register(m)?;
     m.add("RigError", py.get_type::<RigError>())?;
     m.add("InputError", py.get_type::<InputError>())?;
     m.add("RecordingError", py.get_type::<RecordingError>())?;
