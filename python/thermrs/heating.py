@@ -9,8 +9,10 @@ Model
     ``y(t) = y0 + A·exp(−(t − t0)/τ)`` with ``t0`` the first sample's time: ``y0`` is the
     asymptote (steady state), ``y0 + A`` the value at the first sample, ``τ`` the time
     constant. A rising series (warm-up of a temperature) has ``A < 0``, a falling one
-    (cool-down) ``A > 0``. :attr:`Curve.phase` names the direction of the *series*: for a drift
-    series "warm-up" only means the drift grows towards larger values.
+    (cool-down) ``A > 0``. :attr:`Curve.phase` of :func:`fit_curve` names the direction of the
+    *series*. In the tables (:func:`heating_curves`) a drift row's phase is named from the
+    run's temperatures instead (whether the links warm or cool over that drift's span), since a
+    drift's sign depends only on the chip's orientation: a warming axis may drift negative.
 
 Fit
     :func:`scipy.optimize.curve_fit` (trust-region reflective, ``τ`` bounded), in time scaled
@@ -426,7 +428,10 @@ def heating_curves(table: pl.DataFrame, *, run: str | None = None) -> pl.DataFra
     ``series=name``, ``camera`` and ``axis`` null) fitted on the values at every visit time of
     the run (both cameras' visits, one sample per distinct time); and one row per camera and
     chip axis (``kind="drift"``, ``series="drift_u"`` / ``"drift_v"``) fitted on that camera's
-    ``drift_u_um`` / ``drift_v_um``.
+    ``drift_u_um`` / ``drift_v_um``. A temperature row's ``phase`` is the direction of its
+    series; a drift row's ``phase`` is that of the run's ROI temperatures over the camera's
+    visits (``"warm-up"`` if their mean rises, ``"cool-down"`` if it falls), whatever the sign
+    of the drift; ``"flat"`` if the drift does not change beyond its noise.
 
     The run table's temperatures are PCHIP interpolations of the thermal samples at the visit
     times (:func:`thermrs.fit.run_table`); where visits outnumber thermal frames these are not
@@ -476,10 +481,28 @@ def heating_curves(table: pl.DataFrame, *, run: str | None = None) -> pl.DataFra
         for cam in sorted(set(tr["camera"].to_list())):
             tc = tr.filter(pl.col("camera") == cam)
             ct = tc["t_ns"].to_numpy().astype(np.int64)
+            phase = _thermal_phase(tc, temp_cols)
             for axis in ("u", "v"):
                 y = tc[f"drift_{axis}_um"].cast(pl.Float64).to_numpy().astype(np.float64)
-                rows.append(_row(r, "drift", f"drift_{axis}", cam, axis, ct, y))
+                row = _row(r, "drift", f"drift_{axis}", cam, axis, ct, y)
+                if row["phase"] in ("warm-up", "cool-down") and phase is not None:
+                    row["phase"] = phase
+                rows.append(row)
     return _frame(rows)
+
+
+def _thermal_phase(rows: pl.DataFrame, temp_cols: Sequence[str]) -> str | None:
+    """``"warm-up"`` or ``"cool-down"``: whether the mean of the rows' ROI temperatures (every
+    ``<name>_c`` but ambient) rises or falls from the first row to the last (rows sorted by
+    time); None without ROI temperatures or without a change."""
+    cols = [c for c in temp_cols if c != "ambient_c"]
+    if not cols or rows.height < 2:
+        return None
+    m = rows.select(pl.mean_horizontal([pl.col(c).cast(pl.Float64) for c in cols]))
+    t = m.to_series().drop_nulls().drop_nans().to_numpy()
+    if len(t) < 2 or t[-1] == t[0]:
+        return None
+    return "warm-up" if t[-1] > t[0] else "cool-down"
 
 
 def temperature_curves(

@@ -20,6 +20,7 @@ True
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -29,7 +30,7 @@ import polars as pl
 
 from thermrs import _native
 from thermrs.errors import InputError
-from thermrs.rig import Rig
+from thermrs.rig import Rig, as_rig
 
 __all__ = ["ForwardModel", "Spots"]
 
@@ -94,7 +95,7 @@ class ForwardModel:
     Parameters
     ----------
     rig
-        The validated rig.
+        The validated rig, or the path of a rig file (``str`` or :class:`~pathlib.Path`).
     alpha_per_k
         α (1/K) for every mapped temperature; default the rig's ``expansion.alpha_per_k``.
     reference_c
@@ -121,7 +122,7 @@ class ForwardModel:
 
     def __init__(
         self,
-        rig: Rig,
+        rig: Rig | str | os.PathLike[str],
         *,
         alpha_per_k: float | None = None,
         reference_c: float | None = None,
@@ -131,6 +132,7 @@ class ForwardModel:
         joint_offsets: Sequence[tuple[str | int, str, float]] | None = None,
         laser_tilt_deg: float | tuple[float, float] | None = None,
     ) -> None:
+        rig = as_rig(rig)
         self.rig = rig
         offsets = []
         for joint, temperature, urad_per_k in joint_offsets or ():
