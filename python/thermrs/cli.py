@@ -15,18 +15,34 @@ Commands live on the :func:`cli` group; another module adds one with
 
 from __future__ import annotations
 
-import json
 import os
+import signal
 import sys
-import time
-import traceback
-from collections.abc import Callable, Sequence
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
 
-import click
 
-from thermrs.errors import InputError, ThermrsError
+def _interrupted_early(signum: int, frame: object) -> None:
+    """Ctrl-C while the CLI starts (imports): stop at once with the one line of SPEC §7.
+    Nothing has been written yet; :func:`main` hands Ctrl-C back to Python before any work."""
+    sys.stderr.write("thermrs: interrupted\n")
+    sys.stderr.flush()
+    os._exit(130)
+
+
+# Installed before anything heavy is imported, unless Ctrl-C is ignored (a background job).
+_EARLY = signal.getsignal(signal.SIGINT) is signal.default_int_handler
+if _EARLY:
+    signal.signal(signal.SIGINT, _interrupted_early)
+
+import json  # noqa: E402
+import time  # noqa: E402
+import traceback  # noqa: E402
+from collections.abc import Callable, Sequence  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import TYPE_CHECKING, Any  # noqa: E402
+
+import click  # noqa: E402
+
+from thermrs.errors import InputError, ThermrsError  # noqa: E402
 
 if TYPE_CHECKING:  # pragma: no cover
     import polars as pl
@@ -164,7 +180,22 @@ def _fmt(x: float | None, digits: int = 2) -> str:
     return "—" if x is None else f"{x:.{digits}f}"
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Interrupted(Exception):
+    """Ctrl-C, carried past click (which would print an empty line first)."""
+
+
+class ThermrsGroup(click.Group):
+    """The command group; every command, including those other modules add with
+    ``cli.add_command``, runs through :meth:`invoke`."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            raise _Interrupted() from None
+
+
+@click.group(cls=ThermrsGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="thermrs")
 def cli() -> None:
     """Measure, model and predict the temperature-induced drift of industrial robots."""
@@ -382,7 +413,7 @@ def extract(
         TimeElapsedColumn(),
         TimeRemainingColumn(),
         console=err,
-        disable=quiet,
+        disable=quiet or not err.is_terminal,  # a bar only where it can redraw
         transient=True,
     ) as bar:
         task = bar.add_task("extract", total=None, fps="")
@@ -874,8 +905,34 @@ def _debug() -> bool:
     return os.environ.get("THERMRS_DEBUG", "") not in ("", "0")
 
 
+def _is_interrupt(e: BaseException) -> bool:
+    """Whether ``e`` is Ctrl-C or came from it (a library that turns a KeyboardInterrupt
+    during its import into an ImportError, say)."""
+    seen: set[int] = set()
+    x: BaseException | None = e
+    while x is not None and id(x) not in seen:
+        if isinstance(x, (KeyboardInterrupt, _Interrupted)):
+            return True
+        seen.add(id(x))
+        x = x.__cause__ or x.__context__
+    return False
+
+
+def _exit_interrupted() -> None:
+    """One line, exit 130, at once: the stack has unwound (temporary files are gone); nothing
+    in the interpreter's shutdown may turn this into another exit status."""
+    click.echo("thermrs: interrupted", err=True)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(EXIT_INTERRUPTED)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point: run the CLI and map errors to SPEC §7 exit codes."""
+    if _EARLY and signal.getsignal(signal.SIGINT) is _interrupted_early:
+        # From here Ctrl-C raises KeyboardInterrupt, so that whatever is being written is
+        # removed on the way out (and the Rust loops see it between chunks).
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         args = sys.argv[1:] if argv is None else argv
         cli.main(args=_expand_multi(list(args)), prog_name="thermrs", standalone_mode=False)
@@ -888,16 +945,14 @@ def main(argv: list[str] | None = None) -> None:
     except click.ClickException as e:  # exit 2
         e.show()
         sys.exit(EXIT_BAD_INPUT)
-    except click.exceptions.Abort:
-        click.echo("thermrs: interrupted", err=True)
-        sys.exit(EXIT_INTERRUPTED)
-    except KeyboardInterrupt:
-        click.echo("thermrs: interrupted", err=True)
-        sys.exit(EXIT_INTERRUPTED)
+    except (click.exceptions.Abort, KeyboardInterrupt, _Interrupted):
+        _exit_interrupted()
     except ThermrsError as e:
         click.echo(f"thermrs: error: {e}", err=True)
         sys.exit(EXIT_BAD_INPUT)
     except Exception as e:
+        if _is_interrupt(e):
+            _exit_interrupted()
         if _debug():
             traceback.print_exc()
         click.echo(
