@@ -5,7 +5,6 @@ scenario against the shipped file."""
 from __future__ import annotations
 
 import doctest
-import os
 import re
 import subprocess
 import sys

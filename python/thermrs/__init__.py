@@ -102,6 +102,7 @@ __all__ = [
 
 def __getattr__(name: str) -> Any:
     """Import a submodule or a re-exported name on first use (PEP 562)."""
+    value: Any
     if name == "__version__":
         from importlib.metadata import PackageNotFoundError, version
 

@@ -134,13 +134,12 @@ def writable(path: Path | None, option: str, *, suffixes: Sequence[str] = ()) ->
         raise InputError(f"{option} {path}: is a directory, expected a file name")
     if suffixes and not any(path.name.endswith(s) for s in suffixes):
         raise InputError(
-            f"{option} {path}: the name must end in {' or '.join(suffixes)} "
-            f"(the format written)"
+            f"{option} {path}: the name must end in {' or '.join(suffixes)} (the format written)"
         )
     check_writable(path, what=option)
 
 
-class AlphaType(click.ParamType):
+class AlphaType(click.ParamType):  # type: ignore[type-arg]
     """An expansion coefficient (1/K): a number (``2.32e-05``, ``23.2e-6``) or one with an SI
     prefix for ×10⁻⁶ (``23.2u``, ``23.2µ``, ``23.2ppm``); positive and below 10⁻³ /K."""
 
@@ -170,10 +169,6 @@ class AlphaType(click.ParamType):
             if "write" in msg:
                 msg += f" or {a:g}u"
             self.fail(msg, param, ctx)
-
-
-def _fmt(x: float | None, digits: int = 2) -> str:
-    return "—" if x is None else f"{x:.{digits}f}"
 
 
 def _fmt(x: float | None, digits: int = 2) -> str:
@@ -441,7 +436,9 @@ def extract(
             t.add_row(k, f"{v:,}")
         err.print(t)
         if rep.skipped:
-            s = table("Skipped messages", [("topic: reason (first seen)", "left"), ("count", "right")])
+            s = table(
+                "Skipped messages", [("topic: reason (first seen)", "left"), ("count", "right")]
+            )
             for k, v in rep.skipped.items():
                 s.add_row(rep.skipped_examples.get(k, k), f"{v:,}")
             err.print(s)
@@ -465,9 +462,7 @@ def extract(
     type=input_file,
     help="Scenario file (thermrs-scenario/1; see docs/scenarios.md).",
 )
-@out_option(
-    "Recording to write (OUT.mcap, in an existing folder); the truth is written beside it."
-)
+@out_option("Recording to write (OUT.mcap, in an existing folder); the truth is written beside it.")
 @click.option(
     "--seed",
     type=click.IntRange(min=0, max=2**64 - 1),
@@ -687,10 +682,8 @@ def predict(
     """
     from thermrs.fit import fit_alpha, fit_alpha_start_end
     from thermrs.ingest import write_parquet_atomic
+    from thermrs.predict import check_alpha, prediction_table
     from thermrs.predict import predict as run_predict
-    from thermrs.predict import prediction_table
-
-    from thermrs.predict import check_alpha
     from thermrs.rig import load_rig
 
     given = sum(x is not None and x != () for x in (alpha, fit_path, train))
@@ -746,7 +739,17 @@ def predict(
         "Predicted against measured drift at the end of each run",
         [
             (c, "left" if c in ("α", "cam", "run", "axis") else "right")
-            for c in ("α", "cam", "run", "axis", "pred µm", "meas µm", "err %", "rms µm", "noise µm")
+            for c in (
+                "α",
+                "cam",
+                "run",
+                "axis",
+                "pred µm",
+                "meas µm",
+                "err %",
+                "rms µm",
+                "noise µm",
+            )
         ],
         caption="α (×10⁻⁶/K): "
         + ", ".join(f"{k} {v * 1e6:.3f}" for k, v in alphas.items())

@@ -72,8 +72,9 @@ def interpolate(t: np.ndarray, st: np.ndarray, sv: np.ndarray) -> np.ndarray:
     return np.asarray(PchipInterpolator(st[keep], sv[keep], extrapolate=True)(t))
 
 
-#: Columns every run table has (besides one ``<name>_c`` per temperature).
-RUN_COLUMNS = ("run", "camera", "visit", "t_ns", "u_um", "v_um", "drift_u_um", "drift_v_um")
+#: Columns the fits need of a run table (:func:`run_table` also gives ``drift_u_um``,
+#: ``drift_v_um`` and one ``<name>_c`` per temperature).
+RUN_COLUMNS = ("run", "camera", "visit", "t_ns", "u_um", "v_um")
 
 
 def run_table(
@@ -168,8 +169,10 @@ def run_table_from(
         if not isinstance(df, pl.DataFrame):
             raise TypeError(f"{name} must be a polars DataFrame, not {type(df).__name__}")
     as_rig(rig)
-    need = {"visits": ("camera", "t_ns", "n_ok", "u_um", "v_um", "drift_u_um", "drift_v_um")}
-    need["temperatures"] = ("t_ns", "name")
+    need: dict[str, tuple[str, ...]] = {
+        "visits": ("camera", "t_ns", "n_ok", "u_um", "v_um", "drift_u_um", "drift_v_um"),
+        "temperatures": ("t_ns", "name"),
+    }
     for name, df in (("visits", visits), ("temperatures", temperatures)):
         lacking = [c for c in need[name] if c not in df.columns]
         if lacking:
@@ -369,8 +372,7 @@ def check_tables(tables: Any, *, what: str = "tables") -> list[pl.DataFrame]:
         )
     if isinstance(tables, (str, bytes, os.PathLike)) or not isinstance(tables, Sequence):
         raise TypeError(
-            f"{what} must be a list of run tables (polars DataFrames), not "
-            f"{type(tables).__name__}"
+            f"{what} must be a list of run tables (polars DataFrames), not {type(tables).__name__}"
         )
     if len(tables) == 0:
         raise InputError(f"{what}: no run table given (an empty list)")

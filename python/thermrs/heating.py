@@ -274,6 +274,18 @@ def fit_curve(
     ------
     InputError
         Too few samples (< 4), no time span, bad bounds, no convergence, τ on a bound.
+
+    Examples
+    --------
+    A cool-down from 30 °C towards 24 °C with a 45-minute time constant, sampled every two
+    minutes:
+
+    >>> import numpy as np
+    >>> from thermrs.heating import fit_curve
+    >>> t = np.arange(0.0, 4 * 3600.0, 120.0)
+    >>> c = fit_curve(t, 24.0 + 6.0 * np.exp(-t / 2700.0), name="link3")
+    >>> round(c.tau_min, 6), round(c.y0, 6), round(c.a, 6), c.phase
+    (45.0, 24.0, 6.0, 'cool-down')
     """
     t = np.asarray(t_s, dtype=np.float64)
     v = np.asarray(y, dtype=np.float64)
@@ -459,6 +471,13 @@ def heating_curves(table: pl.DataFrame, *, run: str | None = None) -> pl.DataFra
     ------
     InputError
         A required column is missing, or ``run`` is not in the table.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> table, _ = thermrs.fit.load_run_table("run1.parquet", thermrs.load_rig())  # doctest: +SKIP
+    >>> curves = thermrs.heating.heating_curves(table)  # doctest: +SKIP
+    >>> curves.select("series", "camera", "axis", "tau_min", "phase")  # doctest: +SKIP
     """
     need = ["run", "camera", "t_ns", "drift_u_um", "drift_v_um"]
     missing = [c for c in need if c not in table.columns]
@@ -531,6 +550,12 @@ def temperature_curves(
     ------
     InputError
         A required column is missing, or ``temperature`` is not ``"peak"`` or ``"max"``.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> ex = thermrs.extract("run1.mcap", thermrs.load_rig())  # doctest: +SKIP
+    >>> thermrs.heating.temperature_curves(ex.temperatures, run="run1")  # doctest: +SKIP
     """
     if temperature not in ("peak", "max"):
         raise InputError(f"temperature must be 'peak' or 'max', got {temperature!r}")

@@ -198,6 +198,12 @@ def write_parquet_atomic(
     ------
     InputError
         The folder does not exist, or the file cannot be written there.
+
+    Examples
+    --------
+    >>> import polars as pl
+    >>> from thermrs.ingest import write_parquet_atomic
+    >>> write_parquet_atomic(pl.DataFrame({"x": [1]}), "out/x.parquet")  # doctest: +SKIP
     """
     path = Path(path)
     tmp = atomic_tmp(path)
@@ -232,6 +238,14 @@ def check_writable(path: str | Path, *, what: str = "output") -> Path:
     ------
     InputError
         One line naming ``path`` and what is wrong.
+
+    Examples
+    --------
+    >>> from thermrs.ingest import check_writable
+    >>> check_writable("/no/such/folder/x.parquet", what="-o")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    thermrs._native.InputError: -o ...: folder /no/such/folder does not exist (create it first)
     """
     path = Path(path)
     if path.is_dir():
@@ -419,9 +433,7 @@ def _check_rig_matches(path: Path, rig: Rig, rep: dict[str, Any]) -> None:
     """SPEC §2: a recording with none of the rig's topics is an error naming them. The joint
     and ambient topics are generic (``/joint_states``), so a recording that has neither a
     camera topic nor the thermal topic of the rig was made on another rig."""
-    sensors = [c.topic for c in rig.cameras] + (
-        [rig.thermal_topic] if rig.thermal_topic else []
-    )
+    sensors = [c.topic for c in rig.cameras] + ([rig.thermal_topic] if rig.thermal_topic else [])
     read = {t for t, n in rep.get("messages", {}).items() if n}
     if read & set(sensors):
         return

@@ -68,10 +68,10 @@ def check_alpha(alpha_per_k: float, *, what: str = "alpha_per_k", positive: bool
     >>> from thermrs.predict import check_alpha
     >>> check_alpha(23.2e-6)
     2.32e-05
-    >>> check_alpha(23.2)
+    >>> check_alpha(23.2)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    thermrs._native.InputError: alpha_per_k 23.2 /K is not a thermal expansion coefficient (solids: 1e-6 to 2e-4 /K); for 23.2 × 10⁻⁶ /K write 23.2e-6
+    thermrs._native.InputError: alpha_per_k 23.2 /K is not ...; for 23.2 × 10⁻⁶ /K write 23.2e-6
     """
     try:
         a = float(alpha_per_k)
@@ -101,6 +101,11 @@ def noise_um(values: npt.ArrayLike) -> float:
     -------
     float
         RMS of successive differences / √2; NaN with fewer than three finite values.
+
+    Raises
+    ------
+    ValueError
+        ``values`` cannot be read as numbers.
 
     Examples
     --------

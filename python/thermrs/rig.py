@@ -45,7 +45,19 @@ __all__ = [
 
 
 def default_rig_path() -> Path:
-    """Path of the embedded rig of the paper's set-up (KUKA KR 15/2, two lensless CCDs)."""
+    """Path of the embedded rig of the paper's set-up (KUKA KR 15/2, two lensless CCDs).
+
+    Returns
+    -------
+    Path
+        The rig file inside the installed package (``thermrs/data/kr15-paper.toml``).
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> thermrs.default_rig_path().name
+    'kr15-paper.toml'
+    """
     return Path(str(resources.files("thermrs") / "data" / "kr15-paper.toml"))
 
 
