@@ -354,6 +354,7 @@ def test_cli_writes_every_table_atomically(tmp_path: Path, paper_rig: thermrs.Ri
     sc = scenario(paper_rig)
     path = sc.rec.write(tmp_path / "r.mcap")
     out = tmp_path / "out" / "run1.parquet"
+    out.parent.mkdir()  # outputs go into an existing folder (a missing one is an error)
     p = cli_extract(path, out)
     assert p.returncode == 0, p.stderr
     frames = pl.read_parquet(out)

@@ -225,3 +225,56 @@ def test_start_end_mean_interval_counts_shared_temperature_errors(
         lo, hi = se.mean[1]
         covered += lo <= 23.2e-6 <= hi
     assert covered / trials >= 0.92, covered / trials
+
+
+def test_fit_functions_take_rig_paths_and_reject_wrong_containers(
+    paper_rig: thermrs.Rig,
+) -> None:
+    """Issue #13: a rig path (str or Path) is accepted wherever a rig is; an empty list, a
+    single table instead of a list, or a number for a rig are one clear error."""
+    m = ForwardModel(paper_rig)
+    rows = []
+    for k in range(12):
+        t = 23.4 + 0.5 * k
+        for cam in ("A", "B"):
+            s = m.spots(cam, paper_rig.camera_pose(cam).joints_rad,
+                        temperatures={"link2": t, "link3": t})  # fmt: skip
+            rows.append({"run": "r", "camera": cam, "visit": k, "t_ns": k, "u_um": float(s.u_um[0]),
+                         "v_um": float(s.v_um[0]), "link2_c": t, "link3_c": t})  # fmt: skip
+    table = pl.DataFrame(rows)
+    path = thermrs.default_rig_path()
+    for rig in (paper_rig, path, str(path)):
+        assert fit_alpha([table], rig).alpha_per_k == pytest.approx(paper_rig.alpha_per_k)
+    model = ForwardModel(str(path), alpha_per_k=20e-6)
+    assert model.rig.model == paper_rig.model
+    with pytest.raises(thermrs.InputError, match="no run table given"):
+        fit_alpha([], paper_rig)
+    with pytest.raises(TypeError, match=r"for one table write \[table\]"):
+        fit_alpha(table, paper_rig)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"must be a thermrs\.Rig or the path"):
+        fit_alpha([table], 42)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="not list"):
+        fit_alpha_start_end([table], paper_rig)  # type: ignore[arg-type]
+    with pytest.raises(thermrs.InputError, match="not a run table"):
+        fit_alpha([table.drop("u_um")], paper_rig)
+    with pytest.raises(thermrs.InputError, match="is a directory"):
+        thermrs.extract(path.parent, paper_rig)
+    with pytest.raises(thermrs.InputError, match="is a directory"):
+        thermrs.load_rig(path.parent)
+
+
+def test_the_package_reaches_every_submodule_after_one_import() -> None:
+    """Issue #13: ``import thermrs`` then thermrs.fit/predict/heating/iso9283/simulate work, and
+    ScenarioError is exported; a fresh interpreter, so nothing was imported before."""
+    code = (
+        "import sys, thermrs\n"
+        "assert 'polars' not in sys.modules and 'numpy' not in sys.modules\n"
+        "fns = [thermrs.fit.fit_alpha, thermrs.predict.predict, thermrs.heating.fit_curve,\n"
+        "       thermrs.iso9283.iso9283, thermrs.simulate.simulate, thermrs.extract]\n"
+        "assert all(callable(f) for f in fns)\n"
+        "assert issubclass(thermrs.ScenarioError, thermrs.ThermrsError)\n"
+        "assert set(thermrs.__all__) <= set(dir(thermrs))\n"
+        "print(thermrs.__version__)\n"
+    )
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr

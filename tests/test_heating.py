@@ -314,3 +314,28 @@ def test_default_nodes_have_the_heat_models_time_constants(
         row = measured.filter(series=link).row(0, named=True)
         assert row["phase"] == "warm-up"
         assert abs(row["tau_min"] - tau) < 3 * row["tau_min_se"], row
+
+
+def test_drift_phase_is_named_from_the_temperatures_not_the_drift_sign() -> None:
+    """Issue #13: links that warm while the spot drifts towards negative v are a warm-up; links
+    that cool while it drifts positive are a cool-down."""
+    rows = []
+    for run, warming in (("warm", True), ("cool", False)):
+        for k in range(60):
+            t = 60.0 * k
+            rise = 1 - np.exp(-t / 1200.0)
+            link = 23.0 + 5.0 * rise if warming else 28.0 - 5.0 * rise
+            drift = -40.0 * rise if warming else 40.0 * rise  # the chip's axis points away
+            rows.append(
+                {"run": run, "camera": "A", "visit": k, "t_ns": int(t * 1e9), "u_um": 0.0,
+                 "v_um": drift, "drift_u_um": 0.0, "drift_v_um": drift, "link2_c": link,
+                 "ambient_c": 23.0}
+            )  # fmt: skip
+    h = heating_curves(pl.DataFrame(rows))
+    phase = {
+        (r["run"], r["series"]): r["phase"] for r in h.iter_rows(named=True) if r["axis"] != "u"
+    }
+    assert phase[("warm", "link2")] == "warm-up" and phase[("warm", "drift_v")] == "warm-up"
+    assert phase[("cool", "link2")] == "cool-down" and phase[("cool", "drift_v")] == "cool-down"
+    # The flat axis stays flat whatever the temperatures do.
+    assert set(h.filter(axis="u")["phase"]) == {"flat"}

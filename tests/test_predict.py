@@ -204,11 +204,12 @@ def test_cli_predict_and_fit_on_recordings_and_tables(
     ("args", "message"),
     [
         (["--run", "X.mcap"], "give exactly one of --alpha, --fit or --train"),
-        (["--alpha", "2e-5", "--run", "nope.mcap"], "nope.mcap: no such file"),
-        (["--fit", "nope.json", "--run", "nope.mcap"], "--fit nope.json: no such file"),
+        (["--alpha", "2e-5", "--run", "nope.mcap"], "'nope.mcap' does not exist"),
+        (["--fit", "nope.json", "--run", "X.mcap"], "'--fit': File 'nope.json' does not exist"),
     ],
 )
 def test_cli_predict_bad_input_is_one_line(args: list[str], message: str, tmp_path: Path) -> None:
+    (tmp_path / "X.mcap").write_bytes(b"")  # inputs are checked to exist before anything else
     r = subprocess.run(
         [
             sys.executable,
@@ -231,11 +232,11 @@ def test_cli_bad_fit_file_and_usage_errors_are_one_line(tmp_path: Path) -> None:
     bad = tmp_path / "fit.json"
     bad.write_text('{"alpha": 1}')
     r = run_cli(
-        "predict", "--rig", str(thermrs.default_rig_path()), "--fit", str(bad), "--run", "x"
+        "predict", "--rig", str(thermrs.default_rig_path()), "--fit", str(bad), "--run", str(bad)
     )
     assert r.returncode == 2 and r.stderr.count("\n") == 1
     assert "not a `thermrs fit --json` file" in r.stderr
-    r = run_cli("fit", "--train", "x.mcap")
+    r = run_cli("fit", "--train", str(bad))
     assert r.returncode == 2 and r.stderr.count("\n") == 1
     assert "Missing option '--rig'" in r.stderr
 

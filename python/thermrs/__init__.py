@@ -4,21 +4,75 @@ The heavy lifting is Rust (``thermrs._native``); this package is the library API
 
 - :mod:`thermrs.rig`: rig files (load, validate, explain);
 - :mod:`thermrs.model`: the thermal-expansion forward model, vectorised over time series;
+- :mod:`thermrs.ingest`: recordings to tables (:func:`thermrs.extract`);
+- :mod:`thermrs.fit`: run tables and the fit of the expansion coefficient α;
+- :mod:`thermrs.predict`: predicted against measured drift (Table 7 for any runs);
+- :mod:`thermrs.heating`: first-order heating curves;
+- :mod:`thermrs.iso9283`: ISO 9283-style pose figures;
+- :mod:`thermrs.simulate`: the simulator (a rig at work under a scenario);
 - :mod:`thermrs.paper`: the KR 15/2 paper's own model and its Tables 6 and 7.
+
+Every submodule and name below is reachable right after ``import thermrs``; each is imported
+on first use, so that ``import thermrs`` (and ``thermrs --help``) stay fast.
+
+Example
+-------
+>>> import thermrs
+>>> rig = thermrs.load_rig()
+>>> callable(thermrs.fit.fit_alpha) and issubclass(thermrs.ScenarioError, thermrs.ThermrsError)
+True
 """
 
-from importlib.metadata import PackageNotFoundError, version
+from __future__ import annotations
 
-from thermrs import paper
-from thermrs.errors import InputError, RecordingError, RigError, ThermrsError
-from thermrs.ingest import Extraction, extract
-from thermrs.model import ForwardModel, Spots
-from thermrs.rig import Rig, default_rig_path, load_rig
+import importlib
+from typing import TYPE_CHECKING, Any
 
-try:
-    __version__ = version("thermrs")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0"
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from thermrs import fit, heating, ingest, iso9283, model, paper, predict, rig, simulate
+    from thermrs.errors import (
+        InputError,
+        RecordingError,
+        RigError,
+        ScenarioError,
+        ThermrsError,
+    )
+    from thermrs.ingest import Extraction, extract
+    from thermrs.model import ForwardModel, Spots
+    from thermrs.rig import Rig, default_rig_path, load_rig
+
+__version__: str  # read from the installed package's metadata on first use
+
+#: Submodules imported on first attribute access.
+_SUBMODULES = (
+    "errors",
+    "fit",
+    "heating",
+    "ingest",
+    "iso9283",
+    "model",
+    "paper",
+    "predict",
+    "rig",
+    "simulate",
+    "visits",
+)
+
+#: Names re-exported at the top level: name → module that defines it.
+_NAMES = {
+    "Extraction": "thermrs.ingest",
+    "extract": "thermrs.ingest",
+    "ForwardModel": "thermrs.model",
+    "Spots": "thermrs.model",
+    "Rig": "thermrs.rig",
+    "default_rig_path": "thermrs.rig",
+    "load_rig": "thermrs.rig",
+    "InputError": "thermrs.errors",
+    "RecordingError": "thermrs.errors",
+    "RigError": "thermrs.errors",
+    "ScenarioError": "thermrs.errors",
+    "ThermrsError": "thermrs.errors",
+}
 
 __all__ = [
     "Extraction",
@@ -27,11 +81,44 @@ __all__ = [
     "RecordingError",
     "Rig",
     "RigError",
+    "ScenarioError",
     "Spots",
     "ThermrsError",
     "__version__",
     "default_rig_path",
     "extract",
+    "fit",
+    "heating",
+    "ingest",
+    "iso9283",
     "load_rig",
+    "model",
     "paper",
+    "predict",
+    "rig",
+    "simulate",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Import a submodule or a re-exported name on first use (PEP 562)."""
+    value: Any
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("thermrs")
+        except PackageNotFoundError:  # pragma: no cover - running from a source tree
+            value = "0.0.0"
+    elif name in _NAMES:
+        value = getattr(importlib.import_module(_NAMES[name]), name)
+    elif name in _SUBMODULES:
+        value = importlib.import_module(f"thermrs.{name}")
+    else:
+        raise AttributeError(f"module 'thermrs' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__) | set(_SUBMODULES))

@@ -1,36 +1,134 @@
 """The ``thermrs`` command line: a thin layer over the library API.
 
 Exit codes (SPEC §7): 0 success; 2 bad input or usage (one line on stderr, no traceback);
-3 finished with data loss; 1 internal error (set ``THERMRS_DEBUG=1`` for the traceback).
+3 finished with data loss; 1 internal error (set ``THERMRS_DEBUG=1`` for the traceback);
+130 interrupted (Ctrl-C).
+
+Start-up is kept short (``thermrs --help``): numpy, polars, scipy, rich and the Rust
+extension are imported inside the commands that need them, never at module level.
+
+Commands live on the :func:`cli` group; another module adds one with
+``cli.add_command(my_command)`` (a ``click.Command``), using the shared options below
+(:data:`rig_option`, :func:`out_option`, :func:`runs_option`, :data:`input_file`) and
+:func:`console` / :func:`table` for output.
 """
 
 from __future__ import annotations
 
-import json
 import os
+import signal
 import sys
-import time
-import traceback
-from collections.abc import Callable
-from pathlib import Path
-from typing import Any
 
-import click
-from rich.console import Console
-from rich.table import Table
 
-from thermrs import paper as paper_mod
-from thermrs.errors import InputError, ThermrsError
-from thermrs.rig import default_rig_path, load_rig
-from thermrs.visits import DEFAULT_TOLERANCE_DEG
+def _interrupted_early(signum: int, frame: object) -> None:
+    """Ctrl-C while the CLI starts (imports): stop at once with the one line of SPEC §7.
+    Nothing has been written yet; :func:`main` hands Ctrl-C back to Python before any work."""
+    sys.stderr.write("thermrs: interrupted\n")
+    sys.stderr.flush()
+    os._exit(130)
+
+
+# Installed before anything heavy is imported, unless Ctrl-C is ignored (a background job).
+_EARLY = signal.getsignal(signal.SIGINT) is signal.default_int_handler
+if _EARLY:
+    signal.signal(signal.SIGINT, _interrupted_early)
+
+import json  # noqa: E402
+import time  # noqa: E402
+import traceback  # noqa: E402
+from collections.abc import Callable, Sequence  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import TYPE_CHECKING, Any  # noqa: E402
+
+import click  # noqa: E402
+
+from thermrs.errors import InputError, ThermrsError  # noqa: E402
+
+if TYPE_CHECKING:  # pragma: no cover
+    import polars as pl
+    from rich.console import Console
+    from rich.table import Table
+
+    from thermrs.rig import Rig
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_DATA_LOSS = 0, 1, 2, 3
+EXIT_INTERRUPTED = 130
 
-out = Console(highlight=False)
+#: The joint tolerance of a visit (°); the same as :data:`thermrs.visits.DEFAULT_TOLERANCE_DEG`
+#: (a test checks), written out so that ``thermrs --help`` need not import polars.
+VISIT_TOLERANCE_DEG = 0.05
+
+
+def console(*, stderr: bool = False) -> Console:
+    """A rich console on stdout (or stderr). On a terminal it takes the terminal's width (or
+    ``COLUMNS``); piped into a file or another program it never cuts or wraps a table."""
+    from rich.console import Console
+
+    stream = sys.stderr if stderr else sys.stdout
+    width = None
+    if not os.environ.get("COLUMNS", "").isdigit() and not stream.isatty():
+        width = 100_000
+    return Console(stderr=stderr, highlight=False, width=width, soft_wrap=width is not None)
+
+
+class _LazyConsole:
+    """The stdout console, made on first use (rich is not imported for ``--help``)."""
+
+    _console: Console | None = None
+
+    def __getattr__(self, name: str) -> Any:
+        if self._console is None:
+            self._console = console()
+        return getattr(self._console, name)
+
+
+out: Any = _LazyConsole()
+
+
+def table(title: str, columns: Sequence[tuple[str, str]], *, caption: str | None = None) -> Table:
+    """A table whose cells fold rather than being cut at a narrow terminal: headers keep
+    their words whole (each column at least as wide as its header's longest word) and long
+    cells (run names, paths) wrap onto a second line instead of ending in "…".
+
+    ``columns`` are ``(header, justify)`` pairs, ``justify`` one of ``left``, ``right``.
+    """
+    from rich.table import Table
+
+    t = Table(title=title, caption=caption, title_justify="left", caption_justify="left")
+    for name, justify in columns:
+        longest = max((len(w) for w in name.split()), default=0)
+        t.add_column(name, justify=justify, overflow="fold", min_width=longest)  # type: ignore[arg-type]
+    return t
+
+
+#: An input file that must exist and be a file (not a folder): a usage error otherwise.
+input_file = click.Path(exists=True, dir_okay=False, readable=True, path_type=Path)
+
+
+class RunFileType(click.ParamType):  # type: ignore[type-arg]
+    """A run: a recording or extracted tables, optionally ``FILE#RUN`` (one run of the file);
+    the file must exist and not be a folder."""
+
+    name = "RUN"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        text = str(value)
+        path = Path(text)
+        if "#" in text and not path.exists():
+            path = Path(text.rpartition("#")[0])
+        if path.is_dir():
+            self.fail(f"{path}: is a directory, expected a recording (.mcap) or tables", param, ctx)
+        if not path.exists():
+            self.fail(f"{path}: no such file", param, ctx)
+        return Path(text)
+
+
+#: ``FILE`` or ``FILE#RUN`` of a recording or extracted tables.
+run_file = RunFileType()
 
 #: ``--rig RIG``, shared by the commands that read recordings.
 rig_option = click.option(
-    "--rig", "rig_path", required=True, type=click.Path(path_type=Path), help="Rig file."
+    "--rig", "rig_path", required=True, type=input_file, help="Rig file (TOML, SPEC §3)."
 )
 
 
@@ -41,11 +139,80 @@ def out_option(what: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     )
 
 
+def writable(path: Path | None, option: str, *, suffixes: Sequence[str] = ()) -> None:
+    """Check before any work that an output can be written (its folder exists and takes a
+    new file; it is not a folder) and, with ``suffixes``, that its name says its format.
+
+    Raises
+    ------
+    InputError
+        One line naming the option, the path and what is wrong.
+    """
+    if path is None:
+        return
+    from thermrs.ingest import check_writable
+
+    if path.is_dir():
+        raise InputError(f"{option} {path}: is a directory, expected a file name")
+    if suffixes and not any(path.name.endswith(s) for s in suffixes):
+        raise InputError(
+            f"{option} {path}: the name must end in {' or '.join(suffixes)} (the format written)"
+        )
+    check_writable(path, what=option)
+
+
+class AlphaType(click.ParamType):  # type: ignore[type-arg]
+    """An expansion coefficient (1/K): a number (``2.32e-05``, ``23.2e-6``) or one with an SI
+    prefix for ×10⁻⁶ (``23.2u``, ``23.2µ``, ``23.2ppm``); positive and below 10⁻³ /K."""
+
+    name = "ALPHA"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, float):
+            return value
+        text = str(value).strip().removesuffix("/K").removesuffix("/k").strip()
+        scale = 1.0
+        for suffix in ("ppm", "µ", "μ", "u"):
+            if text.endswith(suffix):
+                text, scale = text[: -len(suffix)].strip(), 1e-6
+                break
+        try:
+            a = float(text) * scale
+        except ValueError:
+            self.fail(
+                f"{value!r} is not a number; write α per kelvin as 23.2e-6 or 23.2u", param, ctx
+            )
+        from thermrs.predict import check_alpha
+
+        try:
+            return check_alpha(a, what="α", positive=True)
+        except ThermrsError as e:
+            msg = str(e)
+            if "write" in msg:
+                msg += f" or {a:g}u"
+            self.fail(msg, param, ctx)
+
+
 def _fmt(x: float | None, digits: int = 2) -> str:
     return "—" if x is None else f"{x:.{digits}f}"
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Interrupted(Exception):
+    """Ctrl-C, carried past click (which would print an empty line first)."""
+
+
+class ThermrsGroup(click.Group):
+    """The command group; every command, including those other modules add with
+    ``cli.add_command``, runs through :meth:`invoke`."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            raise _Interrupted() from None
+
+
+@click.group(cls=ThermrsGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="thermrs")
 def cli() -> None:
     """Measure, model and predict the temperature-induced drift of industrial robots."""
@@ -61,6 +228,8 @@ def cli() -> None:
 )
 def paper(as_json: bool, train_run: int, exact: bool) -> None:
     """Reproduce the KR 15/2 paper's Tables 6 and 7 (Eq. 1–3)."""
+    from thermrs import paper as paper_mod
+
     data = paper_mod.load_paper_data()
     rounding = not exact
     fm_alpha, fm_table = paper_mod.forward_model_table(train_run=train_run, data=data)
@@ -71,9 +240,10 @@ def paper(as_json: bool, train_run: int, exact: bool) -> None:
         return
     printed = data.printed if train_run == 1 else {}
     p6 = printed.get("table6", {})
-    t6 = Table(title=f"Table 6 — α from Run {train_run} (×10⁻⁶ /°C)")
-    for col in ("α", "thermrs", "paper", "Δ"):
-        t6.add_column(col, justify="right" if col != "α" else "left")
+    t6 = table(
+        f"Table 6 — α from Run {train_run} (×10⁻⁶ /°C)",
+        [(c, "right" if c != "α" else "left") for c in ("α", "thermrs", "paper", "Δ")],
+    )
     for row in paper_mod.table6(train_run=train_run, data=data, paper_rounding=rounding).iter_rows(
         named=True
     ):
@@ -90,19 +260,23 @@ def paper(as_json: bool, train_run: int, exact: bool) -> None:
     out.print(t6)
 
     p7 = {(r["alpha"], r["camera"]): r for r in printed.get("table7", [])}
-    t7 = Table(title="Table 7 — predicted vs measured Δl_x (µm), error (%)")
-    for col in (
-        "α",
-        "camera",
-        "run",
-        "predicted",
-        "measured",
-        "error %",
-        "paper pred.",
-        "paper meas.",
-        "paper err.",
-    ):
-        t7.add_column(col, justify="left" if col in ("α", "camera") else "right")
+    t7 = table(
+        "Table 7 — predicted vs measured Δl_x (µm), error (%)",
+        [
+            (c, "left" if c in ("α", "camera") else "right")
+            for c in (
+                "α",
+                "camera",
+                "run",
+                "predicted",
+                "measured",
+                "error %",
+                "paper pred.",
+                "paper meas.",
+                "paper err.",
+            )
+        ],
+    )
     for r in paper_mod.table7(train_run=train_run, data=data, paper_rounding=rounding).iter_rows(
         named=True
     ):
@@ -119,14 +293,14 @@ def paper(as_json: bool, train_run: int, exact: bool) -> None:
             _fmt(ref.get("error_pct")),
         )
     out.print(t7)
-    tf = Table(
-        title=(
-            "Generalised — the same protocol through the SPEC §4 forward model "
-            "(embedded rig; drift along the chip y axis)"
-        )
+    tf = table(
+        "Generalised — the same protocol through the SPEC §4 forward model "
+        "(embedded rig; drift along the chip y axis)",
+        [
+            (c, "left" if c in ("α", "camera") else "right")
+            for c in ("α", "α (×10⁻⁶/°C)", "camera", "run", "predicted", "measured", "error %")
+        ],
     )
-    for col in ("α", "α (×10⁻⁶/°C)", "camera", "run", "predicted", "measured", "error %"):
-        tf.add_column(col, justify="left" if col in ("α", "camera") else "right")
     for r in fm_table.iter_rows(named=True):
         tf.add_row(
             f"α_{r['alpha']}",
@@ -152,7 +326,7 @@ def paper(as_json: bool, train_run: int, exact: bool) -> None:
 
 
 @cli.command()
-@click.argument("rig_path", required=False, type=click.Path(path_type=Path))
+@click.argument("rig_path", required=False, type=input_file)
 @click.option("--json", "as_json", is_flag=True, help="Print SPEC §7 JSON instead of tables.")
 def rig(rig_path: Path | None, as_json: bool) -> None:
     """Check and explain a rig file (default: the embedded paper rig).
@@ -160,6 +334,8 @@ def rig(rig_path: Path | None, as_json: bool) -> None:
     Per pose: the flange position and, for every camera, where the laser meets its chip and
     at what incidence. Exits 2 if the laser misses a pose's own camera.
     """
+    from thermrs.rig import default_rig_path, load_rig
+
     r = load_rig(rig_path)
     view = r.check()
     if as_json:
@@ -174,14 +350,21 @@ def rig(rig_path: Path | None, as_json: bool) -> None:
     )
     for pose_name, p in view["poses"].items():
         x, y, z = p["flange_mm"]
-        t = Table(
-            title=(
-                f"Pose {pose_name}: flange ({x:.2f}, {y:.2f}, {z:.2f}) mm, "
-                f"elevation {p['elevation_deg']:.2f}°, azimuth {p['azimuth_deg']:.2f}°"
-            )
+        t = table(
+            f"Pose {pose_name}: flange ({x:.2f}, {y:.2f}, {z:.2f}) mm, "
+            f"elevation {p['elevation_deg']:.2f}°, azimuth {p['azimuth_deg']:.2f}°",
+            [
+                (c, "left" if c in ("camera", "") else "right")
+                for c in (
+                    "camera",
+                    "spot x (px)",
+                    "spot y (px)",
+                    "incidence (°)",
+                    "distance (mm)",
+                    "",
+                )
+            ],
         )
-        for col in ("camera", "spot x (px)", "spot y (px)", "incidence (°)", "distance (mm)", ""):
-            t.add_column(col, justify="left" if col in ("camera", "") else "right")
         for cam, spot in p["spot_px"].items():
             own = r.camera(cam).pose == pose_name
             inc = p["incidence_deg"][cam]
@@ -198,16 +381,22 @@ def rig(rig_path: Path | None, as_json: bool) -> None:
 
 
 @cli.command()
-@click.argument("recording", type=click.Path(path_type=Path))
+@click.argument("recording", type=input_file)
 @rig_option
-@out_option("Frames Parquet; visits, temperatures and joints are written beside it.")
+@out_option(
+    "Frames Parquet (OUT.parquet, in an existing folder); visits, temperatures and joints "
+    "are written beside it."
+)
 @click.option(
     "--visit-tolerance-deg",
-    default=DEFAULT_TOLERANCE_DEG,
+    type=click.FloatRange(min=0, min_open=True, max=180),
+    default=VISIT_TOLERANCE_DEG,
     show_default=True,
     help="Joint tolerance (°) for a spot frame to count as at its camera's pose.",
 )
-@click.option("--quiet", is_flag=True, help="No progress bar or summary.")
+@click.option(
+    "--quiet", is_flag=True, help="No progress bar or summary (a data loss is still reported)."
+)
 def extract(
     recording: Path, rig_path: Path, out_path: Path, visit_tolerance_deg: float, quiet: bool
 ) -> None:
@@ -215,7 +404,8 @@ def extract(
     temperatures (thermal ROI maxima and ambient) and joints.
 
     Exits 3 (after writing every table) if part of the recording was lost: a file cut short,
-    a corrupt chunk.
+    a corrupt chunk. The tables remember it (Parquet metadata): fit, predict and drift on
+    them exit 3 too.
     """
     from rich.progress import (
         BarColumn,
@@ -227,9 +417,11 @@ def extract(
     )
 
     from thermrs.ingest import extract as run_extract
+    from thermrs.rig import load_rig
 
+    writable(out_path, "-o", suffixes=(".parquet",))
     r = load_rig(rig_path)
-    err = Console(stderr=True, highlight=False)
+    err = console(stderr=True)
     with Progress(
         TextColumn("[bold]extract[/bold]"),
         BarColumn(),
@@ -238,7 +430,7 @@ def extract(
         TimeElapsedColumn(),
         TimeRemainingColumn(),
         console=err,
-        disable=quiet,
+        disable=quiet or not err.is_terminal,  # a bar only where it can redraw
         transient=True,
     ) as bar:
         task = bar.add_task("extract", total=None, fps="")
@@ -261,25 +453,24 @@ def extract(
             f"{ex.visits.height} visits, "
             f"{ex.temperatures.height:,} temperature rows, {ex.joints.height:,} joint states"
         )
-        t = Table(title="Frames by status")
-        t.add_column("status")
-        t.add_column("frames", justify="right")
+        t = table("Frames by status", [("status", "left"), ("frames", "right")])
         for k, v in rep.frames_by_status.items():
             t.add_row(k, f"{v:,}")
         err.print(t)
         if rep.skipped:
-            s = Table(title="Skipped messages")
-            s.add_column("topic: reason (first seen)")
-            s.add_column("count", justify="right")
+            s = table(
+                "Skipped messages", [("topic: reason (first seen)", "left"), ("count", "right")]
+            )
             for k, v in rep.skipped.items():
                 s.add_row(rep.skipped_examples.get(k, k), f"{v:,}")
             err.print(s)
-        for loss in rep.losses:
-            err.print(f"[red]data loss[/red]: {loss['detail']}")
         if rep.recovered_messages:
             err.print(f"recovered {rep.recovered_messages} complete messages from the cut chunk")
         for name, p in paths.items():
             err.print(f"wrote {name}: {p}")
+    # The loss is reported even with --quiet: exit 3 never goes unexplained.
+    for loss in rep.losses:
+        click.echo(f"thermrs: data loss: {recording}: {loss['detail']}", err=True)
     if rep.data_loss:
         sys.exit(EXIT_DATA_LOSS)
 
@@ -290,21 +481,28 @@ def extract(
     "--scenario",
     "scenario_path",
     required=True,
-    type=click.Path(path_type=Path),
-    help="Scenario file (thermrs-scenario/1).",
+    type=input_file,
+    help="Scenario file (thermrs-scenario/1; see docs/scenarios.md).",
 )
-@out_option("Recording to write (MCAP); the truth is written beside it.")
-@click.option("--seed", type=int, default=None, help="Override the scenario's seed.")
+@out_option("Recording to write (OUT.mcap, in an existing folder); the truth is written beside it.")
+@click.option(
+    "--seed",
+    type=click.IntRange(min=0, max=2**64 - 1),
+    default=None,
+    help="Override the scenario's seed (0 ≤ N < 2⁶⁴).",
+)
 def simulate(rig_path: Path, scenario_path: Path, out_path: Path, seed: int | None) -> None:
     """Simulate a rig at work: write a recording in the rig's own format and its truth
     (OUT.truth.parquet, OUT.truth-samples.parquet, OUT.truth.json)."""
+    from thermrs.rig import load_rig
     from thermrs.simulate import simulate as run_simulate
 
+    writable(out_path, "-o", suffixes=(".mcap",))
     r = load_rig(rig_path)
     t0 = time.perf_counter()
     sim = run_simulate(r, scenario_path, out_path, seed=seed)
     dt = time.perf_counter() - t0
-    err = Console(stderr=True, highlight=False)
+    err = console(stderr=True)
     size = sim.recording.stat().st_size / 1e6
     err.print(
         f"wrote {sim.recording} ({size:,.1f} MB): {sim.frames.height:,} CCD frames, "
@@ -316,7 +514,6 @@ def _write_json(path: Path, doc: object) -> None:
     """Write ``doc`` as JSON to ``path`` atomically."""
     from thermrs.ingest import atomic_tmp, publish
 
-    path.parent.mkdir(parents=True, exist_ok=True)
     tmp = atomic_tmp(path)
     try:
         tmp.write_text(json.dumps(doc, indent=2))
@@ -326,24 +523,41 @@ def _write_json(path: Path, doc: object) -> None:
         raise
 
 
-def _run_tables(paths: tuple[Path, ...], rig: Any, what: str) -> tuple[list[Any], bool]:
+def _run_tables(paths: tuple[Path, ...], rig: Rig, what: str) -> tuple[list[pl.DataFrame], bool]:
     """Run tables of recordings or extracted tables (``FILE`` or ``FILE#RUN``), and whether
-    any recording lost data; lists the runs found in each file on stderr."""
+    any recording lost data (for extracted tables: as their Parquet metadata records); lists
+    the runs found in each file on stderr."""
+    from thermrs.fit import run_name
     from thermrs.runs import load_runs, split_run_spec
 
-    tables, loss = [], False
-    files = {split_run_spec(p)[0] for p in paths}
-    names = [f.name for f in files]
+    seen: set[str] = set()
     for p in paths:
-        # Two files of one name in different folders: name the runs by their paths.
+        key = f"{split_run_spec(p)[0].resolve()}#{split_run_spec(p)[1]}"
+        if key in seen:
+            raise InputError(f"{what} {p}: given twice")
+        seen.add(key)
+    tables, loss = [], False
+    names = [run_name(split_run_spec(p)[0]) for p in paths]
+    for p, name in zip(paths, names, strict=True):
+        # Two runs of one name (r30.mcap and r30.parquet, or one name in two folders): name
+        # the runs by the paths given, so that no two share a key.
         base = split_run_spec(p)[0]
-        rt = load_runs(p, rig, name=str(base) if names.count(base.name) > 1 else None)
+        same = sum(
+            1
+            for q, n in zip(paths, names, strict=True)
+            if n == name and split_run_spec(q)[0] != base
+        )
+        rt = load_runs(p, rig, name=str(base) if same else None)
         click.echo(f"thermrs: {what} {rt.describe()}", err=True)
         for t in rt.tables:
             if t.height == 0:
                 raise InputError(f"{what} {p}: no visit with a spot")
         if rt.data_loss:
-            click.echo(f"thermrs: warning: {p}: part of the recording was lost", err=True)
+            click.echo(
+                f"thermrs: data loss: {p}: part of the recording was lost "
+                "(see `thermrs extract` for what); results use what was intact",
+                err=True,
+            )
         tables.extend(rt.tables)
         loss |= rt.data_loss
     return tables, loss
@@ -356,7 +570,7 @@ def runs_option(what: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]
         "runs",
         required=True,
         multiple=True,
-        type=click.Path(path_type=Path),
+        type=run_file,
         help=f"{what}: recordings (MCAP) or tables written by `thermrs extract`; FILE#RUN "
         "takes one run of a file (FILE alone: each of its runs).",
     )
@@ -375,7 +589,7 @@ TRAIN_HELP = (
     "train",
     required=True,
     multiple=True,
-    type=click.Path(path_type=Path),
+    type=run_file,
     help=TRAIN_HELP,
 )
 @click.option(
@@ -393,7 +607,9 @@ def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None
     Exits 3 (after fitting) if part of a training recording was lost.
     """
     from thermrs.fit import fit_alpha, fit_alpha_start_end
+    from thermrs.rig import load_rig
 
+    writable(json_path, "--json")
     r = load_rig(rig_path)
     tables, loss = _run_tables(train, r, "--train")
     f = fit_alpha(tables, r)
@@ -402,9 +618,13 @@ def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None
     doc["start_end"] = {run: se.to_json() for run, se in start_end.items()}
     if json_path is not None:
         _write_json(json_path, doc)
-    t = Table(title=f"α from {len(tables)} run(s), {f.n_visits} visits")
-    for col in ("estimator", "run", "camera", "α (×10⁻⁶/K)", "95 % interval", "rms (µm)"):
-        t.add_column(col, justify="right" if col not in ("estimator", "run") else "left")
+    t = table(
+        f"α from {len(tables)} run(s), {f.n_visits} visits",
+        [
+            (c, "right" if c not in ("estimator", "run") else "left")
+            for c in ("estimator", "run", "camera", "α (×10⁻⁶/K)", "95 % interval", "rms (µm)")
+        ],
+    )
     t.add_row(
         "time-series",
         "all",
@@ -426,11 +646,17 @@ def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None
 @cli.command()
 @rig_option
 @runs_option("Runs to predict")
-@click.option("--alpha", "alpha", type=float, default=None, help="α (1/K) to predict with.")
+@click.option(
+    "--alpha",
+    "alpha",
+    type=AlphaType(),
+    default=None,
+    help="α (1/K) to predict with: 23.2e-6, or 23.2u (×10⁻⁶); 0 < α < 1e-3.",
+)
 @click.option(
     "--fit",
     "fit_path",
-    type=click.Path(path_type=Path),
+    type=input_file,
     default=None,
     help="Take α from a `thermrs fit --json` file.",
 )
@@ -438,7 +664,7 @@ def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None
     "--train",
     "train",
     multiple=True,
-    type=click.Path(path_type=Path),
+    type=run_file,
     help="Fit α on these runs first (time-series and start/end estimators). " + TRAIN_HELP,
 )
 @click.option(
@@ -467,7 +693,8 @@ def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None
     "series_path",
     type=click.Path(path_type=Path),
     default=None,
-    help="Write every visit's predicted and measured drift here (Parquet, atomically).",
+    help="Write every visit's predicted and measured drift here (atomically): Parquet "
+    "(.parquet) or CSV (.csv), by the name's suffix.",
 )
 def predict(
     rig_path: Path,
@@ -488,12 +715,15 @@ def predict(
     """
     from thermrs.fit import fit_alpha, fit_alpha_start_end
     from thermrs.ingest import write_parquet_atomic
+    from thermrs.predict import check_alpha, prediction_table
     from thermrs.predict import predict as run_predict
-    from thermrs.predict import prediction_table
+    from thermrs.rig import load_rig
 
     given = sum(x is not None and x != () for x in (alpha, fit_path, train))
     if given != 1:
         raise InputError("give exactly one of --alpha, --fit or --train")
+    writable(json_path, "--json")
+    writable(series_path, "--series", suffixes=(".parquet", ".csv"))
     r = load_rig(rig_path)
     loss = False
     alphas: dict[str, float] = {}
@@ -502,13 +732,12 @@ def predict(
     elif fit_path is not None:
         try:
             doc = json.loads(fit_path.read_text())
-            alphas["fit"] = float(doc["alpha_per_k"]["value"])
+            alphas["fit"] = check_alpha(doc["alpha_per_k"]["value"], what=f"--fit {fit_path}:")
         except FileNotFoundError:
             raise InputError(f"--fit {fit_path}: no such file") from None
         except (ValueError, KeyError, TypeError) as e:
-            raise InputError(
-                f"--fit {fit_path}: not a `thermrs fit --json` file ({type(e).__name__}: {e})"
-            ) from None
+            why = f"{type(e).__name__}: {e}".splitlines()[0]
+            raise InputError(f"--fit {fit_path}: not a `thermrs fit --json` file ({why})") from None
     else:
         tables, loss = _run_tables(train, r, "--train")
         alphas["series"] = fit_alpha(tables, r).alpha_per_k
@@ -519,10 +748,10 @@ def predict(
             alphas["mean"] = se.mean[0]
     held, lost = _run_tables(runs, r, "--run")
     loss |= lost
-    table = prediction_table(held, r, alphas=alphas, axis=axis, end_visits=end_visits)
+    result = prediction_table(held, r, alphas=alphas, axis=axis, end_visits=end_visits)
     if json_path is not None:
         _write_json(
-            json_path, {"alpha_per_k": alphas, "table": table.drop("alpha_per_k").to_dicts()}
+            json_path, {"alpha_per_k": alphas, "table": result.drop("alpha_per_k").to_dicts()}
         )
     if series_path is not None:
         import polars as pl
@@ -535,16 +764,31 @@ def predict(
                 for label, a in alphas.items()
             ]
         )
-        write_parquet_atomic(series, series_path)
-    t = Table(
-        title="Predicted against measured drift at the end of each run",
+        if series_path.name.endswith(".csv"):
+            _write_csv(series_path, series)
+        else:
+            write_parquet_atomic(series, series_path)
+    t = table(
+        "Predicted against measured drift at the end of each run",
+        [
+            (c, "left" if c in ("α", "cam", "run", "axis") else "right")
+            for c in (
+                "α",
+                "cam",
+                "run",
+                "axis",
+                "pred µm",
+                "meas µm",
+                "err %",
+                "rms µm",
+                "noise µm",
+            )
+        ],
         caption="α (×10⁻⁶/K): "
         + ", ".join(f"{k} {v * 1e6:.3f}" for k, v in alphas.items())
         + (" (series: time-series fit; A, B, mean: start/end)" if train else ""),
     )
-    for col in ("α", "cam", "run", "axis", "pred µm", "meas µm", "err %", "rms µm", "noise µm"):
-        t.add_column(col, justify="left" if col in ("α", "cam", "run", "axis") else "right")
-    for row in table.iter_rows(named=True):
+    for row in result.iter_rows(named=True):
         t.add_row(
             row["alpha"],
             row["camera"],
@@ -603,21 +847,27 @@ def drift(
 
     from thermrs.heating import heating_curves
     from thermrs.iso9283 import LABEL, iso9283
+    from thermrs.rig import load_rig
 
+    writable(json_path, "--json")
     r = load_rig(rig_path)
     tables, loss = _run_tables(runs, r, "--run")
-    table = pl.concat(tables, how="diagonal_relaxed")
-    curves = heating_curves(table)
-    iso = iso9283(table, window=window, tolerance_um=tolerance_um)
+    joined = pl.concat(tables, how="diagonal_relaxed")
+    curves = heating_curves(joined)
+    iso = iso9283(joined, window=window, tolerance_um=tolerance_um)
     if json_path is not None:
         _write_json(json_path, {"curves": curves.to_dicts(), "iso9283": iso.to_json()})
 
     def num(x: float | None, digits: int = 2) -> str:
         return "—" if x is None else f"{x:.{digits}f}"
 
-    t = Table(title="Heating curves y = y₀ + A·e^(−t/τ)")
-    for col in ("run", "series", "y₀", "A", "τ (min)", "± τ", "rms", "phase"):
-        t.add_column(col, justify="left" if col in ("run", "series", "phase") else "right")
+    t = table(
+        "Heating curves y = y₀ + A·e^(−t/τ)",
+        [
+            (c, "left" if c in ("run", "series", "phase") else "right")
+            for c in ("run", "series", "y₀", "A", "τ (min)", "± τ", "rms", "phase")
+        ],
+    )
     for row in curves.iter_rows(named=True):
         series = (
             row["series"]
@@ -630,9 +880,13 @@ def drift(
             num(row["tau_min_se"], 1), num(row["rms"], 3), row["phase"] or "no fit (--json: why)",
         )  # fmt: skip
     out.print(t)
-    t = Table(title=LABEL)
-    for col in ("run", "cam", "RP cold µm", "RP warm µm", "dAP µm", "dRP µm", "settle min"):
-        t.add_column(col, justify="left" if col in ("run", "cam") else "right")
+    t = table(
+        LABEL,
+        [
+            (c, "left" if c in ("run", "cam") else "right")
+            for c in ("run", "cam", "RP cold µm", "RP warm µm", "dAP µm", "dRP µm", "settle min")
+        ],
+    )
     for row in iso.summary.iter_rows(named=True):
         t.add_row(
             row["run"], row["camera"], num(row["rp_cold_um"]), num(row["rp_warm_um"]),
@@ -641,6 +895,19 @@ def drift(
     out.print(t)
     if loss:
         sys.exit(EXIT_DATA_LOSS)
+
+
+def _write_csv(path: Path, df: pl.DataFrame) -> None:
+    """Write ``df`` as CSV to ``path`` atomically."""
+    from thermrs.ingest import atomic_tmp, publish
+
+    tmp = atomic_tmp(path)
+    try:
+        df.write_csv(tmp)
+        publish(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 #: Options that take several values (``--train A B``) as well as repeats (``--train A
@@ -674,6 +941,28 @@ def _debug() -> bool:
     return os.environ.get("THERMRS_DEBUG", "") not in ("", "0")
 
 
+def _is_interrupt(e: BaseException) -> bool:
+    """Whether ``e`` is Ctrl-C or came from it (a library that turns a KeyboardInterrupt
+    during its import into an ImportError, say)."""
+    seen: set[int] = set()
+    x: BaseException | None = e
+    while x is not None and id(x) not in seen:
+        if isinstance(x, (KeyboardInterrupt, _Interrupted)):
+            return True
+        seen.add(id(x))
+        x = x.__cause__ or x.__context__
+    return False
+
+
+def _exit_interrupted() -> None:
+    """One line, exit 130, at once: the stack has unwound (temporary files are gone); nothing
+    in the interpreter's shutdown may turn this into another exit status."""
+    click.echo("thermrs: interrupted", err=True)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(EXIT_INTERRUPTED)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point: run the CLI and map errors to SPEC §7 exit codes.
 
@@ -682,6 +971,10 @@ def main(argv: list[str] | None = None) -> None:
     """
     from thermrs.errors import InternalError
 
+    if _EARLY and signal.getsignal(signal.SIGINT) is _interrupted_early:
+        # From here Ctrl-C raises KeyboardInterrupt, so that whatever is being written is
+        # removed on the way out (and the Rust loops see it between chunks).
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         args = sys.argv[1:] if argv is None else argv
         cli.main(args=_expand_multi(list(args)), prog_name="thermrs", standalone_mode=False)
@@ -694,12 +987,8 @@ def main(argv: list[str] | None = None) -> None:
     except click.ClickException as e:  # exit 2
         e.show()
         sys.exit(EXIT_BAD_INPUT)
-    except click.exceptions.Abort:
-        click.echo("thermrs: interrupted", err=True)
-        sys.exit(130)
-    except KeyboardInterrupt:
-        click.echo("thermrs: interrupted", err=True)
-        sys.exit(130)
+    except (click.exceptions.Abort, KeyboardInterrupt, _Interrupted):
+        _exit_interrupted()
     except InternalError as e:  # a panic in the core, caught by the bindings: exit 1
         if _debug():
             traceback.print_exc()
@@ -710,7 +999,9 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(EXIT_BAD_INPUT)
     except (SystemExit, GeneratorExit):
         raise
-    except BaseException as e:  # noqa: BLE001 - includes pyo3's PanicException
+    except BaseException as e:
+        if _is_interrupt(e):
+            _exit_interrupted()
         if _debug():
             traceback.print_exc()
         first = str(e).strip().splitlines()

@@ -14,6 +14,15 @@ from rich.table import Table
 out = Console(highlight=False)
 
 
+def _run_file() -> click.ParamType:
+    from thermrs.cli import run_file
+
+    return run_file
+
+
+run_file = _run_file()
+
+
 def _f(x: Any, digits: int = 2) -> str:
     if x is None:
         return "—"
@@ -141,14 +150,14 @@ def render_paper(doc: dict[str, Any]) -> None:
     "--train",
     "train",
     multiple=True,
-    type=click.Path(path_type=Path),
+    type=run_file,
     help="Training runs (recordings or extracted tables).",
 )
 @click.option(
     "--holdout",
     "holdout",
     multiple=True,
-    type=click.Path(path_type=Path),
+    type=run_file,
     help="Held-out runs, scored but never fitted.",
 )
 @click.option(

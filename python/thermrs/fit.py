@@ -44,9 +44,11 @@ Time-series estimator
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import polars as pl
@@ -55,10 +57,13 @@ from scipy.interpolate import PchipInterpolator
 from thermrs.errors import InputError
 from thermrs.ingest import Extraction
 from thermrs.model import ForwardModel
-from thermrs.rig import Rig
+from thermrs.rig import Rig, as_rig
 from thermrs.stats import lstsq_qr
 
+RigLike = Rig | str | os.PathLike[str]
+
 __all__ = [
+    "RUN_COLUMNS",
     "AlphaFit",
     "StartEndFit",
     "fit_alpha",
@@ -81,17 +86,58 @@ def interpolate(t: np.ndarray, st: np.ndarray, sv: np.ndarray) -> np.ndarray:
     return np.asarray(PchipInterpolator(st[keep], sv[keep], extrapolate=True)(t))
 
 
+#: Columns the fits need of a run table (:func:`run_table` also gives ``drift_u_um``,
+#: ``drift_v_um`` and one ``<name>_c`` per temperature).
+RUN_COLUMNS = ("run", "camera", "visit", "t_ns", "u_um", "v_um")
+
+
 def run_table(
-    ex: Extraction, rig: Rig, *, run: str = "run", temperature: str = "peak"
+    ex: Extraction, rig: RigLike, *, run: str = "run", temperature: str = "peak"
 ) -> pl.DataFrame:
-    """The run table of an extraction; see :func:`run_table_from`."""
+    """The run table of an extraction: one row per visit, with the temperatures at its time.
+
+    Parameters
+    ----------
+    ex
+        The extraction (:func:`thermrs.extract`).
+    rig
+        The rig it was recorded on (a :class:`~thermrs.Rig` or the path of a rig file).
+    run
+        The run's name (the ``run`` column).
+    temperature
+        ``"peak"`` (default, the de-noised ROI peak) or ``"max"`` (the ROI maximum).
+
+    Returns
+    -------
+    polars.DataFrame
+        See :func:`run_table_from`.
+
+    Raises
+    ------
+    TypeError
+        ``ex`` is not an :class:`~thermrs.Extraction` or ``rig`` not a rig.
+    InputError
+        ``temperature`` is neither ``"peak"`` nor ``"max"``.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> ex = thermrs.extract("run1.mcap", thermrs.load_rig())  # doctest: +SKIP
+    >>> thermrs.fit.run_table(ex, thermrs.load_rig(), run="run1").columns[:4]  # doctest: +SKIP
+    ['run', 'camera', 'visit', 't_ns']
+    """
+    if not isinstance(ex, Extraction):
+        raise TypeError(
+            f"run_table takes a thermrs.Extraction, not {type(ex).__name__} "
+            "(for tables use run_table_from, for a file load_run_table)"
+        )
     return run_table_from(ex.visits, ex.temperatures, rig, run=run, temperature=temperature)
 
 
 def run_table_from(
     visits: pl.DataFrame,
     temperatures: pl.DataFrame,
-    rig: Rig,
+    rig: RigLike,
     *,
     run: str = "run",
     temperature: str = "peak",
@@ -118,7 +164,33 @@ def run_table_from(
         ``run``, ``camera``, ``visit``, ``t_ns``, ``u_um``, ``v_um``, ``drift_u_um``,
         ``drift_v_um`` and one ``<name>_c`` column per ROI and ``ambient`` (°C at the visit
         time, PCHIP interpolation between the readings, see the module docs).
+
+    Raises
+    ------
+    InputError
+        ``temperature`` is neither ``"peak"`` nor ``"max"``, or a table lacks its columns.
+    TypeError
+        ``visits`` or ``temperatures`` is not a polars DataFrame.
+
+    Examples
+    --------
+    >>> import polars as pl, thermrs
+    >>> v = pl.read_parquet("run1.visits.parquet")  # doctest: +SKIP
+    >>> t = pl.read_parquet("run1.temperatures.parquet")  # doctest: +SKIP
+    >>> thermrs.fit.run_table_from(v, t, thermrs.load_rig(), run="run1")  # doctest: +SKIP
     """
+    for name, df in (("visits", visits), ("temperatures", temperatures)):
+        if not isinstance(df, pl.DataFrame):
+            raise TypeError(f"{name} must be a polars DataFrame, not {type(df).__name__}")
+    as_rig(rig)
+    need: dict[str, tuple[str, ...]] = {
+        "visits": ("camera", "t_ns", "n_ok", "u_um", "v_um", "drift_u_um", "drift_v_um"),
+        "temperatures": ("t_ns", "name"),
+    }
+    for name, df in (("visits", visits), ("temperatures", temperatures)):
+        lacking = [c for c in need[name] if c not in df.columns]
+        if lacking:
+            raise InputError(f"the {name} table has no column(s) {lacking}")
     if temperature not in ("peak", "max"):
         raise InputError(f"temperature must be 'peak' or 'max', got {temperature!r}")
     column = "peak_c" if temperature == "peak" else "temperature_c"
@@ -145,19 +217,64 @@ def run_table_from(
     ).with_columns(**{k: pl.Series(k, a) for k, a in cols.items()})
 
 
+def run_name(path: str | os.PathLike[str]) -> str:
+    """The run name :func:`load_run_table` gives a file by default: its name without
+    ``.mcap``, or without ``[.visits|.temperatures|.joints].parquet``."""
+    name = Path(path).name
+    if name.endswith(".parquet"):
+        stem = name[: -len(".parquet")]
+        for part in (".visits", ".temperatures", ".joints"):
+            if stem.endswith(part):
+                return stem[: -len(part)]
+        return stem
+    return name[: -len(".mcap")] if name.endswith(".mcap") else Path(name).stem
+
+
 def load_run_table(
-    path: str | Path, rig: Rig, *, run: str | None = None, temperature: str = "peak"
+    path: str | os.PathLike[str],
+    rig: RigLike,
+    *,
+    run: str | None = None,
+    temperature: str = "peak",
 ) -> tuple[pl.DataFrame, bool]:
-    """The run table of a recording (``.mcap``, extracted here) or of the tables ``thermrs
-    extract`` wrote (any of ``OUT.parquet``, ``OUT.visits.parquet``, … : the visits and
-    temperatures files beside it are read); ``path#run`` selects one run of the file (see
-    :mod:`thermrs.runs`), and a file of several runs gives them all, one after the other,
-    each named ``<run>#<name>``. The run is named ``run`` (default: the file's stem). Returns
-    the table and whether the recording lost data (always False for tables).
+    """The run table of a recording or of the tables ``thermrs extract`` wrote.
+
+    Parameters
+    ----------
+    path
+        A recording (``.mcap``, extracted here) or any of the tables ``thermrs extract``
+        wrote (``OUT.parquet``, ``OUT.visits.parquet``, …: the visits and temperatures
+        tables beside it are read); ``path#run`` selects one run of the file (see
+        :mod:`thermrs.runs`), and a file of several runs gives them all, one after the other,
+        each named ``<run>#<name>``.
+    rig
+        The rig it was recorded on (a :class:`~thermrs.Rig` or the path of a rig file).
+    run
+        The run's name (default: the file's name without its suffixes, :func:`run_name`).
+    temperature
+        ``"peak"`` (default) or ``"max"``; see :func:`run_table_from`.
+
+    Returns
+    -------
+    tuple[polars.DataFrame, bool]
+        The run table and whether the recording lost data (for tables: whether the
+        recording they were extracted from did, as recorded in their Parquet metadata).
+
+    Raises
+    ------
+    InputError
+        The file does not exist, is a directory, or is not a recording or extracted tables.
+    RecordingError
+        The recording cannot be used (see :func:`thermrs.extract`).
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> table, lost = thermrs.fit.load_run_table("run1.parquet", "rig.toml")  # doctest: +SKIP
     """
     from thermrs.runs import load_runs
 
-    rt = load_runs(path, rig, name=run, temperature=temperature)
+    rt = load_runs(path, as_rig(rig), name=run, temperature=temperature)
     return pl.concat(rt.tables, how="diagonal_relaxed"), rt.data_loss
 
 
@@ -198,9 +315,28 @@ class AlphaFit:
         }
 
 
-def sensitivities(table: pl.DataFrame, rig: Rig) -> tuple[np.ndarray, np.ndarray]:
+def sensitivities(table: pl.DataFrame, rig: RigLike) -> tuple[np.ndarray, np.ndarray]:
     """Per row: the spot's displacement (u, v) in µm per unit α at the camera's taught pose,
-    from the reference temperature to the row's mapped temperatures."""
+    from the reference temperature to the row's mapped temperatures.
+
+    Parameters
+    ----------
+    table
+        A run table (``camera`` and one ``<name>_c`` column per mapped temperature).
+    rig
+        The rig (a :class:`~thermrs.Rig` or the path of a rig file).
+
+    Returns
+    -------
+    tuple[numpy.ndarray, numpy.ndarray]
+        ``(su, sv)``: µm per unit α along the chip's u and v axes, one value per row.
+
+    Raises
+    ------
+    InputError
+        The table lacks a temperature the rig maps.
+    """
+    rig = as_rig(rig)
     alpha0 = rig.alpha_per_k
     model = ForwardModel(rig, alpha_per_k=alpha0)
     names = model.temperature_names
@@ -222,8 +358,76 @@ def sensitivities(table: pl.DataFrame, rig: Rig) -> tuple[np.ndarray, np.ndarray
     return su, sv
 
 
-def fit_alpha(tables: Sequence[pl.DataFrame], rig: Rig) -> AlphaFit:
-    """Fit α over every run table given (see the module docstring)."""
+def check_tables(tables: Any, *, what: str = "tables") -> list[pl.DataFrame]:
+    """``tables`` as a non-empty list of run tables, or a clear error.
+
+    Raises
+    ------
+    TypeError
+        ``tables`` is a single DataFrame or not a sequence of DataFrames.
+    InputError
+        ``tables`` is empty, or a table lacks the run table's columns (:data:`RUN_COLUMNS`).
+    """
+    if isinstance(tables, pl.DataFrame):
+        raise TypeError(
+            f"{what} must be a list of run tables; for one table write [table] "
+            "(a polars DataFrame was given)"
+        )
+    if isinstance(tables, (str, bytes, os.PathLike)) or not isinstance(tables, Sequence):
+        raise TypeError(
+            f"{what} must be a list of run tables (polars DataFrames), not {type(tables).__name__}"
+        )
+    if len(tables) == 0:
+        raise InputError(f"{what}: no run table given (an empty list)")
+    for i, t in enumerate(tables):
+        if not isinstance(t, pl.DataFrame):
+            raise TypeError(
+                f"{what}[{i}] must be a run table (polars DataFrame), not {type(t).__name__}"
+            )
+        lacking = [c for c in RUN_COLUMNS if c not in t.columns]
+        if lacking:
+            raise InputError(
+                f"{what}[{i}] is not a run table: no column(s) {lacking} "
+                "(see thermrs.fit.run_table)"
+            )
+    return list(tables)
+
+
+def fit_alpha(tables: Sequence[pl.DataFrame], rig: RigLike) -> AlphaFit:
+    """Fit α over every run table given (see the module docstring).
+
+    Parameters
+    ----------
+    tables
+        Run tables (:func:`run_table`, :func:`load_run_table`), one per run; a list even for
+        one run.
+    rig
+        The rig the runs were recorded on (a :class:`~thermrs.Rig` or the path of a rig file).
+
+    Returns
+    -------
+    AlphaFit
+        α (1/K) with its 95 % interval, the residual rms (µm), the visits used and the
+        residual of every visit.
+
+    Raises
+    ------
+    TypeError
+        ``tables`` is a single DataFrame or not a list of DataFrames; ``rig`` is not a rig.
+    InputError
+        No table, a table that is not a run table, or too few visits to fit α.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> rig = thermrs.load_rig()
+    >>> t, _ = thermrs.fit.load_run_table("run1.parquet", rig)  # doctest: +SKIP
+    >>> f = thermrs.fit.fit_alpha([t], rig)  # doctest: +SKIP
+    >>> f.alpha_per_k, f.ci95  # doctest: +SKIP
+    (2.19e-05, (2.17e-05, 2.21e-05))
+    """
+    tables = check_tables(tables)
+    rig = as_rig(rig)
     table = pl.concat(tables, how="diagonal_relaxed")
     if table.height < 3:
         raise InputError(f"{table.height} visits: too few to fit α")
@@ -318,7 +522,7 @@ class StartEndFit:
 
 def fit_alpha_start_end(
     table: pl.DataFrame,
-    rig: Rig,
+    rig: RigLike,
     *,
     axis: str = "auto",
     visit_noise_um: float | None = None,
@@ -346,7 +550,46 @@ def fit_alpha_start_end(
     their full (marginal) variance whatever their autocorrelation. The mean's interval treats
     the cameras' spot errors as independent and a temperature reading's error as common to
     every camera (their first, and their last, visits read the same thermal frames).
+
+    Parameters
+    ----------
+    table
+        One run's table (:func:`run_table`).
+    rig
+        The rig (a :class:`~thermrs.Rig` or the path of a rig file).
+    axis
+        ``"u"``, ``"v"`` or ``"auto"`` (see above).
+    visit_noise_um
+        The noise of one visit's spot (µm); default from :func:`fit_alpha`'s residuals.
+    temperature_noise_c
+        The error of one mapped temperature reading (K).
+
+    Returns
+    -------
+    StartEndFit
+        α per camera and their mean, each with a 95 % interval, and the visit noise used.
+
+    Raises
+    ------
+    TypeError
+        ``table`` is not a polars DataFrame (e.g. a list of tables); ``rig`` is not a rig.
+    InputError
+        Bad ``axis``; no camera with two visits; no predicted drift between them.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> rig = thermrs.load_rig()
+    >>> t, _ = thermrs.fit.load_run_table("run1.parquet", rig)  # doctest: +SKIP
+    >>> se = thermrs.fit.fit_alpha_start_end(t, rig)  # doctest: +SKIP
+    >>> se.per_camera["A"][0], se.mean  # doctest: +SKIP
     """
+    if not isinstance(table, pl.DataFrame):
+        raise TypeError(
+            f"table must be one run table (polars DataFrame), not {type(table).__name__}"
+        )
+    check_tables([table], what="table")
+    rig = as_rig(rig)
     if axis not in ("u", "v", "auto"):
         raise InputError(f"axis must be 'u', 'v' or 'auto', got {axis!r}")
     su, sv = sensitivities(table, rig)

@@ -9,8 +9,10 @@ Model
     ``y(t) = y0 + A·exp(−(t − t0)/τ)`` with ``t0`` the first sample's time: ``y0`` is the
     asymptote (steady state), ``y0 + A`` the value at the first sample, ``τ`` the time
     constant. A rising series (warm-up of a temperature) has ``A < 0``, a falling one
-    (cool-down) ``A > 0``. :attr:`Curve.phase` names the direction of the *series*: for a drift
-    series "warm-up" only means the drift grows towards larger values.
+    (cool-down) ``A > 0``. :attr:`Curve.phase` of :func:`fit_curve` names the direction of the
+    *series*. In the tables (:func:`heating_curves`) a drift row's phase is named from the
+    run's temperatures instead (whether the links warm or cool over that drift's span), since a
+    drift's sign depends only on the chip's orientation: a warming axis may drift negative.
 
 Fit
     :func:`scipy.optimize.curve_fit` (trust-region reflective, ``τ`` bounded), in time scaled
@@ -289,6 +291,18 @@ def fit_curve(
     ------
     InputError
         Too few samples (< 4), no time span, bad bounds, no convergence, τ on a bound.
+
+    Examples
+    --------
+    A cool-down from 30 °C towards 24 °C with a 45-minute time constant, sampled every two
+    minutes:
+
+    >>> import numpy as np
+    >>> from thermrs.heating import fit_curve
+    >>> t = np.arange(0.0, 4 * 3600.0, 120.0)
+    >>> c = fit_curve(t, 24.0 + 6.0 * np.exp(-t / 2700.0), name="link3")
+    >>> round(c.tau_min, 6), round(c.y0, 6), round(c.a, 6), c.phase
+    (45.0, 24.0, 6.0, 'cool-down')
     """
     t = np.asarray(t_s, dtype=np.float64)
     v = np.asarray(y, dtype=np.float64)
@@ -444,7 +458,10 @@ def heating_curves(table: pl.DataFrame, *, run: str | None = None) -> pl.DataFra
     ``series=name``, ``camera`` and ``axis`` null) fitted on the values at every visit time of
     the run (both cameras' visits, one sample per distinct time); and one row per camera and
     chip axis (``kind="drift"``, ``series="drift_u"`` / ``"drift_v"``) fitted on that camera's
-    ``drift_u_um`` / ``drift_v_um``.
+    ``drift_u_um`` / ``drift_v_um``. A temperature row's ``phase`` is the direction of its
+    series; a drift row's ``phase`` is that of the run's ROI temperatures over the camera's
+    visits (``"warm-up"`` if their mean rises, ``"cool-down"`` if it falls), whatever the sign
+    of the drift; ``"flat"`` if the drift does not change beyond its noise.
 
     The run table's temperatures are PCHIP interpolations of the thermal samples at the visit
     times (:func:`thermrs.fit.run_table`); where visits outnumber thermal frames these are not
@@ -472,6 +489,13 @@ def heating_curves(table: pl.DataFrame, *, run: str | None = None) -> pl.DataFra
     ------
     InputError
         A required column is missing, or ``run`` is not in the table.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> table, _ = thermrs.fit.load_run_table("run1.parquet", thermrs.load_rig())  # doctest: +SKIP
+    >>> curves = thermrs.heating.heating_curves(table)  # doctest: +SKIP
+    >>> curves.select("series", "camera", "axis", "tau_min", "phase")  # doctest: +SKIP
     """
     need = ["run", "camera", "t_ns", "drift_u_um", "drift_v_um"]
     missing = [c for c in need if c not in table.columns]
@@ -494,10 +518,28 @@ def heating_curves(table: pl.DataFrame, *, run: str | None = None) -> pl.DataFra
         for cam in sorted(set(tr["camera"].to_list())):
             tc = tr.filter(pl.col("camera") == cam)
             ct = tc["t_ns"].to_numpy().astype(np.int64)
+            phase = _thermal_phase(tc, temp_cols)
             for axis in ("u", "v"):
                 y = tc[f"drift_{axis}_um"].cast(pl.Float64).to_numpy().astype(np.float64)
-                rows.append(_row(r, "drift", f"drift_{axis}", cam, axis, ct, y))
+                row = _row(r, "drift", f"drift_{axis}", cam, axis, ct, y)
+                if row["phase"] in ("warm-up", "cool-down") and phase is not None:
+                    row["phase"] = phase
+                rows.append(row)
     return _frame(rows)
+
+
+def _thermal_phase(rows: pl.DataFrame, temp_cols: Sequence[str]) -> str | None:
+    """``"warm-up"`` or ``"cool-down"``: whether the mean of the rows' ROI temperatures (every
+    ``<name>_c`` but ambient) rises or falls from the first row to the last (rows sorted by
+    time); None without ROI temperatures or without a change."""
+    cols = [c for c in temp_cols if c != "ambient_c"]
+    if not cols or rows.height < 2:
+        return None
+    m = rows.select(pl.mean_horizontal([pl.col(c).cast(pl.Float64) for c in cols]))
+    t = m.to_series().drop_nulls().drop_nans().to_numpy()
+    if len(t) < 2 or t[-1] == t[0]:
+        return None
+    return "warm-up" if t[-1] > t[0] else "cool-down"
 
 
 def temperature_curves(
@@ -526,6 +568,12 @@ def temperature_curves(
     ------
     InputError
         A required column is missing, or ``temperature`` is not ``"peak"`` or ``"max"``.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> ex = thermrs.extract("run1.mcap", thermrs.load_rig())  # doctest: +SKIP
+    >>> thermrs.heating.temperature_curves(ex.temperatures, run="run1")  # doctest: +SKIP
     """
     if temperature not in ("peak", "max"):
         raise InputError(f"temperature must be 'peak' or 'max', got {temperature!r}")

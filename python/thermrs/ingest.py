@@ -26,11 +26,20 @@ import numpy as np
 import polars as pl
 
 from thermrs import _native
-from thermrs.rig import Rig
+from thermrs.errors import InputError, RecordingError
+from thermrs.rig import Rig, as_rig
 from thermrs.runs import DEFAULT_GAP_FACTOR, DEFAULT_MIN_GAP_S, RUNS_SCHEMA, find_runs
 from thermrs.visits import DEFAULT_TOLERANCE_DEG, find_visits, with_runs
 
-__all__ = ["ExtractReport", "Extraction", "extract", "write_parquet_atomic"]
+__all__ = [
+    "LOSS_KEY",
+    "ExtractReport",
+    "Extraction",
+    "check_writable",
+    "data_loss",
+    "extract",
+    "write_parquet_atomic",
+]
 
 Progress = Callable[[int, int, int], object]
 
@@ -105,9 +114,32 @@ class Extraction:
     runs: pl.DataFrame = field(default_factory=lambda: pl.DataFrame(schema=RUNS_SCHEMA))
 
     def write(self, out: str | Path) -> dict[str, Path]:
-        """Write the frames to ``out`` and the other tables beside it
-        (``<stem>.visits.parquet``, ``.temperatures.parquet``, ``.joints.parquet``,
-        ``.runs.parquet``), each atomically. Returns the paths written."""
+        """Write every table, each atomically.
+
+        Parameters
+        ----------
+        out
+            The frames file (``OUT.parquet``); the other tables go beside it as
+            ``OUT.visits.parquet``, ``OUT.temperatures.parquet``, ``OUT.joints.parquet`` and
+            ``OUT.runs.parquet``.
+            Its folder must exist.
+
+        Returns
+        -------
+        dict[str, Path]
+            ``{"frames", "visits", "temperatures", "joints", "runs"}`` → the paths written.
+
+        Raises
+        ------
+        InputError
+            The folder does not exist or a file cannot be written there.
+
+        Notes
+        -----
+        Every table carries the recording's losses (a file cut short, a corrupt chunk) in its
+        Parquet key-value metadata under :data:`LOSS_KEY`, so that the loss follows the tables
+        to every later command (:func:`data_loss` reads it back).
+        """
         out = Path(out)
         stem = out.name[: -len(".parquet")] if out.name.endswith(".parquet") else out.name
         paths = {
@@ -117,28 +149,150 @@ class Extraction:
             "joints": out.with_name(f"{stem}.joints.parquet"),
             "runs": out.with_name(f"{stem}.runs.parquet"),
         }
+        meta = {LOSS_KEY: json.dumps(self.report.losses)}
         for name, path in paths.items():
-            write_parquet_atomic(getattr(self, name), path)
+            write_parquet_atomic(getattr(self, name), path, metadata=meta)
         return paths
 
 
-def write_parquet_atomic(df: pl.DataFrame, path: str | Path) -> None:
+#: Parquet key-value metadata key of the losses of the recording a table was extracted from
+#: (a JSON list of ``{"kind", "offset", "bytes", "detail"}``; empty when nothing was lost).
+LOSS_KEY = "thermrs.data_loss"
+
+
+def data_loss(path: str | Path) -> list[dict[str, Any]]:
+    """The losses of the recording a table written by :meth:`Extraction.write` came from.
+
+    Parameters
+    ----------
+    path
+        A Parquet file written by :meth:`Extraction.write` (or ``thermrs extract``).
+
+    Returns
+    -------
+    list[dict]
+        One ``{"kind", "offset", "bytes", "detail"}`` per loss; empty when nothing was lost or
+        the file carries no record of it.
+
+    Raises
+    ------
+    InputError
+        The file cannot be read as Parquet.
+
+    Examples
+    --------
+    >>> from thermrs.ingest import data_loss
+    >>> data_loss("run.visits.parquet")  # doctest: +SKIP
+    [{'kind': 'truncated', 'offset': 1048576, 'bytes': 5120, 'detail': '...'}]
+    """
+    try:
+        meta = pl.read_parquet_metadata(path)
+    except (OSError, pl.exceptions.PolarsError) as e:
+        raise InputError(f"{path}: cannot read its Parquet metadata: {e}") from None
+    raw = meta.get(LOSS_KEY)
+    if not raw:
+        return []
+    try:
+        losses = json.loads(raw)
+    except ValueError:
+        return [{"kind": "unknown", "offset": 0, "bytes": 0, "detail": str(raw)}]
+    return [x for x in losses if isinstance(x, dict)] if isinstance(losses, list) else []
+
+
+def write_parquet_atomic(
+    df: pl.DataFrame, path: str | Path, *, metadata: dict[str, str] | None = None
+) -> None:
     """Write ``df`` to ``path`` through a temporary file in the same folder, then rename: a
-    reader never sees a half-written file, and a failure leaves the old file in place."""
+    reader never sees a half-written file, and a failure leaves the old file in place.
+
+    Parameters
+    ----------
+    df
+        The table.
+    path
+        Where to write it; its folder must exist (it is not created).
+    metadata
+        Parquet key-value metadata to store with the table.
+
+    Raises
+    ------
+    InputError
+        The folder does not exist, or the file cannot be written there.
+
+    Examples
+    --------
+    >>> import polars as pl
+    >>> from thermrs.ingest import write_parquet_atomic
+    >>> write_parquet_atomic(pl.DataFrame({"x": [1]}), "out/x.parquet")  # doctest: +SKIP
+    """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     tmp = atomic_tmp(path)
     try:
-        df.write_parquet(tmp)
+        try:
+            df.write_parquet(tmp, metadata=metadata)
+        except OSError as e:
+            raise InputError(f"cannot write {path}: {e.strerror or e}") from None
         publish(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
 
 
-def atomic_tmp(path: Path) -> Path:
-    """A fresh temporary file beside ``path`` (same filesystem, so the rename is atomic)."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+def check_writable(path: str | Path, *, what: str = "output") -> Path:
+    """Check, before any work, that ``path`` can be written atomically: its folder exists and
+    takes a new file, and ``path`` itself is not a folder.
+
+    Parameters
+    ----------
+    path
+        The file to be written.
+    what
+        How messages name it (e.g. ``"-o"``).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    InputError
+        One line naming ``path`` and what is wrong.
+
+    Examples
+    --------
+    >>> from thermrs.ingest import check_writable
+    >>> check_writable("/no/such/folder/x.parquet", what="-o")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    thermrs._native.InputError: -o ...: folder /no/such/folder does not exist (create it first)
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{what} {path}: is a directory, expected a file name")
+    parent = path.parent
+    if not parent.exists():
+        raise InputError(f"{what} {path}: folder {parent} does not exist (create it first)")
+    if not parent.is_dir():
+        raise InputError(f"{what} {path}: {parent} is not a folder")
+    atomic_tmp(path, what=what).unlink()
+    return path
+
+
+def atomic_tmp(path: Path, *, what: str = "cannot write") -> Path:
+    """A fresh temporary file beside ``path`` (same filesystem, so the rename is atomic).
+
+    Raises
+    ------
+    InputError
+        The folder does not exist or does not take a new file.
+    """
+    if not path.parent.is_dir():
+        raise InputError(f"{what} {path}: folder {path.parent} does not exist (create it first)")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as e:
+        raise InputError(f"{what} {path}: {e.strerror or e} (in {path.parent})") from None
     os.close(fd)
     return Path(tmp)
 
@@ -154,7 +308,7 @@ def publish(tmp: Path, path: Path) -> None:
 
 def extract(
     path: str | Path,
-    rig: Rig,
+    rig: Rig | str | os.PathLike[str],
     *,
     progress: Progress | None = None,
     visit_tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
@@ -171,7 +325,8 @@ def extract(
     path
         The MCAP recording.
     rig
-        The rig that names its topics, cameras, ROIs and poses.
+        The rig that names its topics, cameras, ROIs and poses (a :class:`~thermrs.Rig` or the
+        path of a rig file).
     progress
         Called as ``progress(bytes_done, bytes_total, frames_done)`` between windows.
     visit_tolerance_deg
@@ -187,17 +342,39 @@ def extract(
         Check each chunk's CRC-32 where the writer stored one; a chunk that fails is skipped
         and reported as a loss (default). ``False`` trusts the chunks (benchmarks).
 
+    Returns
+    -------
+    Extraction
+        The frames, visits, temperatures and joints tables and the report of what was read,
+        skipped and lost (``report.data_loss``: part of the file could not be used).
+
     Raises
     ------
     RecordingError
-        Not an MCAP file, or none of the rig's topics in it.
+        Not an MCAP file, or none of the rig's topics in it, or none of its camera topics
+        (the recording was made on another rig); the message names the topics.
     InternalError
         A bug in thermrs (a panic in the core), as one line.
     InputError
-        The file cannot be read.
+        The file does not exist, is a directory or cannot be read.
+    TypeError
+        ``rig`` is neither a :class:`~thermrs.Rig` nor a path.
     KeyboardInterrupt
         Ctrl-C (checked between windows of chunks).
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> ex = thermrs.extract("kr15-sample.mcap", "kr15-paper.toml")  # doctest: +SKIP
+    >>> ex.frames.filter(status="ok").height, ex.report.data_loss  # doctest: +SKIP
+    (2880, False)
     """
+    rig = as_rig(rig)
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"recording {p}: is a directory, expected a recording (.mcap)")
+    if not p.exists():
+        raise InputError(f"recording {p}: no such file")
     frames_c, thermal_c, joints_c, ambient_c, report_json = _native.extract(
         str(path),
         rig._native,
@@ -273,6 +450,7 @@ def extract(
     ).sort("t_ns")
 
     rep = json.loads(report_json)
+    _check_rig_matches(p, rig, rep)
     counts = frames.group_by("status").len().sort("status")
     report = ExtractReport(
         **rep,
@@ -288,6 +466,23 @@ def extract(
         joints=joints,
         report=report,
         runs=runs,
+    )
+
+
+def _check_rig_matches(path: Path, rig: Rig, rep: dict[str, Any]) -> None:
+    """SPEC §2: a recording with none of the rig's topics is an error naming them. The joint
+    and ambient topics are generic (``/joint_states``), so a recording that has neither a
+    camera topic nor the thermal topic of the rig was made on another rig."""
+    sensors = [c.topic for c in rig.cameras] + ([rig.thermal_topic] if rig.thermal_topic else [])
+    read = {t for t, n in rep.get("messages", {}).items() if n}
+    if read & set(sensors):
+        return
+    matched = sorted(read)
+    raise RecordingError(
+        f"{path}: none of the rig's camera topics ({', '.join(sensors)}) is in the recording"
+        + (f"; it matches only {', '.join(matched)}" if matched else "")
+        + f" and has {rep.get('other_messages', 0):,} messages on other topics"
+        + f" (was it recorded on another rig than {rig.source}?)"
     )
 
 

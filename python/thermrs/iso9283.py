@@ -157,6 +157,15 @@ def rp(u_um: npt.ArrayLike, v_um: npt.ArrayLike) -> tuple[float, float, float, f
     ------
     InputError
         Fewer than 2 positions, unequal lengths or non-finite values.
+
+    Examples
+    --------
+    Four positions on the corners of a 2 µm square: every one √2 µm from the barycentre.
+
+    >>> from thermrs.iso9283 import rp
+    >>> bu, bv, l_mean, s_l, r = rp([1, -1, 1, -1], [1, 1, -1, -1])
+    >>> (bu, bv, round(l_mean, 6), round(s_l, 6), round(r, 6))
+    (0.0, 0.0, 1.414214, 0.0, 1.414214)
     """
     u = np.asarray(u_um, dtype=np.float64)
     v = np.asarray(v_um, dtype=np.float64)
@@ -240,6 +249,13 @@ def iso9283(table: pl.DataFrame, *, window: int = 10, tolerance_um: float = 1.0)
     InputError
         ``window`` < 3 or not an integer, ``tolerance_um`` not > 0, a required column missing,
         or no visit with a position in the table.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> table, _ = thermrs.fit.load_run_table("run1.parquet", thermrs.load_rig())  # doctest: +SKIP
+    >>> iso = thermrs.iso9283.iso9283(table, window=10, tolerance_um=1.0)  # doctest: +SKIP
+    >>> iso.summary.select("camera", "rp_cold_um", "rp_warm_um", "dap_um")  # doctest: +SKIP
     """
     _validate(table, window, tolerance_um)
     w = int(window)

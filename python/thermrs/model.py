@@ -20,6 +20,7 @@ True
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -30,7 +31,7 @@ import polars as pl
 
 from thermrs import _native
 from thermrs.errors import InputError
-from thermrs.rig import Rig
+from thermrs.rig import Rig, as_rig
 
 if TYPE_CHECKING:
     from thermrs.effects import Effect
@@ -98,7 +99,7 @@ class ForwardModel:
     Parameters
     ----------
     rig
-        The validated rig.
+        The validated rig, or the path of a rig file (``str`` or :class:`~pathlib.Path`).
     alpha_per_k
         α (1/K) for every mapped temperature; default the rig's ``expansion.alpha_per_k``.
     reference_c
@@ -129,7 +130,7 @@ class ForwardModel:
 
     def __init__(
         self,
-        rig: Rig,
+        rig: Rig | str | os.PathLike[str],
         *,
         alpha_per_k: float | None = None,
         reference_c: float | None = None,
@@ -149,6 +150,7 @@ class ForwardModel:
             effects_from,
         )
 
+        rig = as_rig(rig)
         self.rig = rig
         chosen = effects_from(effects, rig)
         # The keyword forms of the geometric effects, kept for existing callers.

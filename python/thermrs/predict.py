@@ -26,17 +26,71 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+import numpy.typing as npt
 import polars as pl
 
 from thermrs.errors import InputError
-from thermrs.fit import sensitivities
+from thermrs.fit import RigLike, check_tables, sensitivities
 from thermrs.paper import PaperData, load_paper_data, predicted_dl_um
-from thermrs.rig import Rig
+from thermrs.rig import as_rig
 
-__all__ = ["noise_um", "predict", "prediction_table"]
+__all__ = ["MAX_ALPHA_PER_K", "check_alpha", "noise_um", "predict", "prediction_table"]
+
+#: No solid expands by 1/1000 per kelvin (metals 1e-5 to 3e-5, polymers up to 2e-4): an α
+#: this large is a value given in other units (23.2 meaning 23.2 × 10⁻⁶ /K).
+MAX_ALPHA_PER_K = 1e-3
 
 
-def noise_um(values: np.ndarray) -> float:
+def check_alpha(alpha_per_k: float, *, what: str = "alpha_per_k", positive: bool = False) -> float:
+    """``alpha_per_k`` as a float if it can be a thermal expansion coefficient (1/K).
+
+    Parameters
+    ----------
+    alpha_per_k
+        The value to check.
+    what
+        How messages name it (e.g. ``"--alpha"``).
+    positive
+        Also reject α ≤ 0 (a given α; a fitted one may come out ≤ 0 on noise).
+
+    Returns
+    -------
+    float
+        The value.
+
+    Raises
+    ------
+    InputError
+        Not a finite number, ``|α| ≥`` :data:`MAX_ALPHA_PER_K` (the message suggests the value
+        × 10⁻⁶), or ≤ 0 with ``positive``.
+
+    Examples
+    --------
+    >>> from thermrs.predict import check_alpha
+    >>> check_alpha(23.2e-6)
+    2.32e-05
+    >>> check_alpha(23.2)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    thermrs._native.InputError: alpha_per_k 23.2 /K is not ...; for 23.2 × 10⁻⁶ /K write 23.2e-6
+    """
+    try:
+        a = float(alpha_per_k)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be a number (1/K), got {alpha_per_k!r}") from None
+    if not np.isfinite(a):
+        raise InputError(f"{what} must be finite, got {a}")
+    if positive and a <= 0:
+        raise InputError(f"{what} must be > 0 (1/K), got {a:g}")
+    if abs(a) >= MAX_ALPHA_PER_K:
+        raise InputError(
+            f"{what} {a:g} /K is not a thermal expansion coefficient (solids: 1e-6 to 2e-4 /K)"
+            + (f"; for {abs(a):g} × 10⁻⁶ /K write {abs(a):g}e-6" if abs(a) < 1e3 else "")
+        )
+    return a
+
+
+def noise_um(values: npt.ArrayLike) -> float:
     """The noise level (standard deviation) of a slowly varying series whose noise may be
     autocorrelated from sample to sample. NaN with fewer than three finite values.
 
@@ -45,6 +99,14 @@ def noise_um(values: np.ndarray) -> float:
     autocorrelation of d is −(1−ρ)/2. So ρ̂ = 1 + 2·r₁(d) (clipped to [0, 0.95]) and
     σ̂² = var(d)/(2(1−ρ̂)): the von Neumann estimator when the noise is white, and the
     noise's full (marginal) level, not only its fast part, when it is not.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from thermrs.predict import noise_um
+    >>> x = np.random.default_rng(0).normal(0.0, 0.5, 100_000) + np.linspace(0, 10, 100_000)
+    >>> round(noise_um(x), 2)
+    0.5
     """
     v = np.asarray(values, dtype=np.float64)
     v = v[np.isfinite(v)]
@@ -62,7 +124,7 @@ def noise_um(values: np.ndarray) -> float:
 
 def predict(
     table: pl.DataFrame,
-    rig: Rig,
+    rig: RigLike,
     *,
     alpha_per_k: float,
     paper: PaperData | None = None,
@@ -74,9 +136,10 @@ def predict(
     table
         Run table(s) (:func:`thermrs.fit.run_table`); several runs may be concatenated.
     rig
-        The rig the runs were recorded on.
+        The rig the runs were recorded on (a :class:`~thermrs.Rig` or the path of a rig file).
     alpha_per_k
-        The expansion coefficient (1/K), e.g. fitted on training runs.
+        The expansion coefficient (1/K), e.g. fitted on training runs (``21.75e-6``, not
+        ``21.75``).
     paper
         The paper's Eq. 3 data (default: the embedded tables) for the ``paper_v_um`` column.
 
@@ -87,9 +150,27 @@ def predict(
         ``predicted_u_um``, ``predicted_v_um``, ``residual_u_um``, ``residual_v_um``
         (measured − predicted) and ``paper_v_um`` (Eq. 3 along the camera's y axis; null where
         it does not apply). Every drift is anchored at the camera's first visit of its run.
+
+    Raises
+    ------
+    TypeError
+        ``table`` is not a polars DataFrame; ``rig`` is not a rig.
+    InputError
+        ``alpha_per_k`` is not finite or not a plausible α (see :func:`check_alpha`); the
+        table is not a run table or has no visits.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> rig = thermrs.load_rig()
+    >>> t, _ = thermrs.fit.load_run_table("run2.parquet", rig)  # doctest: +SKIP
+    >>> p = thermrs.predict.predict(t, rig, alpha_per_k=21.75e-6)  # doctest: +SKIP
+    >>> p.select("camera", "predicted_v_um", "measured_v_um").tail(1)  # doctest: +SKIP
     """
-    if not np.isfinite(alpha_per_k):
-        raise InputError(f"alpha_per_k must be finite, got {alpha_per_k}")
+    if not isinstance(table, pl.DataFrame):
+        raise TypeError(f"table must be a run table (polars DataFrame), not {type(table).__name__}")
+    alpha_per_k = check_alpha(alpha_per_k)
+    rig = as_rig(rig)
     if table.height == 0:
         raise InputError("the run table has no visits to predict")
     t = table.sort("run", "camera", "t_ns")
@@ -131,7 +212,7 @@ def predict(
 
 def prediction_table(
     tables: Sequence[pl.DataFrame],
-    rig: Rig,
+    rig: RigLike,
     *,
     alphas: Mapping[str, float],
     axis: str = "auto",
@@ -144,9 +225,10 @@ def prediction_table(
     Parameters
     ----------
     tables
-        Run tables of the runs to predict (usually held out from the fit).
+        Run tables of the runs to predict (usually held out from the fit); a list even for
+        one run.
     rig
-        The rig.
+        The rig (a :class:`~thermrs.Rig` or the path of a rig file).
     alphas
         Labelled α values (1/K), e.g. ``{"A": …, "B": …, "mean": …}`` or ``{"fit": …}``.
     axis
@@ -163,7 +245,24 @@ def prediction_table(
         ``measured_um``, ``error_pct`` ((predicted − measured)/measured·100), ``rms_um`` and
         ``rms_centred_um`` (prediction against measurement over every visit, both axes),
         ``noise_um`` (the measurement's own noise, von Neumann, both axes), ``n_visits``.
+
+    Raises
+    ------
+    TypeError
+        ``tables`` is a single DataFrame or not a list of DataFrames; ``rig`` is not a rig.
+    InputError
+        No table, a table that is not a run table, bad ``axis`` or ``end_visits``, no α, or
+        an α that is not plausible (:func:`check_alpha`).
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> rig = thermrs.load_rig()
+    >>> t, _ = thermrs.fit.load_run_table("run2.parquet", rig)  # doctest: +SKIP
+    >>> thermrs.predict.prediction_table([t], rig, alphas={"A": 21.87e-6})  # doctest: +SKIP
     """
+    tables = check_tables(tables)
+    rig = as_rig(rig)
     if axis not in ("u", "v", "auto"):
         raise InputError(f"axis must be 'u', 'v' or 'auto', got {axis!r}")
     if end_visits < 1:

@@ -19,6 +19,7 @@ Example
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -28,7 +29,7 @@ import numpy as np
 import numpy.typing as npt
 
 from thermrs import _native
-from thermrs.errors import RigError
+from thermrs.errors import InputError, RigError
 
 __all__ = [
     "Camera",
@@ -37,13 +38,26 @@ __all__ = [
     "Pose",
     "Rig",
     "Roi",
+    "as_rig",
     "default_rig_path",
     "load_rig",
 ]
 
 
 def default_rig_path() -> Path:
-    """Path of the embedded rig of the paper's set-up (KUKA KR 15/2, two lensless CCDs)."""
+    """Path of the embedded rig of the paper's set-up (KUKA KR 15/2, two lensless CCDs).
+
+    Returns
+    -------
+    Path
+        The rig file inside the installed package (``thermrs/data/kr15-paper.toml``).
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> thermrs.default_rig_path().name
+    'kr15-paper.toml'
+    """
     return Path(str(resources.files("thermrs") / "data" / "kr15-paper.toml"))
 
 
@@ -226,6 +240,94 @@ class Rig:
         return f"Rig({self.source!r}, robot={self.model!r}, cameras=[{cams}])"
 
 
-def load_rig(path: str | Path | None = None) -> Rig:
-    """Load and validate a rig file; without a path, the embedded paper rig."""
-    return Rig.from_path(default_rig_path() if path is None else path)
+def load_rig(path: str | os.PathLike[str] | None = None) -> Rig:
+    """Load and validate a rig file.
+
+    Parameters
+    ----------
+    path
+        The rig file (SPEC §3, ``format = "thermrs-rig/1"``); default: the embedded rig of the
+        paper's set-up (:func:`default_rig_path`).
+
+    Returns
+    -------
+    Rig
+        The validated rig.
+
+    Raises
+    ------
+    RigError
+        The file does not parse or validate; the one-line message names the line and key.
+    InputError
+        The file does not exist, is a directory or cannot be read.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> rig = thermrs.load_rig()
+    >>> rig.model, [c.name for c in rig.cameras]
+    ('KUKA KR 15/2', ['A', 'B'])
+    """
+    p = default_rig_path() if path is None else Path(path)
+    if p.is_dir():
+        raise InputError(f"rig {p}: is a directory, expected a rig file (.toml)")
+    if not p.exists():
+        raise InputError(f"rig {p}: no such file")
+    try:
+        with p.open("rb") as f:
+            head = f.read(4096)
+    except OSError as e:
+        raise InputError(f"rig {p}: cannot read it ({e.strerror or e})") from None
+    binary = b"\0" in head or not _utf8_prefix(head)
+    if binary:
+        raise InputError(f"rig {p}: not a text file; a rig file is TOML (SPEC §3)")
+    return Rig.from_path(p)
+
+
+def _utf8_prefix(head: bytes) -> bool:
+    """Whether ``head`` is UTF-8 text, but for a character cut at its end."""
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError as e:
+        return e.start >= len(head) - 3 and e.reason == "unexpected end of data"
+    return True
+
+
+def as_rig(rig: Rig | str | os.PathLike[str], *, what: str = "rig") -> Rig:
+    """A :class:`Rig` as given, or the rig file at a path (``str`` or :class:`~pathlib.Path`)
+    loaded with :func:`load_rig`.
+
+    Parameters
+    ----------
+    rig
+        A rig, or the path of a rig file.
+    what
+        How messages name the argument.
+
+    Returns
+    -------
+    Rig
+        The rig.
+
+    Raises
+    ------
+    TypeError
+        ``rig`` is neither a :class:`Rig` nor a path.
+    RigError, InputError
+        As :func:`load_rig`.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> from thermrs.rig import as_rig
+    >>> as_rig(thermrs.default_rig_path()).model
+    'KUKA KR 15/2'
+    """
+    if isinstance(rig, Rig):
+        return rig
+    if isinstance(rig, (str, os.PathLike)):
+        return load_rig(rig)
+    raise TypeError(
+        f"{what} must be a thermrs.Rig or the path of a rig file (str or Path), "
+        f"not {type(rig).__name__}"
+    )

@@ -290,17 +290,27 @@ def load_runs(
         No such file, or no such run in it (the message lists the runs it has).
     """
     from thermrs.fit import run_table_from
+    from thermrs.rig import as_rig
     from thermrs.visits import anchor_drift
 
+    rig = as_rig(rig)
     path, wanted = split_run_spec(spec)
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory, expected a recording (.mcap) or tables")
     if not path.exists():
         raise InputError(f"{path}: no such file")
     loss = False
     if path.name.endswith(".parquet"):
+        from thermrs.ingest import data_loss
+
         visits, temps, runs = _read_tables(path)
         stem = path.name[: -len(".parquet")]
         for part in (".visits", ".temperatures", ".joints", ".runs"):
             stem = stem.removesuffix(part)
+        # The loss of the recording they came from travels in the tables' metadata.
+        loss = any(
+            data_loss(path.with_name(f"{stem}.{k}.parquet")) for k in ("visits", "temperatures")
+        )
         if runs is None or "run" not in visits.columns:
             runs = pl.DataFrame(schema=RUNS_SCHEMA)
     else:

@@ -16,6 +16,7 @@ writes the recording atomically and the truth beside it:
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,8 +24,9 @@ from typing import Any
 import polars as pl
 
 from thermrs import _native
+from thermrs.errors import InputError
 from thermrs.ingest import atomic_tmp, publish, write_parquet_atomic
-from thermrs.rig import Rig
+from thermrs.rig import Rig, as_rig
 
 __all__ = ["Simulation", "simulate"]
 
@@ -40,24 +42,76 @@ class Simulation:
 
 
 def simulate(
-    rig: Rig, scenario: str | Path, out: str | Path, *, seed: int | None = None
+    rig: Rig | str | os.PathLike[str],
+    scenario: str | os.PathLike[str],
+    out: str | os.PathLike[str],
+    *,
+    seed: int | None = None,
 ) -> Simulation:
     """Simulate ``scenario`` (a scenario file) on ``rig``, writing the recording to ``out``.
+
+    The scenario format (runs, ambient, camera and IR models, thermal nodes, SPEC §6
+    effects) is documented in ``docs/scenarios.md``; examples ship in
+    ``fixtures/scenarios/``.
+
+    Parameters
+    ----------
+    rig
+        The rig to simulate (a :class:`~thermrs.Rig` or the path of a rig file).
+    scenario
+        The scenario file (``format = "thermrs-scenario/1"``).
+    out
+        The recording to write (MCAP, atomically); its folder must exist. The truth goes
+        beside it: ``OUT.truth.parquet``, ``OUT.truth-samples.parquet``, ``OUT.truth.json``.
+    seed
+        Overrides the scenario's seed (0 ≤ seed < 2⁶⁴); the same seed gives the same bytes.
+
+    Returns
+    -------
+    Simulation
+        The recording's path and the truth: per CCD frame the true spot, per thermal sample
+        the surface and structure temperatures and expanded lengths, and the scenario.
 
     Raises
     ------
     ScenarioError
-        The scenario does not parse or validate (the message names the key).
+        The scenario does not parse or validate (the message names the line and key).
     InputError
-        The scenario does not fit the rig (e.g. an effect names a camera it does not have).
+        The scenario file cannot be read; ``out``'s folder does not exist or cannot be
+        written; the scenario does not fit the rig (e.g. an effect names a camera it does
+        not have); ``seed`` is out of range.
+    KeyboardInterrupt
+        Ctrl-C (checked every few milliseconds); nothing is left behind.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> sim = thermrs.simulate.simulate(
+    ...     thermrs.load_rig(), "fixtures/scenarios/two-runs-thermal-lag.toml", "sim.mcap"
+    ... )  # doctest: +SKIP
+    >>> sim.frames.select("camera", "t_ns", "x_px", "y_px")  # doctest: +SKIP
     """
+    rig = as_rig(rig)
     scenario = Path(scenario)
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    if seed is not None and not (isinstance(seed, int) and 0 <= seed < 2**64):
+        raise InputError(f"seed must be an integer 0 ≤ seed < 2**64, got {seed!r}")
+    if scenario.is_dir():
+        raise InputError(f"scenario {scenario}: is a directory, expected a scenario file")
+    try:
+        text = scenario.read_text()
+    except FileNotFoundError:
+        raise InputError(f"scenario {scenario}: no such file") from None
+    except UnicodeDecodeError:
+        raise InputError(
+            f"scenario {scenario}: not a text file; a scenario is TOML (docs/scenarios.md)"
+        ) from None
+    except OSError as e:
+        raise InputError(f"scenario {scenario}: cannot read it ({e.strerror or e})") from None
     tmp = atomic_tmp(out)
     try:
         cols, sc_json = _native.simulate(
-            rig._native, scenario.read_text(), str(tmp), source_name=str(scenario), seed=seed
+            rig._native, text, str(tmp), source_name=str(scenario), seed=seed
         )
         publish(tmp, out)
     except BaseException:

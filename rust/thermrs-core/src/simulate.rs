@@ -292,6 +292,17 @@ fn render_ir(
 
 /// Simulate `scenario` on `rig`, writing the recording to `out`; returns the truth.
 pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W, Truth)> {
+    simulate_cancellable(rig, sc, out, &|| false)
+}
+
+/// [`simulate`], asking `cancel` before every cycle and every CCD frame: once it returns
+/// `true` the simulation stops with [`Error::Interrupted`] (how the bindings honour Ctrl-C).
+pub fn simulate_cancellable<W: Write + Seek>(
+    rig: &Rig,
+    sc: &Scenario,
+    out: W,
+    cancel: &dyn Fn() -> bool,
+) -> Result<(W, Truth)> {
     let th = rig
         .thermal
         .as_ref()
@@ -403,6 +414,9 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
         let cycles = (run.duration_min * 60.0 / run.cycle_s).floor() as usize;
         let slot = run.cycle_s / (rig.camera.len() as f64 + 1.0);
         for _ in 0..cycles {
+            if cancel() {
+                return Err(Error::Interrupted);
+            }
             let cycle_t = t_s;
             // This cycle's trajectory: to each camera's pose in turn (joint space, every joint
             // at the run's share of its maximum rate), a dwell there, then away to the rest
@@ -541,6 +555,9 @@ pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W,
             }
             frames.sort_by(|a, b| a.0.total_cmp(&b.0));
             for (tf_s, ci) in frames {
+                if cancel() {
+                    return Err(Error::Interrupted);
+                }
                 let c = &rig.camera[ci];
                 // The spot along its path during the exposure (one point when still).
                 let moving = segs.iter().any(|sg| {

@@ -63,6 +63,8 @@ create_exception!(
 
 /// Samples per GIL-free chunk; between chunks: signals and progress.
 const CHUNK: usize = 1 << 18;
+/// How often a long call without chunks (the simulator) checks for signals.
+const SIGNAL_EVERY: std::time::Duration = std::time::Duration::from_millis(20);
 
 fn to_py(e: CoreError) -> PyErr {
     match e {
@@ -466,7 +468,8 @@ fn decompress_chunks(py: Python<'_>, path: PathBuf) -> PyResult<(u64, u64, u64)>
 }
 
 /// Simulate a scenario on a rig, writing the recording to `out_path`; returns the truth as a
-/// dict of numpy columns and the parsed scenario as JSON. Runs without the GIL.
+/// dict of numpy columns and the parsed scenario as JSON. Runs without the GIL; Ctrl-C stops it
+/// (signals are checked every few milliseconds between cycles and frames).
 #[pyfunction]
 #[pyo3(signature = (rig, scenario_toml, out_path, *, source_name = "<string>", seed = None))]
 fn simulate<'py>(
@@ -482,20 +485,44 @@ fn simulate<'py>(
     if let Some(s) = seed {
         sc.seed = s;
     }
+    // Load NumPy's C API now: loading it later, with a Ctrl-C pending, would panic.
+    let _ = numpy::PyArray1::<f64>::zeros(py, 0, false);
     let inner = &rig.inner;
     let path = out_path.clone();
-    let truth = py
-        .detach(|| -> Result<_, CoreError> {
-            let f = std::fs::File::create(&path).map_err(|source| CoreError::Io {
-                path: path.display().to_string(),
-                source,
-            })?;
-            let (w, truth) =
-                thermrs_core::simulate::simulate(inner, &sc, std::io::BufWriter::new(f))?;
-            drop(w);
-            Ok(truth)
-        })
-        .map_err(to_py)?;
+    let pending: Mutex<Option<PyErr>> = Mutex::new(None);
+    let res = py.detach(|| -> Result<_, CoreError> {
+        let last = std::cell::Cell::new(std::time::Instant::now());
+        let cancel = || -> bool {
+            if last.get().elapsed() < SIGNAL_EVERY {
+                return false;
+            }
+            last.set(std::time::Instant::now());
+            Python::attach(|py| match py.check_signals() {
+                Ok(()) => false,
+                Err(e) => {
+                    *pending.lock().expect("lock") = Some(e);
+                    true
+                }
+            })
+        };
+        let f = std::fs::File::create(&path).map_err(|source| CoreError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let (w, truth) = thermrs_core::simulate::simulate_cancellable(
+            inner,
+            &sc,
+            std::io::BufWriter::new(f),
+            &cancel,
+        )?;
+        drop(w);
+        Ok(truth)
+    });
+    if let Some(e) = pending.lock().expect("lock").take() {
+        return Err(e);
+    }
+    let truth = res.map_err(to_py)?;
+    py.check_signals()?;
     let n = truth.sample_t_ns.len();
     let k = truth.node_names.len();
     let surface = Array2::from_shape_vec((n, k), truth.surface_c).expect("N×nodes");

@@ -1,0 +1,302 @@
+"""A new user's mistakes through the CLI (issue #13): every wrong invocation exits 2 with exactly
+one line on stderr and no traceback, writes nothing; losses stay visible; Ctrl-C stops a long
+command at once with exit 130 and one line; tables are never cut."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import polars as pl
+import pytest
+import thermrs
+
+from tests.scenarios import FAST_NODES
+
+REPO = Path(__file__).resolve().parents[1]
+UR5 = REPO / "fixtures" / "rigs" / "ur5-two-cameras.toml"
+PAPER_RUNS = REPO / "fixtures" / "scenarios" / "paper-runs.toml"
+
+#: Three 10-minute runs at 30 % (one visit per camera a minute, 2 frames each).
+SHORT = (
+    """format = "thermrs-scenario/1"
+seed = 3
+[[run]]
+name = "warm"
+speed_pct = 30
+duration_min = 20
+cycle_s = 60
+start = "ambient"
+"""
+    + FAST_NODES
+)
+
+
+def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "THERMRS_DEBUG": ""}
+    return subprocess.run(
+        [sys.executable, "-m", "thermrs", *args], capture_output=True, text=True, env=env, cwd=cwd
+    )
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """A simulated recording, its extracted tables, the same recording cut short and the
+    tables extracted from the cut one; a folder; a rig; a scenario."""
+    d = tmp_path_factory.mktemp("cli-errors")
+    sc = d / "short.toml"
+    sc.write_text(SHORT)
+    rig = thermrs.default_rig_path()
+    rec = thermrs.simulate.simulate(rig, sc, d / "rec.mcap").recording
+    thermrs.extract(rec, rig).write(d / "rec.parquet")
+    cut = d / "cut.mcap"
+    cut.write_bytes(rec.read_bytes()[: rec.stat().st_size * 2 // 3])
+    ex = thermrs.extract(cut, rig)
+    assert ex.report.data_loss  # the truth this test builds on: cutting loses data
+    ex.write(d / "cut.parquet")
+    (d / "folder").mkdir()
+    bad_json = d / "bad.json"
+    bad_json.write_text("{not json")
+    bad_sc = d / "bad.toml"
+    bad_sc.write_text(SHORT.replace("speed_pct = 30", "speed_pct = 130"))
+    return {
+        "dir": d,
+        "rec": rec,
+        "tables": d / "rec.parquet",
+        "cut": cut,
+        "cut_tables": d / "cut.parquet",
+        "folder": d / "folder",
+        "rig": rig,
+        "sc": sc,
+        "bad_sc": bad_sc,
+        "bad_json": bad_json,
+    }
+
+
+# (arguments with {placeholders}, a piece of the one line on stderr)
+WRONG: list[tuple[str, str]] = [
+    # missing / unreadable / wrong-kind inputs
+    ("simulate --rig {rig} --scenario {dir}/missing.toml -o {dir}/o.mcap", "does not exist"),
+    ("simulate --rig {rig} --scenario {folder} -o {dir}/o.mcap", "is a directory"),
+    ("simulate --rig {dir}/missing.toml --scenario {sc} -o {dir}/o.mcap", "--rig"),
+    ("simulate --rig {rec} --scenario {sc} -o {dir}/o.mcap", "rig"),
+    ("simulate --rig {rig} --scenario {bad_sc} -o {dir}/o.mcap", "run[0].speed_pct"),
+    ("simulate --rig {rig} --scenario {rec} -o {dir}/o.mcap", "scenario"),
+    ("extract {dir}/missing.mcap --rig {rig} -o {dir}/o.parquet", "does not exist"),
+    ("extract {folder} --rig {rig} -o {dir}/o.parquet", "is a directory"),
+    ("extract {rec} --rig {folder} -o {dir}/o.parquet", "is a directory"),
+    ("extract {sc} --rig {rig} -o {dir}/o.parquet", "MCAP"),
+    ("extract {rec} --rig {rec} -o {dir}/o.parquet", "rig"),
+    ("fit --rig {rig} --train {folder}", "is a directory"),
+    ("fit --rig {rig} --train {dir}/missing.mcap", "does not exist"),
+    ("fit --rig {rig} --train {sc}", "MCAP"),
+    ("fit --rig {rig} --train {tables} {tables}", "given twice"),
+    ("predict --rig {rig} --fit {dir}/missing.json --run {tables}", "does not exist"),
+    ("predict --rig {rig} --fit {bad_json} --run {tables}", "thermrs fit --json"),
+    ("drift --rig {rig} --run {dir}/missing.parquet", "does not exist"),
+    ("rig {dir}/missing.toml", "does not exist"),
+    ("rig {folder}", "is a directory"),
+    # mismatched rig: the recording has none of the UR5 rig's camera topics
+    ("extract {rec} --rig {ur5} -o {dir}/o.parquet", "/near/image_raw"),
+    ("fit --rig {ur5} --train {rec}", "/near/image_raw"),
+    # unwritable outputs
+    ("extract {rec} --rig {rig} -o /proc/x.parquet", "/proc"),
+    ("extract {rec} --rig {rig} -o {dir}/no/such/folder/o.parquet", "does not exist"),
+    ("extract {rec} --rig {rig} -o {folder}", "is a directory"),
+    ("extract {rec} --rig {rig} -o {dir}/o.csv", ".parquet"),
+    ("simulate --rig {rig} --scenario {sc} -o /proc/x.mcap", "/proc"),
+    ("simulate --rig {rig} --scenario {sc} -o {dir}/nowhere/o.mcap", "does not exist"),
+    ("simulate --rig {rig} --scenario {sc} -o {dir}/o.parquet", ".mcap"),
+    ("fit --rig {rig} --train {tables} --json /proc/fit.json", "/proc"),
+    ("fit --rig {rig} --train {tables} --json {dir}/nowhere/fit.json", "does not exist"),
+    ("predict --rig {rig} --alpha 2e-5 --run {tables} --json /proc/p.json", "/proc"),
+    ("predict --rig {rig} --alpha 2e-5 --run {tables} --series {dir}/s.txt", ".csv"),
+    ("drift --rig {rig} --run {tables} --json {folder}", "is a directory"),
+    # bad numbers
+    ("simulate --rig {rig} --scenario {sc} -o {dir}/o.mcap --seed -5", "--seed"),
+    ("simulate --rig {rig} --scenario {sc} -o {dir}/o.mcap --seed 1.5", "--seed"),
+    ("predict --rig {rig} --alpha 23.2 --run {tables}", "23.2e-6"),
+    ("predict --rig {rig} --alpha -1 --run {tables}", "> 0"),
+    ("predict --rig {rig} --alpha 0 --run {tables}", "> 0"),
+    ("predict --rig {rig} --alpha nan --run {tables}", "finite"),
+    ("predict --rig {rig} --alpha lots --run {tables}", "not a number"),
+    ("predict --rig {rig} --alpha 2e-5 --run {tables} --end-visits 0", "--end-visits"),
+    ("drift --rig {rig} --run {tables} --window 2", "--window"),
+    ("drift --rig {rig} --run {tables} --tolerance-um 0", "--tolerance-um"),
+    ("extract {rec} --rig {rig} -o {dir}/o.parquet --visit-tolerance-deg -1", "tolerance"),
+    # usage
+    ("predict --rig {rig} --run {tables}", "exactly one of --alpha, --fit or --train"),
+    ("fit --rig {rig}", "--train"),
+    ("frobnicate", "frobnicate"),
+]
+
+
+@pytest.mark.parametrize(("args", "message"), WRONG, ids=[a for a, _ in WRONG])
+def test_wrong_invocation_exits_2_with_one_line(
+    data: dict[str, Path], args: str, message: str
+) -> None:
+    before = set(data["dir"].rglob("*"))
+    argv = [a.format(**data, ur5=UR5) for a in args.split()]
+    p = cli(*argv)
+    lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
+    assert p.returncode == 2, p.stderr
+    assert len(lines) == 1, p.stderr
+    assert "Traceback" not in p.stderr and lines[0].startswith("thermrs: error: "), p.stderr
+    assert message in lines[0], lines[0]
+    assert set(data["dir"].rglob("*")) == before  # nothing written, no temporary left
+
+
+def test_at_least_thirty_wrong_invocations() -> None:
+    assert len(WRONG) >= 30
+
+
+def test_data_loss_survives_quiet_and_stays_with_the_tables(
+    data: dict[str, Path], tmp_path: Path
+) -> None:
+    p = cli("extract", str(data["cut"]), "--rig", str(data["rig"]), "--quiet", "-o",
+            str(tmp_path / "c.parquet"))  # fmt: skip
+    assert p.returncode == 3, p.stderr
+    assert "data loss" in p.stderr and "Traceback" not in p.stderr
+    # Every table remembers the loss; a clean extraction records none.
+    for name in ("c.parquet", "c.visits.parquet", "c.temperatures.parquet", "c.joints.parquet"):
+        assert thermrs.ingest.data_loss(tmp_path / name), name
+    assert thermrs.ingest.data_loss(data["tables"]) == []
+    # Every later command on the cut tables exits 3 and says why; on clean tables 0.
+    rig = str(data["rig"])
+    for clean, code in ((data["tables"], 0), (tmp_path / "c.parquet", 3)):
+        for args in (
+            ["fit", "--rig", rig, "--train", str(clean)],
+            ["predict", "--rig", rig, "--alpha", "2.2e-5", "--run", str(clean)],
+            ["drift", "--rig", rig, "--run", str(clean)],
+        ):
+            r = cli(*args)
+            assert r.returncode == code, (args, r.stderr)
+            assert ("data loss" in r.stderr) == (code == 3), r.stderr
+    table, lost = thermrs.fit.load_run_table(tmp_path / "c.visits.parquet", data["rig"])
+    assert lost and table.height > 0
+
+
+def test_runs_of_one_stem_keep_distinct_keys(data: dict[str, Path], tmp_path: Path) -> None:
+    out = tmp_path / "fit.json"
+    p = cli("fit", "--rig", str(data["rig"]), "--train", str(data["tables"]), str(data["rec"]),
+            "--json", str(out))  # fmt: skip
+    assert p.returncode == 0, p.stderr
+    assert sorted(json.loads(out.read_text())["start_end"]) == sorted(
+        [str(data["tables"]), str(data["rec"])]
+    )
+
+
+def test_alpha_takes_units_and_series_writes_the_format_named(
+    data: dict[str, Path], tmp_path: Path
+) -> None:
+    docs = {}
+    for alpha in ("23.2e-6", "23.2u", "23.2µ", "2.32e-05"):
+        out = tmp_path / f"p{len(docs)}.json"
+        p = cli("predict", "--rig", str(data["rig"]), "--alpha", alpha, "--run",
+                str(data["tables"]), "--json", str(out))  # fmt: skip
+        assert p.returncode == 0, p.stderr
+        docs[alpha] = json.loads(out.read_text())["alpha_per_k"]["given"]
+    assert all(v == pytest.approx(23.2e-6, rel=1e-12) for v in docs.values()), docs
+    csv, parquet = tmp_path / "s.csv", tmp_path / "s.parquet"
+    for path in (csv, parquet):
+        p = cli("predict", "--rig", str(data["rig"]), "--alpha", "2.2e-5", "--run",
+                str(data["tables"]), "--series", str(path))  # fmt: skip
+        assert p.returncode == 0, p.stderr
+    a, b = pl.read_csv(csv), pl.read_parquet(parquet)
+    assert a.columns == b.columns and a.height == b.height > 0
+    assert not csv.read_bytes().startswith(b"PAR1")
+
+
+def test_tables_fold_at_80_columns_and_are_whole_when_piped(data: dict[str, Path]) -> None:
+    # A run name longer than a narrow terminal leaves room for.
+    long_run = data["dir"] / "a-rather-long-run-name-from-the-night-shift.parquet"
+    for part in ("", ".visits", ".temperatures", ".joints"):
+        src = data["dir"] / f"rec{part}.parquet"
+        shutil.copy(src, data["dir"] / f"a-rather-long-run-name-from-the-night-shift{part}.parquet")
+    try:
+        args = ["predict", "--rig", str(data["rig"]), "--alpha", "2.2e-5", "--run", str(long_run)]
+        env = {**os.environ, "COLUMNS": "80"}
+        narrow = subprocess.run(
+            [sys.executable, "-m", "thermrs", *args], capture_output=True, text=True, env=env
+        )
+        piped = cli(*args)
+    finally:
+        for part in ("", ".visits", ".temperatures", ".joints"):
+            (data["dir"] / f"a-rather-long-run-name-from-the-night-shift{part}.parquet").unlink()
+    headers = ["pred µm", "meas µm", "err %", "rms µm", "noise µm"]
+    for p in (narrow, piped):
+        assert p.returncode == 0, p.stderr
+        assert "…" not in p.stdout, p.stdout
+        for h in headers:
+            for word in h.split():
+                assert word in p.stdout, (word, p.stdout)
+    assert max(len(ln) for ln in narrow.stdout.splitlines()) <= 80, narrow.stdout
+    # Piped: every row on one line, the run name whole.
+    assert "a-rather-long-run-name-from-the-night-shift" in piped.stdout
+    assert any(all(h in ln for h in headers) for ln in piped.stdout.splitlines()), piped.stdout
+    # Narrow: the name is folded onto lines, not cut: all of its characters are there.
+    run_cells = "".join(
+        ln.split("│")[3].strip() for ln in narrow.stdout.splitlines() if ln.startswith("│")
+    )
+    assert "a-rather-long-run-name-from-the-night-shift" in run_cells, narrow.stdout
+
+
+def _start(args: list[str], cwd: Path) -> subprocess.Popen[str]:
+    """The CLI in a child that takes SIGINT as a terminal's Ctrl-C would (a shell running this
+    suite in the background may have set SIGINT to ignored, which children inherit)."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "thermrs", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=cwd,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+
+
+def test_ctrl_c_stops_simulate_at_once(tmp_path: Path) -> None:
+    # The paper's three 15-hour runs: minutes of work, far longer than the test waits.
+    rig = thermrs.default_rig_path()
+    out = tmp_path / "long.mcap"
+    proc = _start(["simulate", "--rig", str(rig), "--scenario", str(PAPER_RUNS), "-o", str(out)],
+                  tmp_path)  # fmt: skip
+    deadline = time.monotonic() + 60
+    # At work: the simulator has opened its temporary recording.
+    while not any(tmp_path.glob(".long.mcap.*.tmp")) and time.monotonic() < deadline:
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.01)
+    time.sleep(0.5)
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=30)
+    dt = time.monotonic() - t0
+    assert proc.returncode == 130, err
+    assert err.splitlines() == ["thermrs: interrupted"], err
+    assert dt < 5.0, dt  # a functional bound; the latency itself: BENCHMARKS.md
+    assert list(tmp_path.iterdir()) == []  # no recording, no temporary file left
+
+
+def test_ctrl_c_stops_extract_cleanly_wherever_it_lands(
+    data: dict[str, Path], tmp_path: Path
+) -> None:
+    args = ["extract", str(data["rec"]), "--rig", str(data["rig"]), "-o",
+            str(tmp_path / "o.parquet")]  # fmt: skip
+    interrupted = 0
+    for delay in (0.3, 0.5, 0.7, 0.9, 1.1):
+        proc = _start(args, tmp_path)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=30)
+        if proc.returncode == 0:  # finished before the signal
+            continue
+        interrupted += 1
+        assert proc.returncode == 130, err
+        assert err.splitlines() == ["thermrs: interrupted"], err
+        assert list(tmp_path.iterdir()) == []  # no table, no temporary file
+    assert interrupted > 0
