@@ -701,3 +701,6 @@ def main(argv: list[str] | None = None) -> None:
             err=True,
         )
         sys.exit(EXIT_INTERNAL)
+
+
+from thermrs import cli_report as _cli_report  # noqa: E402, F401  (registers `thermrs report`)

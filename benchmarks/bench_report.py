@@ -1,0 +1,85 @@
+"""Benchmark of `thermrs report` (issue #11).
+
+1. The report of three 15-hour runs once they are extracted (must reach: under 30 s): the
+   paper's three runs are simulated from the packaged demo scenario and extracted (not timed),
+   then :func:`thermrs.report.write_report` is timed end to end (fit, start/end, prediction
+   tables, heating curves, ISO 9283, the diagnosis where the diagnoser exists, figures, HTML,
+   Markdown and SVG files), best of ``--repeat``.
+2. ``thermrs report --demo`` end to end as a user runs it (must reach: under a minute), with
+   the size of the HTML it writes (must be small enough to mail).
+
+Writes ``bench-out/report/bench_report.json`` (or ``--dir``) and prints it.
+
+    python benchmarks/bench_report.py [--repeat 3] [--dir bench-out/report]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--dir", type=Path, default=Path("bench-out/report"))
+    args = ap.parse_args()
+    args.dir.mkdir(parents=True, exist_ok=True)
+
+    import thermrs
+    from thermrs.report import write_report
+    from thermrs.report.demo import simulate_demo
+
+    rig = thermrs.load_rig()
+    t0 = time.perf_counter()
+    d = simulate_demo(args.dir / "work")
+    prep = time.perf_counter() - t0
+    visits = sum(r.table.height for r in d.runs)
+    hours = [
+        float(r.table["t_ns"].max() - r.table["t_ns"].min()) / 3.6e12  # type: ignore[operator]
+        for r in d.runs
+    ]
+    times = []
+    for _ in range(args.repeat):
+        t0 = time.perf_counter()
+        w = write_report(args.dir / "three-runs.html", runs=d.runs, rig=rig, paper_reference=True)
+        times.append(time.perf_counter() - t0)
+
+    t0 = time.perf_counter()
+    p = subprocess.run(
+        [sys.executable, "-m", "thermrs", "report", "--demo", "--quiet",
+         "-o", str(args.dir / "demo.html")],  # fmt: skip
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    demo_s = time.perf_counter() - t0
+    if p.returncode != 0:
+        sys.exit(f"thermrs report --demo failed: {p.stderr}")
+    doc = {
+        "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()}",
+        "runs": len(d.runs),
+        "run_hours": [round(h, 2) for h in hours],
+        "visits": visits,
+        "simulate_and_extract_s": round(prep, 2),
+        "simulate_s": round(d.timings["simulate"], 2),
+        "extract_and_cut_s": round(d.timings["extract"], 2),
+        "report_s_best": round(min(times), 2),
+        "report_s_all": [round(t, 2) for t in times],
+        "html_bytes": w.html_bytes,
+        "figures": len(w.figures),
+        "demo_end_to_end_s": round(demo_s, 2),
+        "demo_html_bytes": (args.dir / "demo.html").stat().st_size,
+    }
+    (args.dir / "bench_report.json").write_text(json.dumps(doc, indent=2))
+    print(json.dumps(doc))
+
+
+if __name__ == "__main__":
+    main()
