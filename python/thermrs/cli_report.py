@@ -12,6 +12,7 @@ import click
 from rich.console import Console
 
 from thermrs.cli import EXIT_DATA_LOSS, cli
+from thermrs.errors import InputError
 
 __all__ = ["report"]
 
@@ -95,6 +96,9 @@ def report(
         raise click.UsageError("give --run RUN… (and --rig RIG), or --demo")
     if not demo and rig_path is None:
         raise click.UsageError("give --rig RIG")
+    for p in (*train, *runs):
+        if not p.exists():
+            raise InputError(f"{p}: no such file")
     out = out_path or Path("thermrs-demo-report.html" if demo else "thermrs-report.html")
     t_start = time.perf_counter()
     with Progress(
@@ -108,14 +112,17 @@ def report(
     ) as bar:
         task = bar.add_task("", total=None, info="")
 
+        last = [""]
+
         def stage(what: str, done: int = 0, total: int = 0) -> None:
             if total:
                 bar.update(task, description=what, completed=done, total=total,
                            info=f"{done / 1e6:,.0f}/{total / 1e6:,.0f} MB")  # fmt: skip
             else:
                 bar.update(task, description=what, total=None, info="")
-            if not quiet and not total:
+            if not quiet and what != last[0]:
                 bar.console.print(f"[dim]· {what}[/dim]")
+            last[0] = what
 
         loss = False
         if demo:

@@ -10,6 +10,7 @@ imported here only, so that the command line starts without it.
 from __future__ import annotations
 
 import io
+import re
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -77,7 +78,9 @@ def _svg(fig: Figure) -> str:
     text = buf.getvalue()
     # Inline in HTML: drop the XML prolog and the DOCTYPE.
     start = text.find("<svg")
-    return text[start:] if start >= 0 else text
+    text = text[start:] if start >= 0 else text
+    # The RDF metadata block says only "made by matplotlib": drop it.
+    return re.sub(r"\s*<metadata>.*?</metadata>", "", text, count=1, flags=re.S)
 
 
 def _legend(ax: Any) -> None:
