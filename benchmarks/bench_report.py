@@ -53,8 +53,16 @@ def main() -> None:
 
     t0 = time.perf_counter()
     p = subprocess.run(
-        [sys.executable, "-m", "thermrs", "report", "--demo", "--quiet",
-         "-o", str(args.dir / "demo.html")],  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "thermrs",
+            "report",
+            "--demo",
+            "--quiet",
+            "-o",
+            str(args.dir / "demo.html"),
+        ],
         capture_output=True,
         text=True,
         check=False,
@@ -63,7 +71,8 @@ def main() -> None:
     if p.returncode != 0:
         sys.exit(f"thermrs report --demo failed: {p.stderr}")
     doc = {
-        "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()}",
+        "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, "
+        f"Python {platform.python_version()}",
         "runs": len(d.runs),
         "run_hours": [round(h, 2) for h in hours],
         "visits": visits,

@@ -151,8 +151,15 @@ def test_demo_in_chromium(demo: dict[str, Any]) -> None:
     for run in ("run1", "run2", "run3"):
         assert f"run-{run}" in seen["sections"]
     names = {f["name"] for f in seen["figures"]}
-    expected = {"rig", "run-run1", "run-run2", "run-run3", "prediction-run2",
-                "prediction-run3", "iso9283"}  # fmt: skip
+    expected = {
+        "rig",
+        "run-run1",
+        "run-run2",
+        "run-run3",
+        "prediction-run2",
+        "prediction-run3",
+        "iso9283",
+    }
     assert expected <= names, names
     for f in seen["figures"]:
         # Drawn at a readable size, with lines and labelled axes.
@@ -236,8 +243,13 @@ def test_numbers_are_the_json_outputs(campaign: dict[str, Any], paper_rig: therm
     pred = json_of("predict", "--rig", rig, "--train", warm, "--run", fast)
     assert pred["table"]
     for row in pred["table"]:
-        for key, fmt in (("predicted_um", ".2f"), ("measured_um", ".2f"), ("error_pct", "+.2f"),
-                         ("rms_centred_um", ".3f"), ("noise_um", ".3f")):  # fmt: skip
+        for key, fmt in (
+            ("predicted_um", ".2f"),
+            ("measured_um", ".2f"),
+            ("error_pct", "+.2f"),
+            ("rms_centred_um", ".3f"),
+            ("noise_um", ".3f"),
+        ):
             assert format(row[key], fmt) in got, (key, row)
 
     drift = json_of("drift", "--rig", rig, "--run", warm, fast)
@@ -291,8 +303,9 @@ def test_no_thermal_readings_stated(
     temps = pl.read_parquet(src.with_name(f"{stem}.temperatures.parquet"))
     temps.clear().write_parquet(tmp_path / "cold.temperatures.parquet")
     out = tmp_path / "cold.html"
-    r = run_cli("report", "--rig", paper_rig.source, "--run", str(tmp_path / "cold.parquet"),
-                "-o", str(out))  # fmt: skip
+    r = run_cli(
+        "report", "--rig", paper_rig.source, "--run", str(tmp_path / "cold.parquet"), "-o", str(out)
+    )
     assert r.returncode == 0, r.stderr
     text = visible_text(out.read_text())
     assert "No thermal readings in cold" in text
@@ -323,23 +336,57 @@ class _HandMadeDiagnosis:
     def to_json(self) -> dict[str, Any]:
         return {
             "noise_floor_um": 0.123,
-            "baseline": {"alpha_per_k": {"value": 2.1e-5, "ci95": [2.0e-5, 2.2e-5]},
-                         "train_rms_um": 0.5, "holdout_rms_um": 4.567, "holdout_max_um": 9.0},  # fmt: skip
-            "location": [{"run": "fast", "camera": "A", "axis": "v", "phase": "warm-up",
-                          "rms_um": 3.0, "share": 0.61, "n": 40}],  # fmt: skip
+            "baseline": {
+                "alpha_per_k": {"value": 2.1e-5, "ci95": [2.0e-5, 2.2e-5]},
+                "train_rms_um": 0.5,
+                "holdout_rms_um": 4.567,
+                "holdout_max_um": 9.0,
+            },
+            "location": [
+                {
+                    "run": "fast",
+                    "camera": "A",
+                    "axis": "v",
+                    "phase": "warm-up",
+                    "rms_um": 3.0,
+                    "share": 0.61,
+                    "n": 40,
+                }
+            ],
             "drivers": [{"driver": "link3 rate", "corr": 0.8, "p": 1e-6}],
             "whiteness": {"ljung_box_p": 1e-9, "rho1": 0.9, "n_eff": 12.0, "white": False},
-            "ranking": [{"effect": "thermal_lag", "params": {"tau_min": 24.5},
-                         "train_rms_um": 0.2, "holdout_rms_um": 0.321, "shrink": 0.93,
-                         "evidence": {"delta_aicc": -55.0, "placebo_beaten": True}}],  # fmt: skip
-            "confounded": [{"effects": ["thermal_lag", "sensor_drift"], "cos": 0.97,
-                            "separate_by": "a run that cools down"}],  # fmt: skip
-            "verdict": {"status": "identified", "effect": "thermal_lag",
-                        "params": {"tau_min": 24.5}, "confounded_with": [],
-                        "holdout_rms_um": 0.321, "reason": "it beats its placebo."},  # fmt: skip
-            "how_far": {"holdout_rms_before_um": 4.567, "holdout_rms_after_um": 0.321,
-                        "holdout_max_before_um": 9.0, "holdout_max_after_um": 0.8,
-                        "gap_closed": 0.93},  # fmt: skip
+            "ranking": [
+                {
+                    "effect": "thermal_lag",
+                    "params": {"tau_min": 24.5},
+                    "train_rms_um": 0.2,
+                    "holdout_rms_um": 0.321,
+                    "shrink": 0.93,
+                    "evidence": {"delta_aicc": -55.0, "placebo_beaten": True},
+                }
+            ],
+            "confounded": [
+                {
+                    "effects": ["thermal_lag", "sensor_drift"],
+                    "cos": 0.97,
+                    "separate_by": "a run that cools down",
+                }
+            ],
+            "verdict": {
+                "status": "identified",
+                "effect": "thermal_lag",
+                "params": {"tau_min": 24.5},
+                "confounded_with": [],
+                "holdout_rms_um": 0.321,
+                "reason": "it beats its placebo.",
+            },
+            "how_far": {
+                "holdout_rms_before_um": 4.567,
+                "holdout_rms_after_um": 0.321,
+                "holdout_max_before_um": 9.0,
+                "holdout_max_after_um": 0.8,
+                "gap_closed": 0.93,
+            },
             "summary": "The structure lags the surface by about 25 minutes.",
         }
 
@@ -352,9 +399,17 @@ def test_diagnosis_section_renders(campaign: dict[str, Any], paper_rig: thermrs.
     html = out.read_text()
     sec = html[html.index('<section id="diagnosis">') : html.index('<section id="extraction">')]
     text = visible_text(sec)
-    for s in ("identified: thermal_lag", "tau_min = 24.5", "4.567", "0.321", "93.0 %",
-              "a run that cools down", "link3 rate", "structured (not noise)",
-              "The structure lags the surface"):  # fmt: skip
+    for s in (
+        "identified: thermal_lag",
+        "tau_min = 24.5",
+        "4.567",
+        "0.321",
+        "93.0 %",
+        "a run that cools down",
+        "link3 rate",
+        "structured (not noise)",
+        "The structure lags the surface",
+    ):
         assert s in text, s
     assert 'data-figure="diagnosis"' in sec
     # The summary at the top carries the diagnosis' own sentence.
@@ -366,8 +421,17 @@ def test_pdf(campaign: dict[str, Any], paper_rig: thermrs.Rig) -> None:
     if find_chromium() is None:
         pytest.skip("no Chromium")
     out = campaign["dir"] / "p.html"
-    r = run_cli("report", "--rig", paper_rig.source, "--pdf", "--no-markdown", "-o", str(out),
-                "--run", str(campaign["paths"]["warm"]["tables"]))  # fmt: skip
+    r = run_cli(
+        "report",
+        "--rig",
+        paper_rig.source,
+        "--pdf",
+        "--no-markdown",
+        "-o",
+        str(out),
+        "--run",
+        str(campaign["paths"]["warm"]["tables"]),
+    )
     assert r.returncode == 0, r.stderr
     pdf = out.with_suffix(".pdf").read_bytes()
     assert pdf.startswith(b"%PDF") and len(pdf) > 20_000

@@ -116,8 +116,13 @@ def report(
 
         def stage(what: str, done: int = 0, total: int = 0) -> None:
             if total:
-                bar.update(task, description=what, completed=done, total=total,
-                           info=f"{done / 1e6:,.0f}/{total / 1e6:,.0f} MB")  # fmt: skip
+                bar.update(
+                    task,
+                    description=what,
+                    completed=done,
+                    total=total,
+                    info=f"{done / 1e6:,.0f}/{total / 1e6:,.0f} MB",
+                )
             else:
                 bar.update(task, description=what, total=None, info="")
             if not quiet and what != last[0]:
@@ -128,9 +133,7 @@ def report(
         if demo:
             from thermrs.report.demo import run_demo
 
-            res = run_demo(
-                out, workdir=workdir, pdf=pdf, markdown=not no_markdown, progress=stage
-            )
+            res = run_demo(out, workdir=workdir, pdf=pdf, markdown=not no_markdown, progress=stage)
             written = res.written
         else:
             from thermrs.report import load_run, write_report

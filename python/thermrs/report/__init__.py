@@ -37,8 +37,15 @@ from thermrs.errors import InputError
 from thermrs.report.data import RunInput, Step, gather, load_run, run_from_extraction
 from thermrs.rig import Rig
 
-__all__ = ["RunInput", "Written", "find_chromium", "load_run", "print_pdf",
-           "run_from_extraction", "write_report"]  # fmt: skip
+__all__ = [
+    "RunInput",
+    "Written",
+    "find_chromium",
+    "load_run",
+    "print_pdf",
+    "run_from_extraction",
+    "write_report",
+]
 
 
 @dataclass(frozen=True)
@@ -144,7 +151,8 @@ def write_report(
     if intro:
         sections[0].blocks.insert(0, Paragraph(intro))
     meta = (
-        f"thermrs {_version()} · rig {Path(rig.source).name} · runs {', '.join(r.name for r in runs)} · "
+        f"thermrs {_version()} · rig {Path(rig.source).name} · "
+        f"runs {', '.join(r.name for r in runs)} · "
         f"α fitted on {', '.join(data.train)}"
         + (f", held out {', '.join(data.holdout)}" if data.holdout else "")
     )
@@ -210,9 +218,17 @@ def print_pdf(html_path: str | Path, pdf_path: str | Path, *, timeout_s: float =
     try:
         with tempfile.TemporaryDirectory(prefix="thermrs-chromium-") as profile:
             p = subprocess.run(
-                [exe, "--headless", "--disable-gpu", "--no-sandbox", "--no-first-run",
-                 f"--user-data-dir={profile}", "--no-pdf-header-footer",
-                 f"--print-to-pdf={tmp}", html_path.as_uri()],  # fmt: skip
+                [
+                    exe,
+                    "--headless",
+                    "--disable-gpu",
+                    "--no-sandbox",
+                    "--no-first-run",
+                    f"--user-data-dir={profile}",
+                    "--no-pdf-header-footer",
+                    f"--print-to-pdf={tmp}",
+                    html_path.as_uri(),
+                ],
                 capture_output=True,
                 text=True,
                 timeout=timeout_s,

@@ -25,7 +25,7 @@ import numpy as np
 import polars as pl
 
 from thermrs.errors import InputError
-from thermrs.ingest import ExtractReport, Extraction
+from thermrs.ingest import Extraction, ExtractReport
 from thermrs.rig import Rig
 
 __all__ = [
@@ -104,9 +104,9 @@ def run_from_extraction(
         # Drift is anchored at the run's first visit (SPEC §4): re-anchor the cut.
         visits = _reanchor(visits)
     table = run_table_from(visits, temps, rig, run=name)
-    counts = dict(
-        frames.group_by("status").len().sort("status").iter_rows()
-    ) if frames.height else {}
+    counts = (
+        dict(frames.group_by("status").len().sort("status").iter_rows()) if frames.height else {}
+    )
     return RunInput(
         name=name,
         table=table,
@@ -325,9 +325,7 @@ def gather(
         say("predicting")
         targets = ho if ho else tr
         prediction = prediction_table(targets, rig, alphas=alphas)
-        series = predict(
-            pl.concat(targets, how="diagonal_relaxed"), rig, alpha_per_k=f.alpha_per_k
-        )
+        series = predict(pl.concat(targets, how="diagonal_relaxed"), rig, alpha_per_k=f.alpha_per_k)
     except InputError as e:
         fit_note = f"α could not be fitted, so nothing was predicted: {e}."
 

@@ -117,11 +117,14 @@ def simulate_demo(
     )
     runs = [
         run_from_extraction(
-            ex, rig, name=str(name), source=f"{sim.recording.name} ({name})",
+            ex,
+            rig,
+            name=str(name),
+            source=f"{sim.recording.name} ({name})",
             window_ns=(int(lo), int(hi)),
         )
         for name, lo, hi in spans.iter_rows()
-    ]  # fmt: skip
+    ]
     timings["extract"] = time.perf_counter() - t0
     hours = [(float(hi) - float(lo)) / 3.6e12 for _, lo, hi in spans.iter_rows()]
     intro = (

@@ -125,8 +125,9 @@ def _summary(d: ReportData) -> Section:
     hours = sum(float(r["hours"]) for r in d.table4.iter_rows(named=True))
     s.blocks.append(
         Paragraph(
-            f"This report covers {n} run{'s' if n != 1 else ''} ({_join([r.name for r in d.runs])}),"
-            f" {fmt(hours, 1)} h in all, recorded on a {rig.model} with camera"
+            f"This report covers {n} run{'s' if n != 1 else ''} "
+            f"({_join([r.name for r in d.runs])}), {fmt(hours, 1)} h in all, "
+            f"recorded on a {rig.model} with camera"
             f"{'s' if len(rig.cameras) != 1 else ''} {_join([c.name for c in rig.cameras])}."
         )
     )
@@ -151,9 +152,7 @@ def _summary(d: ReportData) -> Section:
             else "no camera drift could be measured"
         )
         during = f"; meanwhile {_join(temps)}" if temps else " (no thermal readings)"
-        s.blocks.append(
-            Paragraph(f"In {row['run']} ({fmt(row['hours'], 1)} h), {drift}{during}.")
-        )
+        s.blocks.append(Paragraph(f"In {row['run']} ({fmt(row['hours'], 1)} h), {drift}{during}."))
     if d.fit is not None:
         a = d.fit["alpha_per_k"]
         s.blocks.append(
@@ -169,14 +168,17 @@ def _summary(d: ReportData) -> Section:
     if d.prediction is not None and d.prediction.height:
         p = d.prediction.filter(pl.col("alpha") == "series")
         errs = p["error_pct"].to_list()
-        which = "the training run itself (no run was held out)" if d.prediction_in_sample else (
-            f"the held-out run{'s' if len(d.holdout) > 1 else ''} {_join(d.holdout)}"
+        which = (
+            "the training run itself (no run was held out)"
+            if d.prediction_in_sample
+            else (f"the held-out run{'s' if len(d.holdout) > 1 else ''} {_join(d.holdout)}")
         )
         s.blocks.append(
             Paragraph(
-                f"With that α the forward model predicts {which} to within "
-                f"{fmt(min(errs, key=abs), 2, sign=True)} to {fmt(max(errs, key=abs), 2, sign=True)}"
-                f" % of the measured drift at the run's end; over every visit the RMS difference "
+                f"With that α the forward model's prediction of {which} is off by "
+                f"{fmt(min(errs), 2, sign=True)} to {fmt(max(errs), 2, sign=True)} % at the "
+                "run's end (predicted − measured, per camera and run); over every visit the "
+                "RMS difference "
                 f"(mean offset removed) is {fmt(min(p['rms_centred_um']), 3)} – "
                 f"{fmt(max(p['rms_centred_um']), 3)} µm against a measurement noise of "
                 f"{fmt(min(p['noise_um']), 3)} – {fmt(max(p['noise_um']), 3)} µm."
@@ -191,14 +193,20 @@ def _summary(d: ReportData) -> Section:
     skipped = sum(sum(r.extract_report.skipped.values()) for r in d.runs if r.extract_report)
     lost = [r.name for r in d.runs if r.data_loss]
     if lost:
-        s.blocks.append(Paragraph(f"Part of the recording of {_join(lost)} was lost (see the "
-                                  "extraction section)."))  # fmt: skip
+        s.blocks.append(
+            Paragraph(
+                f"Part of the recording of {_join(lost)} was lost (see the extraction section)."
+            )
+        )
     elif any(r.extract_report for r in d.runs):
         s.blocks.append(
             Paragraph(
                 "Extraction lost nothing"
-                + (f" and skipped {skipped:,} messages (see why below)." if skipped else
-                   " and skipped no message.")  # fmt: skip
+                + (
+                    f" and skipped {skipped:,} messages (see why below)."
+                    if skipped
+                    else " and skipped no message."
+                )
             )
         )
     return s
@@ -222,9 +230,7 @@ def _rig(d: ReportData, colours: Mapping[str, str]) -> Section:
                 else "no thermal camera"
             )
             + f"; nominal α = {fmt_alpha(r.alpha_per_k)} ×10⁻⁶/K at {fmt(r.reference_c, 1)} °C, "
-            "expanding "
-            + _join([f"{m.name} with {m.temperature}" for m in r.lengths])
-            + "."
+            "expanding " + _join([f"{m.name} with {m.temperature}" for m in r.lengths]) + "."
         )
     )
     rows = []
@@ -246,8 +252,16 @@ def _rig(d: ReportData, colours: Mapping[str, str]) -> Section:
     s.blocks.append(
         Table(
             "Poses: flange position, and where the laser meets each chip at nominal lengths",
-            ["pose", "flange x, y, z (mm)", "elevation (°)", "azimuth (°)", "camera",
-             "spot x, y (px)", "incidence (°)", "distance (mm)"],  # fmt: skip
+            [
+                "pose",
+                "flange x, y, z (mm)",
+                "elevation (°)",
+                "azimuth (°)",
+                "camera",
+                "spot x, y (px)",
+                "incidence (°)",
+                "distance (mm)",
+            ],
             rows,
         )
     )
@@ -338,8 +352,19 @@ def _heating(d: ReportData) -> Section:
     s.blocks.append(
         Table(
             "Heating curves y = y₀ + A·e^(−t/τ) (± one standard error)",
-            ["run", "series", "y₀", "± y₀", "A", "± A", "τ (min)", "± τ (min)", "rms", "phase",
-             "note"],  # fmt: skip
+            [
+                "run",
+                "series",
+                "y₀",
+                "± y₀",
+                "A",
+                "± A",
+                "τ (min)",
+                "± τ (min)",
+                "rms",
+                "phase",
+                "note",
+            ],
             rows,
         )
     )
@@ -396,9 +421,17 @@ def _tables(d: ReportData) -> Section:
         s.blocks.append(
             Table(
                 "The paper's Table 4, as printed (drift along the cameras' y axes)",
-                ["run", "speed (%)", "link2 start (°C)", "link2 end (°C)", "ΔT₂ (K)",
-                 "link3 start (°C)", "link3 end (°C)", "ΔT₃ (K)",
-                 *[f"Δl {c} (µm)" for c in pd_.cameras]],  # fmt: skip
+                [
+                    "run",
+                    "speed (%)",
+                    "link2 start (°C)",
+                    "link2 end (°C)",
+                    "ΔT₂ (K)",
+                    "link3 start (°C)",
+                    "link3 end (°C)",
+                    "ΔT₃ (K)",
+                    *[f"Δl {c} (µm)" for c in pd_.cameras],
+                ],
                 rows,
             )
         )
@@ -469,8 +502,18 @@ def _table7(d: ReportData) -> Table | Missing:
         "(series: time-series fit; per camera and mean: start/end), as `thermrs predict --json` "
         "gives them; rms: over every visit, both axes, mean offset removed; noise: the "
         "measurement's own (von Neumann)",
-        ["α", "α (×10⁻⁶/K)", "camera", "run", "axis", "predicted (µm)", "measured (µm)",
-         "error (%)", "rms (µm)", "noise (µm)"],  # fmt: skip
+        [
+            "α",
+            "α (×10⁻⁶/K)",
+            "camera",
+            "run",
+            "axis",
+            "predicted (µm)",
+            "measured (µm)",
+            "error (%)",
+            "rms (µm)",
+            "noise (µm)",
+        ],
         rows,
     )
 
@@ -540,13 +583,22 @@ def _iso(d: ReportData, colours: Mapping[str, str]) -> Section:
             str(r["n_windows"]),
             r.get("note") or "",
         ]
-        for r in d.iso["summary"]  # type: ignore[union-attr]
+        for r in d.iso["summary"]
     ]
     s.blocks.append(
         Table(
             "ISO 9283-style figures per run and camera",
-            ["run", "camera", "RP cold (µm)", "RP warm (µm)", "dAP (µm)", "dRP (µm)",
-             "settled after (min)", "windows", "note"],  # fmt: skip
+            [
+                "run",
+                "camera",
+                "RP cold (µm)",
+                "RP warm (µm)",
+                "dAP (µm)",
+                "dRP (µm)",
+                "settled after (min)",
+                "windows",
+                "note",
+            ],
             rows,
         )
     )
@@ -575,14 +627,27 @@ def _params(p: Mapping[str, Any] | None) -> str:
         if isinstance(v, float):
             out.append(f"{k} = {v:.4g}")
         elif isinstance(v, list | tuple):
-            out.append(f"{k} = [" + ", ".join(f"{x:.4g}" if isinstance(x, float) else str(x)
-                                              for x in v) + "]")  # fmt: skip
+            out.append(
+                f"{k} = ["
+                + ", ".join(f"{x:.4g}" if isinstance(x, float) else str(x) for x in v)
+                + "]"
+            )
         elif isinstance(v, Mapping):
-            out.append(f"{k} = {{" + ", ".join(f"{kk}: {vv:.4g}" if isinstance(vv, float)
-                                               else f"{kk}: {vv}" for kk, vv in v.items()) + "}")  # fmt: skip
+            out.append(
+                f"{k} = {{"
+                + ", ".join(
+                    f"{kk}: {vv:.4g}" if isinstance(vv, float) else f"{kk}: {vv}"
+                    for kk, vv in v.items()
+                )
+                + "}"
+            )
         else:
             out.append(f"{k} = {v}")
     return "; ".join(out)
+
+
+def _yes_no(x: object) -> str:
+    return "yes" if x is True else "no" if x is False else "—"
 
 
 def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
@@ -607,18 +672,31 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
     alpha = b.get("alpha_per_k") or {}
     rows = [
         ["noise floor (visit to visit)", fmt(doc.get("noise_floor_um"), 3), ""],
-        ["baseline α (×10⁻⁶/K)", fmt_alpha(alpha.get("value")),
-         " – ".join(fmt_alpha(x) for x in alpha.get("ci95", [])) or ""],  # fmt: skip
+        [
+            "baseline α (×10⁻⁶/K)",
+            fmt_alpha(alpha.get("value")),
+            " – ".join(fmt_alpha(x) for x in alpha.get("ci95", [])) or "",
+        ],
         ["training RMS, nominal model", fmt(b.get("train_rms_um"), 3), ""],
-        ["held-out RMS, nominal model", fmt(b.get("holdout_rms_um"), 3),
-         f"max {fmt(b.get('holdout_max_um'), 3)}"],  # fmt: skip
-        ["held-out RMS, with the chosen effect", fmt(hf.get("holdout_rms_after_um"), 3),
-         f"max {fmt(hf.get('holdout_max_after_um'), 3)}"],  # fmt: skip
-        ["share of the gap closed", fmt(None if hf.get("gap_closed") is None
-                                        else 100 * hf["gap_closed"], 1) + " %", ""],  # fmt: skip
+        [
+            "held-out RMS, nominal model",
+            fmt(b.get("holdout_rms_um"), 3),
+            f"max {fmt(b.get('holdout_max_um'), 3)}",
+        ],
+        [
+            "held-out RMS, with the chosen effect",
+            fmt(hf.get("holdout_rms_after_um"), 3),
+            f"max {fmt(hf.get('holdout_max_after_um'), 3)}",
+        ],
+        [
+            "share of the gap closed",
+            fmt(None if hf.get("gap_closed") is None else 100 * hf["gap_closed"], 1) + " %",
+            "",
+        ],
     ]
-    s.blocks.append(Table("How far: the nominal model and the chosen effect (µm)",
-                          ["", "value", ""], rows))  # fmt: skip
+    s.blocks.append(
+        Table("How far: the nominal model and the chosen effect (µm)", ["", "value", ""], rows)
+    )
     loc = sorted(doc.get("location") or [], key=lambda r: -float(r.get("share") or 0))
     if loc:
         s.blocks.append(
@@ -627,8 +705,15 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
                 "share first)",
                 ["run", "camera", "axis", "phase", "rms (µm)", "share (%)", "visits"],
                 [
-                    [r["run"], r["camera"], r["axis"], r.get("phase", ""), fmt(r["rms_um"], 3),
-                     fmt(100 * float(r["share"]), 1), str(r.get("n", ""))]  # fmt: skip
+                    [
+                        r["run"],
+                        r["camera"],
+                        r["axis"],
+                        r.get("phase", ""),
+                        fmt(r["rms_um"], 3),
+                        fmt(100 * float(r["share"]), 1),
+                        str(r.get("n", "")),
+                    ]
                     for r in loc[:12]
                 ],
             )
@@ -657,8 +742,15 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
             Table(
                 "Which: every effect of the library fitted on the training runs, judged on the "
                 "held-out runs (shrink = 1 − held-out RMS with it / nominal)",
-                ["effect", "parameters", "train RMS (µm)", "held-out RMS (µm)", "shrink",
-                 "ΔAICc", "placebo beaten"],  # fmt: skip
+                [
+                    "effect",
+                    "parameters",
+                    "train RMS (µm)",
+                    "held-out RMS (µm)",
+                    "shrink",
+                    "ΔAICc",
+                    "placebo beaten",
+                ],
                 [
                     [
                         r["effect"],
@@ -667,9 +759,7 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
                         fmt(r.get("holdout_rms_um"), 3),
                         fmt(r.get("shrink"), 3),
                         fmt((r.get("evidence") or {}).get("delta_aicc"), 1),
-                        {True: "yes", False: "no"}.get(
-                            (r.get("evidence") or {}).get("placebo_beaten"), "—"
-                        ),
+                        _yes_no((r.get("evidence") or {}).get("placebo_beaten")),
                     ]
                     for r in ranking
                 ],
@@ -681,8 +771,10 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
             Table(
                 "Confounded candidates and the measurement that would separate them",
                 ["effects", "similarity (cos)", "separate by"],
-                [[" / ".join(c["effects"]), fmt(c.get("cos"), 3), c.get("separate_by", "")]
-                 for c in conf],  # fmt: skip
+                [
+                    [" / ".join(c["effects"]), fmt(c.get("cos"), 3), c.get("separate_by", "")]
+                    for c in conf
+                ],
             )
         )
     else:
@@ -717,13 +809,19 @@ def _extraction(d: ReportData) -> Section:
                 Table(
                     "CCD frames by status",
                     ["status", "frames", "share (%)"],
-                    [[k, f"{v:,}", fmt(100 * v / total if total else None, 1)]
-                     for k, v in st.items()],  # fmt: skip
+                    [
+                        [k, f"{v:,}", fmt(100 * v / total if total else None, 1)]
+                        for k, v in st.items()
+                    ],
                 )
             )
         else:
-            sub.blocks.append(Missing("No frames table beside the run's tables: frame counts "
-                                      "by status are not available."))  # fmt: skip
+            sub.blocks.append(
+                Missing(
+                    "No frames table beside the run's tables: frame counts "
+                    "by status are not available."
+                )
+            )
         if run.joints is not None and run.joints == 0:
             sub.blocks.append(
                 Missing(
@@ -756,8 +854,10 @@ def _extraction(d: ReportData) -> Section:
                     Table(
                         "Skipped messages",
                         ["topic: reason (first seen)", "count"],
-                        [[rep.skipped_examples.get(k, k), f"{v:,}"]
-                         for k, v in rep.skipped.items()],  # fmt: skip
+                        [
+                            [rep.skipped_examples.get(k, k), f"{v:,}"]
+                            for k, v in rep.skipped.items()
+                        ],
                     )
                 )
             else:

@@ -37,7 +37,6 @@ TEMPERATURE_PALETTE = ("#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
 MAX_POINTS = 500
 
 
-
 def camera_colours(cameras: Sequence[str]) -> dict[str, str]:
     """One colour per camera, in the rig's order."""
     return {c: CAMERA_PALETTE[i % len(CAMERA_PALETTE)] for i, c in enumerate(cameras)}
@@ -153,8 +152,9 @@ def fig_run(
     ax = axes[2]
     tcol = temperature_colours(temp_names)
     if not temp_names:
-        ax.text(0.5, 0.5, "no temperature readings", ha="center", va="center",
-                transform=ax.transAxes)  # fmt: skip
+        ax.text(
+            0.5, 0.5, "no temperature readings", ha="center", va="center", transform=ax.transAxes
+        )
     for name in temp_names:
         if temperatures is not None and temperatures.height:
             s = temperatures.filter(pl.col("name") == name).sort("t_ns")
@@ -197,8 +197,9 @@ def fig_prediction(series: pl.DataFrame, colours: Mapping[str, str], run: str) -
             m = g[f"measured_{axis}_um"].to_numpy().astype(np.float64)
             p = g[f"predicted_{axis}_um"].to_numpy().astype(np.float64)
             xs, ms_, ps = _thin(x, m, p)
-            ax.plot(xs, ms_, "-", lw=0.7, alpha=0.6, color=colours[cam],
-                    label=f"camera {cam} measured")  # fmt: skip
+            ax.plot(
+                xs, ms_, "-", lw=0.7, alpha=0.6, color=colours[cam], label=f"camera {cam} measured"
+            )
             ax.plot(xs, ps, "--", lw=1.4, color=colours[cam], label=f"camera {cam} predicted")
         name = "x" if axis == "u" else "y"
         ax.set_ylabel(f"drift along chip {name} ({axis}), µm")
@@ -264,13 +265,26 @@ def fig_diagnosis(residuals: pl.DataFrame, colours: Mapping[str, str]) -> str:
                 x = h["t_h"].to_numpy().astype(np.float64)
                 b = h["baseline_um"].cast(pl.Float64).to_numpy()
                 xs, bs = _thin(x, b)
-                ax.plot(xs, bs, ls, lw=0.8, color=colours[cam], alpha=0.45,
-                        label=f"camera {cam} {axis}, nominal")  # fmt: skip
+                ax.plot(
+                    xs,
+                    bs,
+                    ls,
+                    lw=0.8,
+                    color=colours[cam],
+                    alpha=0.45,
+                    label=f"camera {cam} {axis}, nominal",
+                )
                 if "after_um" in h.columns and h["after_um"].null_count() < h.height:
                     a = h["after_um"].cast(pl.Float64).fill_null(np.nan).to_numpy()
                     xs, as_ = _thin(x, a)
-                    ax.plot(xs, as_, ls, lw=1.4, color=colours[cam],
-                            label=f"camera {cam} {axis}, with the effect")  # fmt: skip
+                    ax.plot(
+                        xs,
+                        as_,
+                        ls,
+                        lw=1.4,
+                        color=colours[cam],
+                        label=f"camera {cam} {axis}, with the effect",
+                    )
         ax.axhline(0.0, color="black", lw=0.6)
         ax.set_title(f"held-out run {run}", fontsize=9)
         ax.set_ylabel("residual, µm")
@@ -279,8 +293,12 @@ def fig_diagnosis(residuals: pl.DataFrame, colours: Mapping[str, str]) -> str:
     return _svg(fig)
 
 
-def fig_rig(rig_view: Mapping[str, Any], sizes: Mapping[str, tuple[int, int]],
-            poses: Mapping[str, str], colours: Mapping[str, str]) -> str:  # fmt: skip
+def fig_rig(
+    rig_view: Mapping[str, Any],
+    sizes: Mapping[str, tuple[int, int]],
+    poses: Mapping[str, str],
+    colours: Mapping[str, str],
+) -> str:
     """Where the laser meets each chip at the camera's own pose: the chip outline (pixels) and
     the spot."""
     cams = list(colours)
@@ -291,8 +309,14 @@ def fig_rig(rig_view: Mapping[str, Any], sizes: Mapping[str, tuple[int, int]],
         spot = rig_view["poses"][poses[cam]]["spot_px"].get(cam)
         ax.add_patch(_rect(w, h))
         if spot is not None:
-            ax.plot([spot[0]], [spot[1]], "o", color=colours[cam], ms=7,
-                    label=f"spot ({spot[0]:.1f}, {spot[1]:.1f}) px")  # fmt: skip
+            ax.plot(
+                [spot[0]],
+                [spot[1]],
+                "o",
+                color=colours[cam],
+                ms=7,
+                label=f"spot ({spot[0]:.1f}, {spot[1]:.1f}) px",
+            )
         ax.plot([(w - 1) / 2], [(h - 1) / 2], "+", color="black", ms=8, label="chip centre")
         ax.set_xlim(-0.05 * w, 1.05 * w)
         ax.set_ylim(1.05 * h, -0.05 * h)  # rows grow downwards
@@ -308,4 +332,3 @@ def _rect(w: int, h: int) -> Any:
     from matplotlib.patches import Rectangle
 
     return Rectangle((-0.5, -0.5), w, h, fill=False, lw=1.0, color="black")
-

@@ -20,7 +20,8 @@ CSS = """
 body { font: 15px/1.45 system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; color: #1b1f24;
   max-width: 1040px; margin: 2rem auto; padding: 0 1.25rem; }
 h1 { font-size: 1.7rem; margin-bottom: .2rem; }
-h2 { font-size: 1.3rem; border-bottom: 1px solid #d0d7de; padding-bottom: .2rem; margin-top: 2.2rem; }
+h2 { font-size: 1.3rem; border-bottom: 1px solid #d0d7de; padding-bottom: .2rem;
+  margin-top: 2.2rem; }
 h3 { font-size: 1.05rem; margin-top: 1.4rem; }
 .meta { color: #57606a; font-size: .9rem; }
 nav ol { columns: 2; font-size: .92rem; }
@@ -103,7 +104,9 @@ def _md_block(b: object, fig_dir: Path, rel: str, written: dict[str, Path]) -> s
     if isinstance(b, Table):
         lines = [f"*{b.caption}*", ""]
         lines.append("| " + " | ".join(_md_cell(c) for c in b.columns) + " |")
-        lines.append("|" + "|".join(":--" if i == 0 else "--:" for i in range(len(b.columns))) + "|")
+        lines.append(
+            "|" + "|".join(":--" if i == 0 else "--:" for i in range(len(b.columns))) + "|"
+        )
         lines += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in b.rows]
         return "\n".join(lines)
     if isinstance(b, Figure):
