@@ -64,7 +64,7 @@ def visible_text(html: str) -> str:
 
 def cells(html: str) -> set[str]:
     """Every table cell's text."""
-    return {html_unescape(c) for c in re.findall(r"<td>(.*?)</td>", html)}
+    return {html_unescape(c) for c in re.findall(r"<td[^>]*>(.*?)</td>", html)}
 
 
 def html_unescape(s: str) -> str:
@@ -312,6 +312,22 @@ def test_no_thermal_readings_stated(
     assert "α could not be fitted" in text
     for sid in SECTION_IDS:
         assert f'id="{sid}"' in out.read_text()
+
+
+def test_no_joint_states_stated(
+    campaign: dict[str, Any], paper_rig: thermrs.Rig, tmp_path: Path
+) -> None:
+    src = campaign["paths"]["warm"]["tables"]
+    stem = src.name[: -len(".parquet")]
+    for part in ("", ".visits", ".temperatures"):
+        shutil.copy(src.with_name(f"{stem}{part}.parquet"), tmp_path / f"stiff{part}.parquet")
+    joints = pl.read_parquet(src.with_name(f"{stem}.joints.parquet"))
+    joints.clear().write_parquet(tmp_path / "stiff.joints.parquet")
+    run = load_run(tmp_path / "stiff.parquet", paper_rig)
+    out = tmp_path / "stiff.html"
+    write_report(out, runs=[run], rig=paper_rig, markdown=False)
+    text = visible_text(out.read_text())
+    assert "stiff: no joint states" in text
 
 
 class _HandMadeDiagnosis:

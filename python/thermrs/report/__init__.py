@@ -25,6 +25,7 @@ Example
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import tempfile
@@ -174,6 +175,9 @@ def write_report(
             if fig_dir.exists():
                 shutil.rmtree(fig_dir)
             staging.rename(fig_dir)
+            mask = os.umask(0)
+            os.umask(mask)
+            os.chmod(fig_dir, 0o777 & ~mask)  # mkdtemp makes it private
         except BaseException:
             shutil.rmtree(staging, ignore_errors=True)
             raise
@@ -193,8 +197,6 @@ def write_report(
 def find_chromium() -> str | None:
     """The Chromium to print and test with: ``THERMRS_CHROMIUM``, else ``chromium``,
     ``chromium-browser`` or ``google-chrome`` on PATH."""
-    import os
-
     env = os.environ.get("THERMRS_CHROMIUM")
     if env:
         return env if Path(env).exists() else shutil.which(env)

@@ -69,6 +69,8 @@ class RunInput:
         report is not stored beside them).
     data_loss
         Whether part of the recording was lost.
+    recording
+        The recording it was extracted from (several runs may share one), or None.
     """
 
     name: str
@@ -79,6 +81,7 @@ class RunInput:
     frames_by_status: dict[str, int] | None = None
     extract_report: ExtractReport | None = None
     data_loss: bool = False
+    recording: str | None = None
 
     @property
     def roi_names(self) -> list[str]:
@@ -87,7 +90,13 @@ class RunInput:
 
 
 def run_from_extraction(
-    ex: Extraction, rig: Rig, *, name: str, source: str, window_ns: tuple[int, int] | None = None
+    ex: Extraction,
+    rig: Rig,
+    *,
+    name: str,
+    source: str,
+    window_ns: tuple[int, int] | None = None,
+    recording: str | None = None,
 ) -> RunInput:
     """A :class:`RunInput` from an extraction, optionally only the visits, readings and frames
     inside ``window_ns`` (a recording that holds several runs, cut at their times)."""
@@ -116,6 +125,7 @@ def run_from_extraction(
         frames_by_status={str(k): int(v) for k, v in counts.items()},
         extract_report=ex.report,
         data_loss=ex.report.data_loss,
+        recording=recording or source,
     )
 
 

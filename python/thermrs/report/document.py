@@ -380,7 +380,7 @@ def _tables(d: ReportData) -> Section:
     temps = sorted({n for r in d.runs for n in r.roi_names})
     cols = ["run", "hours", "visits"]
     for n in temps:
-        cols += [f"{n} start (°C)", f"{n} end (°C)", f"Δ{n} (K)"]
+        cols += [f"{n} first → last (°C)", f"Δ{n} (K)"]
     for c in cams:
         cols += [f"{c} Δu (µm)", f"{c} Δv (µm)"]
     rows = []
@@ -388,7 +388,10 @@ def _tables(d: ReportData) -> Section:
         cells = [row["run"], fmt(row["hours"], 1), str(row["visits"])]
         for n in temps:
             a, b = row.get(f"{n}_start_c"), row.get(f"{n}_end_c")
-            cells += [fmt(a), fmt(b), fmt(None if a is None or b is None else b - a)]
+            cells += [
+                f"{fmt(a)} → {fmt(b)}",
+                fmt(None if a is None or b is None else b - a, 2, sign=True),
+            ]
         for c in cams:
             cells += [fmt(row.get(f"{c}_u_um")), fmt(row.get(f"{c}_v_um"))]
         rows.append(cells)
@@ -799,40 +802,56 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
 
 def _extraction(d: ReportData) -> Section:
     s = Section("extraction", "What extraction skipped and why")
+    # Runs cut from one recording share its extraction: shown once.
+    groups: dict[object, list[Any]] = {}
     for run in d.runs:
-        sub = Section(f"extraction-{run.name}", f"{run.name} ({run.source})")
-        rep = run.extract_report
-        if run.frames_by_status is not None:
-            st = run.frames_by_status
-            total = sum(st.values())
-            sub.blocks.append(
-                Table(
-                    "CCD frames by status",
-                    ["status", "frames", "share (%)"],
-                    [
-                        [k, f"{v:,}", fmt(100 * v / total if total else None, 1)]
-                        for k, v in st.items()
-                    ],
-                )
-            )
+        key = id(run.extract_report) if run.extract_report is not None else run.name
+        groups.setdefault(key, []).append(run)
+    for runs in groups.values():
+        first = runs[0]
+        rep = first.extract_report
+        if len(runs) > 1:
+            title = f"{_join([r.name for r in runs])} (cut from {first.recording})"
         else:
+            title = f"{first.name} ({first.source})"
+        sub = Section(f"extraction-{first.name}", title)
+        rows = []
+        for r in runs:
+            if r.frames_by_status is None:
+                continue
+            total = sum(r.frames_by_status.values())
+            rows += [
+                [r.name, k, f"{v:,}", fmt(100 * v / total if total else None, 1)]
+                for k, v in r.frames_by_status.items()
+            ]
+        if rows:
             sub.blocks.append(
-                Missing(
-                    "No frames table beside the run's tables: frame counts "
-                    "by status are not available."
+                Table("CCD frames by status", ["run", "status", "frames", "share (%)"], rows)
+            )
+        for r in runs:
+            if r.frames_by_status is None:
+                sub.blocks.append(
+                    Missing(
+                        f"{r.name}: no frames table beside the run's tables: frame counts by "
+                        "status are not available."
+                    )
+                )
+            if r.joints == 0:
+                sub.blocks.append(
+                    Missing(
+                        f"{r.name}: no joint states, so every spot frame counted as at its "
+                        "camera's pose (visits could not be checked against the joints)."
+                    )
+                )
+            elif r.joints is None:
+                sub.blocks.append(Missing(f"{r.name}: no joints table beside the run's tables."))
+        known = [r for r in runs if r.joints]
+        if known:
+            sub.blocks.append(
+                Paragraph(
+                    "Joint states read: " + ", ".join(f"{r.name} {r.joints:,}" for r in known) + "."
                 )
             )
-        if run.joints is not None and run.joints == 0:
-            sub.blocks.append(
-                Missing(
-                    "No joint states: every spot frame counted as at its camera's pose (visits "
-                    "could not be checked against the joints)."
-                )
-            )
-        elif run.joints is not None:
-            sub.blocks.append(Paragraph(f"{run.joints:,} joint states read."))
-        else:
-            sub.blocks.append(Missing("No joints table beside the run's tables."))
         if rep is None:
             sub.blocks.append(
                 Missing(

@@ -8,6 +8,7 @@ Content-Security-Policy forbids every request, so it opens offline and mails as 
 from __future__ import annotations
 
 import html
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -28,12 +29,14 @@ nav ol { columns: 2; font-size: .92rem; }
 table { border-collapse: collapse; font-size: .82rem; margin: .6rem 0 1rem; display: block;
   overflow-x: auto; }
 caption { caption-side: top; text-align: left; font-weight: 600; padding: .3rem 0; }
-th, td { border: 1px solid #d0d7de; padding: .2rem .45rem; text-align: right; white-space: nowrap; }
-th { background: #f6f8fa; }
-td:first-child, th:first-child { text-align: left; }
+th, td { border: 1px solid #d0d7de; padding: .2rem .45rem; text-align: left; }
+th { background: #f6f8fa; white-space: nowrap; }
+td { min-width: 2.5em; max-width: 30em; }
+td.n { text-align: right; white-space: nowrap; font-variant-numeric: tabular-nums; }
 figure { margin: 1rem 0 1.4rem; break-inside: avoid; }
 figure svg { max-width: 100%; height: auto; }
 figcaption { color: #57606a; font-size: .85rem; }
+code { font-size: .92em; background: #f6f8fa; padding: 0 .2em; border-radius: 3px; }
 .missing { border-left: 4px solid #d4a72c; background: #fff8c5; padding: .4rem .7rem; }
 section#summary p { font-size: 1.02rem; }
 @media print { body { max-width: none; margin: 0; } h2 { break-before: auto; }
@@ -44,7 +47,17 @@ CSP = "default-src 'none'; style-src 'unsafe-inline'; img-src data:"
 
 
 def _e(text: str) -> str:
-    return html.escape(text, quote=True)
+    """Escaped text; `code` spans become <code>."""
+    return re.sub(r"`([^`]+)`", r"<code>\1</code>", html.escape(text, quote=True))
+
+
+#: A cell that is a number (or numbers, a range, "—"): right-aligned, never wrapped.
+NUMERIC = re.compile(r"^[−+\-–→0-9.,%\s—]*[0-9—][−+\-–→0-9.,%\s—]*$")
+
+
+def _td(cell: str) -> str:
+    cls = ' class="n"' if NUMERIC.match(cell) else ""
+    return f"<td{cls}>{_e(cell)}</td>"
 
 
 def _html_block(b: object) -> str:
@@ -54,9 +67,7 @@ def _html_block(b: object) -> str:
         return f'<p class="missing"><strong>Not shown:</strong> {_e(b.text)}</p>'
     if isinstance(b, Table):
         head = "".join(f"<th>{_e(c)}</th>" for c in b.columns)
-        body = "".join(
-            "<tr>" + "".join(f"<td>{_e(c)}</td>" for c in row) + "</tr>" for row in b.rows
-        )
+        body = "".join("<tr>" + "".join(_td(c) for c in row) + "</tr>" for row in b.rows)
         return (
             f"<table><caption>{_e(b.caption)}</caption><thead><tr>{head}</tr></thead>"
             f"<tbody>{body}</tbody></table>"
