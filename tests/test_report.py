@@ -152,6 +152,7 @@ def test_demo_in_chromium(demo: dict[str, Any]) -> None:
         assert f"run-{run}" in seen["sections"]
     names = {f["name"] for f in seen["figures"]}
     expected = {
+        "overview",
         "rig",
         "run-run1",
         "run-run2",
@@ -185,7 +186,7 @@ def test_demo_content(demo: dict[str, Any]) -> None:
     md = demo["html"].with_suffix(".md").read_text()
     assert md.startswith("# thermrs demo")
     figs = re.findall(r"!\[[^\]]*\]\(([^)]+\.svg)\)", md)
-    assert len(figs) >= 7
+    assert len(figs) >= 8
     for f in figs:
         assert (demo["html"].parent / f).read_text().startswith("<svg")
     # Progress on the terminal: every stage named.

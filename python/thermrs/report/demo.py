@@ -143,8 +143,9 @@ def simulate_demo(
     timings["extract"] = time.perf_counter() - t0
     hours = [(float(hi) - float(lo)) / 3.6e12 for _, lo, hi in spans.iter_rows()]
     intro = (
-        f"This is thermrs' demo: the paper's {len(runs)} runs "
-        f"({', '.join(f'{h:.1f} h' for h in hours)}) simulated on the embedded KR 15/2 rig "
+        "This is thermrs' demo: the paper's runs "
+        f"({', '.join(f'{r.name} {h:.1f} h' for r, h in zip(runs, hours, strict=True))}) "
+        "simulated on the embedded KR 15/2 rig "
         f"from the scenario {sc_path.name} ({sim.frames.height:,} CCD frames and "
         f"{sim.samples.height:,} thermal frames in one recording of "
         f"{sim.recording.stat().st_size / 1e6:.1f} MB), extracted, cut into its runs at "

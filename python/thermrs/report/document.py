@@ -118,7 +118,12 @@ def _join(items: Sequence[str]) -> str:
 # --- summary -------------------------------------------------------------------------------
 
 
-def _summary(d: ReportData) -> Section:
+def _tcol(d: ReportData) -> dict[str, str]:
+    """One colour per temperature series throughout the report."""
+    return F.temperature_colours(sorted({n for r in d.runs for n in r.roi_names}))
+
+
+def _summary(d: ReportData, colours: Mapping[str, str]) -> Section:
     s = Section("summary", "Summary")
     rig = d.rig
     n = len(d.runs)
@@ -129,6 +134,16 @@ def _summary(d: ReportData) -> Section:
             f"({_join([r.name for r in d.runs])}), {fmt(hours, 1)} h in all, "
             f"recorded on a {rig.model} with camera"
             f"{'s' if len(rig.cameras) != 1 else ''} {_join([c.name for c in rig.cameras])}."
+        )
+    )
+    mapped = [n for n in d.rig.mapped_temperatures if any(n in r.roi_names for r in d.runs)]
+    s.blocks.append(
+        Figure(
+            "overview",
+            "At a glance: every run on one time axis; each camera's drift along chip x (u, "
+            "solid) and y (v, dotted), anchored at each run's first visit, and the temperatures "
+            "the model expands the links with.",
+            F.fig_overview([(r.name, r.table) for r in d.runs], colours, mapped, _tcol(d)),
         )
     )
     for row in d.table4.iter_rows(named=True):
@@ -308,7 +323,7 @@ def _runs(d: ReportData, colours: Mapping[str, str]) -> Section:
                 f"run-{run.name}",
                 f"{run.name}: drift along chip x (u) and y (v) per camera, ROI temperatures; "
                 "time since the run's first visit.",
-                F.fig_run(run.table, curves, colours, temperatures=run.temperatures),
+                F.fig_run(run.table, curves, colours, _tcol(d), temperatures=run.temperatures),
             )
         )
         s.subsections.append(sub)
@@ -897,7 +912,7 @@ def compose(d: ReportData) -> list[Section]:
     """Every section of the report, in order (:data:`SECTION_IDS`)."""
     colours = F.camera_colours([c.name for c in d.rig.cameras])
     sections = [
-        _summary(d),
+        _summary(d, colours),
         _rig(d, colours),
         _runs(d, colours),
         _heating(d),

@@ -115,6 +115,7 @@ def fig_run(
     table: pl.DataFrame,
     curves: pl.DataFrame,
     colours: Mapping[str, str],
+    tcol: Mapping[str, str],
     *,
     temperatures: pl.DataFrame | None = None,
 ) -> str:
@@ -150,7 +151,6 @@ def fig_run(
         ax.set_ylabel(f"drift along chip {name} ({axis}), µm")
         _legend(ax)
     ax = axes[2]
-    tcol = temperature_colours(temp_names)
     if not temp_names:
         ax.text(
             0.5, 0.5, "no temperature readings", ha="center", va="center", transform=ax.transAxes
@@ -178,6 +178,69 @@ def fig_run(
     ax.set_xlabel("time since the run's first visit, h")
     if temp_names:
         _legend(ax)
+    return _svg(fig)
+
+
+def fig_overview(
+    runs: Sequence[tuple[str, pl.DataFrame]],
+    colours: Mapping[str, str],
+    temperatures: Sequence[str],
+    tcol: Mapping[str, str],
+) -> str:
+    """Every run on one time axis (hours since the first run's first visit): each camera's
+    drift along chip x (u, solid) and y (v, dotted), anchored at each run's first visit, and
+    the temperatures the model expands with; runs shaded and named."""
+    t0 = min(int(t["t_ns"].min()) for _, t in runs)  # type: ignore[arg-type]
+    fig = _figure(4.2)
+    axes = fig.subplots(2, 1, sharex=True, height_ratios=[3, 2])
+    labelled: set[str] = set()
+    for name, t in runs:
+        t = t.sort("t_ns")
+        lo, hi = (_hours(np.array([t["t_ns"].min(), t["t_ns"].max()]), t0)).tolist()
+        for ax in axes:
+            ax.axvspan(lo, hi, color="#000000", alpha=0.04, lw=0)
+        axes[0].text(
+            (lo + hi) / 2,
+            1.0,
+            name,
+            transform=axes[0].get_xaxis_transform(),
+            ha="center",
+            va="bottom",
+            fontsize=8,
+        )
+        for cam in colours:
+            tc = t.filter(pl.col("camera") == cam)
+            if not tc.height:
+                continue
+            x = _hours(tc["t_ns"].to_numpy(), t0)
+            for axis, ls in (("u", "-"), ("v", ":")):
+                y = tc[f"drift_{axis}_um"].to_numpy().astype(np.float64)
+                xs, ys = _thin(x, y)
+                label = f"camera {cam}, chip {'x' if axis == 'u' else 'y'} ({axis})"
+                axes[0].plot(
+                    xs,
+                    ys,
+                    ls,
+                    lw=1.0,
+                    color=colours[cam],
+                    label=None if label in labelled else label,
+                )
+                labelled.add(label)
+        per = t.unique("t_ns", keep="first", maintain_order=True)
+        x = _hours(per["t_ns"].to_numpy(), t0)
+        for n in temperatures:
+            if f"{n}_c" not in per.columns:
+                continue
+            xs, ys = _thin(x, per[f"{n}_c"].to_numpy().astype(np.float64))
+            axes[1].plot(xs, ys, "-", lw=1.0, color=tcol[n], label=None if n in labelled else n)
+            labelled.add(n)
+    axes[0].axhline(0.0, color="black", lw=0.5)
+    axes[0].set_ylabel("drift from the run's\nfirst visit, µm")
+    axes[1].set_ylabel("temperature, °C")
+    axes[1].set_xlabel("time since the first run's first visit, h")
+    for ax in axes:
+        if ax.get_legend_handles_labels()[0]:
+            _legend(ax)
     return _svg(fig)
 
 
