@@ -16,6 +16,7 @@ same defaults, so that a number in the report is the number those commands print
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,7 +25,7 @@ from typing import Any
 import numpy as np
 import polars as pl
 
-from thermrs.errors import InputError
+from thermrs.errors import InputError, ThermrsError
 from thermrs.ingest import Extraction, ExtractReport
 from thermrs.rig import Rig
 
@@ -245,14 +246,16 @@ def table4(runs: Sequence[RunInput]) -> pl.DataFrame:
 def _diagnose(
     train: list[pl.DataFrame], holdout: list[pl.DataFrame], rig: Rig
 ) -> tuple[Any | None, str | None]:
-    try:
-        mod = importlib.import_module("thermrs.diagnose")
-    except ImportError:
+    if importlib.util.find_spec("thermrs.diagnose") is None:
         return None, (
             "The diagnoser (thermrs.diagnose) is not part of this installation, so no "
             "diagnosis was made."
         )
-    return mod.diagnose(train, holdout, rig), None
+    mod = importlib.import_module("thermrs.diagnose")
+    try:
+        return mod.diagnose(train, holdout, rig), None
+    except ThermrsError as e:
+        return None, f"The diagnosis could not be made: {e}"
 
 
 def gather(

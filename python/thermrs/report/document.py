@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import polars as pl
@@ -235,7 +236,7 @@ def _rig(d: ReportData, colours: Mapping[str, str]) -> Section:
     s = Section("rig", "The rig")
     s.blocks.append(
         Paragraph(
-            f"{r.name or r.model} ({r.source}): robot {r.model}, joint states on "
+            f"{r.name or r.model} ({Path(r.source).name}): robot {r.model}, joint states on "
             f"{r.joint_states_topic}; camera{'s' if len(r.cameras) != 1 else ''} "
             + _join([f"{c.name} at pose {c.pose} ({c.topic})" for c in r.cameras])
             + "; "
