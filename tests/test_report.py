@@ -132,7 +132,7 @@ def keep(path: Path) -> None:
 def demo(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     d = tmp_path_factory.mktemp("demo")
     out = d / "demo.html"
-    r = run_cli("report", "--demo", "-o", str(out), "--workdir", str(d / "work"), cwd=d)
+    r = run_cli("report", "--demo", "-o", str(out), cwd=d)
     assert r.returncode == 0, r.stderr
     return {"dir": d, "html": out, "stderr": r.stderr}
 
