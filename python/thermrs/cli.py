@@ -1015,6 +1015,7 @@ def main(argv: list[str] | None = None) -> None:
 
 def _register() -> None:
     """Commands that live in their own modules."""
+    from thermrs import cli_report  # noqa: F401  (its @cli.command registers `thermrs report`)
     from thermrs.cli_diagnose import diagnose, diagnose_bench
 
     cli.add_command(diagnose)

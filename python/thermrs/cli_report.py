@@ -1,0 +1,182 @@
+"""``thermrs report``: parse, call :func:`thermrs.report.write_report` (or the demo), show
+progress and what was written. Importing this module registers the command on
+:data:`thermrs.cli.cli`; the report's own modules (and matplotlib) load only when it runs."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import click
+from rich.console import Console
+
+from thermrs.cli import EXIT_DATA_LOSS, cli
+from thermrs.errors import InputError
+
+__all__ = ["report"]
+
+
+@cli.command()
+@click.option(
+    "--demo",
+    is_flag=True,
+    help="Simulate the paper's three 15-hour runs from the embedded rig and the packaged demo "
+    "scenario, and report on them (needs no other option).",
+)
+@click.option(
+    "--rig",
+    "rig_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Rig file (required without --demo).",
+)
+@click.option(
+    "--run",
+    "runs",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    help="Runs: recordings (MCAP) or tables written by `thermrs extract`, one run each.",
+)
+@click.option(
+    "--train",
+    "train",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    help="Runs α is fitted on (default: the first --run); the others are held out, predicted "
+    "and diagnosed. A --train run not given as --run is added.",
+)
+@click.option(
+    "-o",
+    "--out",
+    "out_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="HTML file to write [default: thermrs-report.html, or thermrs-demo-report.html with "
+    "--demo]; the Markdown twin OUT.md and its figures OUT_files/ go beside it.",
+)
+@click.option("--pdf", is_flag=True, help="Also print the report to OUT.pdf (headless Chromium).")
+@click.option("--no-markdown", is_flag=True, help="Write only the HTML.")
+@click.option("--title", default=None, help="The report's title.")
+@click.option(
+    "--workdir",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="--demo: keep the simulated recording and its truth here (default: a temporary folder).",
+)
+@click.option("--quiet", is_flag=True, help="No progress.")
+def report(
+    demo: bool,
+    rig_path: Path | None,
+    runs: tuple[Path, ...],
+    train: tuple[Path, ...],
+    out_path: Path | None,
+    pdf: bool,
+    no_markdown: bool,
+    title: str | None,
+    workdir: Path | None,
+    quiet: bool,
+) -> None:
+    """Write the report a person reads: one self-contained HTML file (figures inline, opens
+    offline) and a Markdown twin, for one run or a campaign, from recordings or extracted
+    tables: summary, rig, drift and temperatures per run, heating curves, Table 4/6/7-style
+    tables, prediction against measurement, ISO 9283-style repeatability, the diagnosis and
+    what extraction skipped.
+
+    `thermrs report --demo` simulates the paper's runs and reports on them.
+
+    Exits 3 (after writing the report) if part of a recording was lost.
+    """
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    err = Console(stderr=True, highlight=False)
+    if demo and (runs or train or rig_path is not None):
+        raise click.UsageError("--demo takes no --rig, --run or --train")
+    if not demo and not runs and not train:
+        raise click.UsageError("give --run RUN… (and --rig RIG), or --demo")
+    if not demo and rig_path is None:
+        raise click.UsageError("give --rig RIG")
+    for p in (*train, *runs):
+        if not p.exists():
+            raise InputError(f"{p}: no such file")
+    out = out_path or Path("thermrs-demo-report.html" if demo else "thermrs-report.html")
+    t_start = time.perf_counter()
+    with Progress(
+        TextColumn("[bold]report[/bold] {task.description}"),
+        BarColumn(),
+        TextColumn("{task.fields[info]}"),
+        TimeElapsedColumn(),
+        console=err,
+        disable=quiet,
+        transient=True,
+    ) as bar:
+        task = bar.add_task("", total=None, info="")
+
+        last = [""]
+
+        def stage(what: str, done: int = 0, total: int = 0) -> None:
+            if total:
+                bar.update(
+                    task,
+                    description=what,
+                    completed=done,
+                    total=total,
+                    info=f"{done / 1e6:,.0f}/{total / 1e6:,.0f} MB",
+                )
+            else:
+                bar.update(task, description=what, total=None, info="")
+            if not quiet and what != last[0]:
+                bar.console.print(f"[dim]· {what}[/dim]")
+            last[0] = what
+
+        loss = False
+        if demo:
+            from thermrs.report.demo import run_demo
+
+            res = run_demo(out, workdir=workdir, pdf=pdf, markdown=not no_markdown, progress=stage)
+            written = res.written
+        else:
+            from thermrs.report import load_run, write_report
+            from thermrs.rig import load_rig
+
+            assert rig_path is not None
+            rig = load_rig(rig_path)
+            paths = list(dict.fromkeys([*train, *runs]))
+            names = [p.name for p in paths]
+            loaded = []
+            for i, p in enumerate(paths):
+                stage(f"reading {p} ({i + 1}/{len(paths)})")
+                # Two files of one name in different folders: name the runs by their paths.
+                name = str(p) if names.count(p.name) > 1 else None
+                r = load_run(p, rig, name=name)
+                if r.data_loss:
+                    err.print(f"thermrs: warning: {p}: part of the recording was lost")
+                loss |= r.data_loss
+                loaded.append(r)
+            train_names = [r.name for r, p in zip(loaded, paths, strict=True) if p in train]
+            written = write_report(
+                out,
+                runs=loaded,
+                rig=rig,
+                train=train_names or None,
+                title=title,
+                markdown=not no_markdown,
+                pdf=pdf,
+                step=stage,
+            )
+    elapsed = time.perf_counter() - t_start
+    if not quiet:
+        err.print(
+            f"wrote {written.html} ({written.html_bytes / 1e3:,.0f} kB, self-contained) in "
+            f"{elapsed:.1f} s"
+        )
+        if written.markdown is not None:
+            fig_dir = next(iter(written.figures.values())).parent if written.figures else None
+            err.print(
+                f"wrote {written.markdown}"
+                + (f" and {len(written.figures)} figures in {fig_dir}/" if fig_dir else "")
+            )
+        if written.pdf is not None:
+            err.print(f"wrote {written.pdf}")
+    if loss:
+        sys.exit(EXIT_DATA_LOSS)

@@ -1,0 +1,246 @@
+"""``thermrs report``: the report a person reads (issue #11).
+
+One self-contained HTML file (inline SVG figures, no script, no request leaves it) and a
+Markdown twin with its figures as SVG files beside it, for one run or a campaign:
+
+- summary in sentences; the rig (poses, where the laser meets each chip, incidence);
+- per run the spot drift along both chip axes per camera with the ROI temperatures on the same
+  time axis (the paper's Figure 5), and the fitted heating curves with τ and standard errors;
+- Table 4/6/7-style tables; prediction against measurement with the residual;
+- ISO 9283-style repeatability cold against warm; the diagnosis (with held-out runs);
+- what extraction skipped and why.
+
+A section whose input is missing (no thermal readings, one run only, no joint states, no
+diagnoser) says so where it would be. Data gathering is :mod:`thermrs.report.data`, the
+document :mod:`thermrs.report.document`, figures :mod:`thermrs.report.figures`, rendering
+:mod:`thermrs.report.render`, the demo :mod:`thermrs.report.demo`.
+
+Example
+-------
+>>> from thermrs.report import load_run, write_report  # doctest: +SKIP
+>>> rig = thermrs.load_rig()  # doctest: +SKIP
+>>> runs = [load_run(p, rig) for p in ("run1.mcap", "run2.mcap", "run3.mcap")]  # doctest: +SKIP
+>>> write_report("report.html", runs=runs, rig=rig)  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from thermrs.errors import InputError
+from thermrs.report.data import RunInput, Step, gather, load_run, run_from_extraction
+from thermrs.rig import Rig
+
+__all__ = [
+    "RunInput",
+    "Written",
+    "find_chromium",
+    "load_run",
+    "print_pdf",
+    "run_from_extraction",
+    "write_report",
+]
+
+
+@dataclass(frozen=True)
+class Written:
+    """What :func:`write_report` wrote."""
+
+    html: Path
+    markdown: Path | None
+    figures: dict[str, Path]
+    pdf: Path | None
+    html_bytes: int
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("thermrs")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "unknown"
+
+
+def _atomic_text(path: Path, text: str) -> None:
+    from thermrs.ingest import atomic_tmp, publish
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = atomic_tmp(path)
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        publish(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def write_report(
+    out: str | Path,
+    *,
+    runs: Sequence[RunInput],
+    rig: Rig,
+    train: Sequence[str] | None = None,
+    diagnosis: Any | None = None,
+    title: str | None = None,
+    intro: str | None = None,
+    markdown: bool = True,
+    pdf: bool = False,
+    paper_reference: bool = False,
+    step: Step | None = None,
+) -> Written:
+    """Write the report of ``runs``.
+
+    Parameters
+    ----------
+    out
+        The HTML file. The Markdown twin is written beside it (``OUT.md``, figures in
+        ``OUT_files/``), and with ``pdf`` the PDF (``OUT.pdf``).
+    runs
+        The runs (:func:`load_run`, :func:`run_from_extraction`), in the order shown.
+    rig
+        The rig they were recorded on.
+    train
+        Runs α is fitted on (default: the first); the others are held out, predicted and
+        diagnosed.
+    diagnosis
+        A diagnosis already made (default: made here when runs are held out).
+    title
+        The report's title.
+    intro
+        A paragraph placed first in the summary (e.g. what a demo simulated).
+    markdown
+        Also write the Markdown twin.
+    pdf
+        Also print the HTML to PDF with headless Chromium.
+    paper_reference
+        Show the paper's printed Table 4 beside the runs' (for the paper's runs).
+    step
+        Called with a short description before each stage.
+
+    Raises
+    ------
+    InputError
+        No runs, a training run that is not given, two runs of one name, or (``pdf``) no
+        Chromium to print with.
+    """
+    from thermrs.report.document import Paragraph, compose
+    from thermrs.report.render import to_html, to_markdown
+
+    out = Path(out)
+    if pdf and find_chromium() is None:
+        raise InputError("--pdf needs Chromium (`chromium` on PATH, or THERMRS_CHROMIUM)")
+    data = gather(
+        runs,
+        rig,
+        train=train,
+        diagnosis=diagnosis,
+        title=title,
+        paper_reference=paper_reference,
+        step=step,
+    )
+    if step is not None:
+        step("drawing figures")
+    sections = compose(data)
+    if intro:
+        sections[0].blocks.insert(0, Paragraph(intro))
+    meta = (
+        f"thermrs {_version()} · rig {Path(rig.source).name} · "
+        f"runs {', '.join(r.name for r in runs)} · "
+        f"α fitted on {', '.join(data.train)}"
+        + (f", held out {', '.join(data.holdout)}" if data.holdout else "")
+    )
+    if step is not None:
+        step("writing the report")
+    text = to_html(sections, title=data.title, meta=meta)
+    _atomic_text(out, text)
+    md_path = None
+    figures: dict[str, Path] = {}
+    if markdown:
+        stem = out.name[: -len(".html")] if out.name.endswith(".html") else out.name
+        md_path = out.with_name(f"{stem}.md")
+        fig_dir = out.with_name(f"{stem}_files")
+        staging = Path(tempfile.mkdtemp(prefix=f".{stem}_files.", dir=out.parent))
+        try:
+            md, written = to_markdown(
+                sections, title=data.title, meta=meta, fig_dir=staging, rel=fig_dir.name
+            )
+            if fig_dir.exists():
+                shutil.rmtree(fig_dir)
+            staging.rename(fig_dir)
+            mask = os.umask(0)
+            os.umask(mask)
+            os.chmod(fig_dir, 0o777 & ~mask)  # mkdtemp makes it private
+        except BaseException:
+            shutil.rmtree(staging, ignore_errors=True)
+            raise
+        figures = {k: fig_dir / v.name for k, v in written.items()}
+        _atomic_text(md_path, md)
+    pdf_path = None
+    if pdf:
+        if step is not None:
+            step("printing to PDF")
+        pdf_path = out.with_suffix(".pdf")
+        print_pdf(out, pdf_path)
+    return Written(
+        html=out, markdown=md_path, figures=figures, pdf=pdf_path, html_bytes=len(text.encode())
+    )
+
+
+def find_chromium() -> str | None:
+    """The Chromium to print and test with: ``THERMRS_CHROMIUM``, else ``chromium``,
+    ``chromium-browser`` or ``google-chrome`` on PATH."""
+    env = os.environ.get("THERMRS_CHROMIUM")
+    if env:
+        return env if Path(env).exists() else shutil.which(env)
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def print_pdf(html_path: str | Path, pdf_path: str | Path, *, timeout_s: float = 120.0) -> Path:
+    """Print an HTML file to PDF with headless Chromium (A4, backgrounds, no header/footer),
+    written atomically."""
+    from thermrs.ingest import atomic_tmp, publish
+
+    exe = find_chromium()
+    if exe is None:
+        raise InputError("printing to PDF needs Chromium (`chromium` on PATH, or THERMRS_CHROMIUM)")
+    html_path, pdf_path = Path(html_path).resolve(), Path(pdf_path)
+    tmp = atomic_tmp(pdf_path)
+    try:
+        with tempfile.TemporaryDirectory(prefix="thermrs-chromium-") as profile:
+            p = subprocess.run(
+                [
+                    exe,
+                    "--headless",
+                    "--disable-gpu",
+                    "--no-sandbox",
+                    "--no-first-run",
+                    f"--user-data-dir={profile}",
+                    "--no-pdf-header-footer",
+                    f"--print-to-pdf={tmp}",
+                    html_path.as_uri(),
+                ],
+                capture_output=True,
+                text=True,
+                timeout=timeout_s,
+                check=False,
+            )
+        if p.returncode != 0 or tmp.stat().st_size == 0:
+            last = (p.stderr.strip().splitlines() or ["no output"])[-1]
+            raise InputError(f"Chromium could not print {html_path} to PDF: {last}")
+        publish(tmp, pdf_path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return pdf_path

@@ -1,0 +1,400 @@
+"""Gathering a report's numbers: every figure and table comes from the library calls the
+``--json`` outputs of ``thermrs fit``, ``predict``, ``drift`` and ``diagnose`` make, with the
+same defaults, so that a number in the report is the number those commands print.
+
+- ``fit``: :func:`thermrs.fit.fit_alpha` over the training runs (and the paper's start/end
+  estimator per training run, :func:`thermrs.fit.fit_alpha_start_end`);
+- ``predict --train``: :func:`thermrs.predict.prediction_table` of the held-out runs with the
+  time-series α (``series``) and, with one training run, the start/end α per camera and their
+  mean;
+- ``drift``: :func:`thermrs.heating.heating_curves` and :func:`thermrs.iso9283.iso9283`
+  (window 10, tolerance 1 µm) over every run;
+- ``diagnose``: :func:`thermrs.diagnose.diagnose` (train, held-out), imported only here and
+  only when there are held-out runs.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from thermrs.errors import InputError, ThermrsError
+from thermrs.ingest import Extraction, ExtractReport
+from thermrs.rig import Rig
+
+__all__ = [
+    "ISO_TOLERANCE_UM",
+    "ISO_WINDOW",
+    "ReportData",
+    "RunInput",
+    "gather",
+    "load_run",
+    "run_from_extraction",
+]
+
+#: ``thermrs drift``'s defaults.
+ISO_WINDOW = 10
+ISO_TOLERANCE_UM = 1.0
+
+Step = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class RunInput:
+    """One run as the report sees it.
+
+    Attributes
+    ----------
+    name
+        The run's name (the run table's ``run`` column).
+    table
+        Its run table (:func:`thermrs.fit.run_table`).
+    source
+        Where it came from (a path, or a description).
+    temperatures
+        The thermal and ambient readings (long table of :attr:`thermrs.Extraction.temperatures`),
+        or None where not available.
+    joints
+        Joint states read, or None where not known.
+    frames_by_status
+        CCD frames by status, or None where the frames table is not available.
+    extract_report
+        The extraction's report (skipped messages, losses), or None for extracted tables (the
+        report is not stored beside them).
+    data_loss
+        Whether part of the recording was lost.
+    recording
+        The recording it was extracted from (several runs may share one), or None.
+    """
+
+    name: str
+    table: pl.DataFrame
+    source: str
+    temperatures: pl.DataFrame | None = None
+    joints: int | None = None
+    frames_by_status: dict[str, int] | None = None
+    extract_report: ExtractReport | None = None
+    data_loss: bool = False
+    recording: str | None = None
+
+    @property
+    def roi_names(self) -> list[str]:
+        """Temperature series of the run table (ROIs and ``ambient``)."""
+        return sorted(c[: -len("_c")] for c in self.table.columns if c.endswith("_c"))
+
+
+def run_from_extraction(
+    ex: Extraction,
+    rig: Rig,
+    *,
+    name: str,
+    source: str,
+    window_ns: tuple[int, int] | None = None,
+    recording: str | None = None,
+) -> RunInput:
+    """A :class:`RunInput` from an extraction, optionally only the visits, readings and frames
+    inside ``window_ns`` (a recording that holds several runs, cut at their times)."""
+    from thermrs.fit import run_table_from
+
+    visits, temps, frames, joints = ex.visits, ex.temperatures, ex.frames, ex.joints
+    if window_ns is not None:
+        lo, hi = window_ns
+
+        def cut(df: pl.DataFrame) -> pl.DataFrame:
+            return df.filter((pl.col("t_ns") >= lo) & (pl.col("t_ns") <= hi))
+
+        visits, temps, frames, joints = cut(visits), cut(temps), cut(frames), cut(joints)
+        # Drift is anchored at the run's first visit (SPEC §4): re-anchor the cut.
+        visits = _reanchor(visits)
+    table = run_table_from(visits, temps, rig, run=name)
+    counts = (
+        dict(frames.group_by("status").len().sort("status").iter_rows()) if frames.height else {}
+    )
+    return RunInput(
+        name=name,
+        table=table,
+        source=source,
+        temperatures=temps,
+        joints=joints.height,
+        frames_by_status={str(k): int(v) for k, v in counts.items()},
+        extract_report=ex.report,
+        data_loss=ex.report.data_loss,
+        recording=recording or source,
+    )
+
+
+def _reanchor(visits: pl.DataFrame) -> pl.DataFrame:
+    """Drift columns anchored at each camera's first visit with ``ok`` frames."""
+    if not {"drift_u_um", "drift_v_um"} <= set(visits.columns):
+        return visits
+    v = visits.sort("camera", "t_ns")
+    return v.with_columns(
+        drift_u_um=pl.col("u_um") - pl.col("u_um").drop_nulls().first().over("camera"),
+        drift_v_um=pl.col("v_um") - pl.col("v_um").drop_nulls().first().over("camera"),
+    )
+
+
+def load_run(path: str | Path, rig: Rig, *, name: str | None = None) -> RunInput:
+    """A run from a recording (``.mcap``, extracted here) or from the tables ``thermrs
+    extract`` wrote (any of ``OUT.parquet``, ``OUT.visits.parquet``, …)."""
+    from thermrs.fit import load_run_table
+
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    if not path.name.endswith(".parquet"):
+        from thermrs.ingest import extract
+
+        ex = extract(path, rig)
+        stem = path.name[: -len(".mcap")] if path.name.endswith(".mcap") else path.stem
+        run = run_from_extraction(ex, rig, name=name or stem, source=str(path))
+        if run.table.height == 0:
+            raise InputError(f"{path}: no visit with a spot")
+        return run
+    table, _ = load_run_table(path, rig, run=name)
+    if table.height == 0:
+        raise InputError(f"{path}: no visit with a spot")
+    stem = path.name[: -len(".parquet")]
+    for part in (".visits", ".temperatures", ".joints"):
+        stem = stem.removesuffix(part)
+    temps = pl.read_parquet(path.with_name(f"{stem}.temperatures.parquet"))
+    jp = path.with_name(f"{stem}.joints.parquet")
+    fp = path.with_name(f"{stem}.parquet")
+    joints = pl.scan_parquet(jp).select(pl.len()).collect().item() if jp.exists() else None
+    frames_by_status = None
+    if fp.exists():
+        st = pl.read_parquet(fp, columns=["status"])
+        frames_by_status = {
+            str(k): int(v) for k, v in st.group_by("status").len().sort("status").iter_rows()
+        }
+    return RunInput(
+        name=str(table["run"][0]),
+        table=table,
+        source=str(path),
+        temperatures=temps,
+        joints=joints,
+        frames_by_status=frames_by_status,
+    )
+
+
+@dataclass
+class ReportData:
+    """Everything a report shows, computed once (see the module docstring)."""
+
+    rig: Rig
+    rig_view: dict[str, Any]
+    runs: list[RunInput]
+    train: list[str]
+    holdout: list[str]
+    fit: dict[str, Any] | None
+    fit_note: str | None
+    alphas: dict[str, float]
+    prediction: pl.DataFrame | None
+    prediction_in_sample: bool
+    series: pl.DataFrame | None
+    curves: pl.DataFrame
+    iso: dict[str, Any]
+    iso_windows: pl.DataFrame
+    table4: pl.DataFrame
+    diagnosis: Any | None
+    diagnosis_note: str | None
+    title: str
+    paper_reference: bool = False
+    notes: list[str] = field(default_factory=list)
+
+    def run(self, name: str) -> RunInput:
+        """The run called ``name``."""
+        for r in self.runs:
+            if r.name == name:
+                return r
+        raise KeyError(name)
+
+
+def table4(runs: Sequence[RunInput]) -> pl.DataFrame:
+    """Table 4-style: per run its span, the temperatures at its first and last visit and every
+    camera's drift at its last visit (both chip axes, anchored at its first visit)."""
+    rows: list[dict[str, Any]] = []
+    for r in runs:
+        t = r.table.sort("t_ns")
+        t_ns = t["t_ns"].to_numpy()
+        row: dict[str, Any] = {
+            "run": r.name,
+            "hours": float(t_ns[-1] - t_ns[0]) / 3.6e12 if len(t_ns) else float("nan"),
+            "visits": t.height,
+        }
+        for name in r.roi_names:
+            y = t[f"{name}_c"].to_numpy()
+            ok = np.isfinite(y)
+            if ok.any():
+                row[f"{name}_start_c"] = float(y[ok][0])
+                row[f"{name}_end_c"] = float(y[ok][-1])
+        for cam in sorted(set(t["camera"].to_list())):
+            tc = t.filter(pl.col("camera") == cam)
+            for ax in "uv":
+                row[f"{cam}_{ax}_um"] = float(tc[f"drift_{ax}_um"][-1])
+        rows.append(row)
+    return pl.DataFrame(rows)
+
+
+def _diagnose(
+    train: list[pl.DataFrame], holdout: list[pl.DataFrame], rig: Rig
+) -> tuple[Any | None, str | None]:
+    if importlib.util.find_spec("thermrs.diagnose") is None:
+        return None, (
+            "The diagnoser (thermrs.diagnose) is not part of this installation, so no "
+            "diagnosis was made."
+        )
+    mod = importlib.import_module("thermrs.diagnose")
+    try:
+        return mod.diagnose(train, holdout, rig), None
+    except ThermrsError as e:
+        return None, f"The diagnosis could not be made: {e}"
+
+
+def gather(
+    runs: Sequence[RunInput],
+    rig: Rig,
+    *,
+    train: Sequence[str] | None = None,
+    diagnosis: Any | None = None,
+    title: str | None = None,
+    paper_reference: bool = False,
+    step: Step | None = None,
+) -> ReportData:
+    """Compute every number of a report.
+
+    Parameters
+    ----------
+    runs
+        The runs, in the order they are shown.
+    rig
+        The rig they were recorded on.
+    train
+        Names of the runs α is fitted on (default: the first run); the others are held out:
+        predicted with that α and, with at least one held-out run, diagnosed.
+    diagnosis
+        A diagnosis already made (an object with ``to_json()`` and ``residuals``, as
+        :func:`thermrs.diagnose.diagnose` returns); by default one is made when there are
+        held-out runs.
+    title
+        The report's title.
+    paper_reference
+        Show the paper's printed Table 4 beside the runs' (the simulated paper runs).
+    step
+        Called with a short description before each stage (progress).
+    """
+    from thermrs.fit import fit_alpha, fit_alpha_start_end
+    from thermrs.heating import heating_curves
+    from thermrs.iso9283 import iso9283
+    from thermrs.predict import predict, prediction_table
+
+    def say(what: str) -> None:
+        if step is not None:
+            step(what)
+
+    if not runs:
+        raise InputError("no run to report on")
+    names = [r.name for r in runs]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise InputError(f"runs {dup} are given twice (every run needs its own name)")
+    train_names = list(train) if train else [names[0]]
+    unknown = [n for n in train_names if n not in names]
+    if unknown:
+        raise InputError(f"training run(s) {unknown} are not among the runs {names}")
+    holdout_names = [n for n in names if n not in train_names]
+    by = {r.name: r for r in runs}
+    tr = [by[n].table for n in train_names]
+    ho = [by[n].table for n in holdout_names]
+
+    say("checking the rig")
+    rig_view = rig.check()
+
+    say("fitting α")
+    fit_doc: dict[str, Any] | None = None
+    alphas: dict[str, float] = {}
+    prediction: pl.DataFrame | None = None
+    series: pl.DataFrame | None = None
+    fit_note: str | None = None
+    in_sample = not ho
+    try:
+        f = fit_alpha(tr, rig)
+        fit_doc = f.to_json()
+        start_end = {t["run"][0]: fit_alpha_start_end(t, rig) for t in tr}
+        fit_doc["start_end"] = {run: se.to_json() for run, se in start_end.items()}
+        alphas["series"] = f.alpha_per_k
+        if len(tr) == 1:
+            se = next(iter(start_end.values()))
+            for cam, (a, _) in se.per_camera.items():
+                alphas[cam] = a
+            alphas["mean"] = se.mean[0]
+        say("predicting")
+        targets = ho if ho else tr
+        prediction = prediction_table(targets, rig, alphas=alphas)
+        series = predict(pl.concat(targets, how="diagonal_relaxed"), rig, alpha_per_k=f.alpha_per_k)
+    except InputError as e:
+        fit_note = f"α could not be fitted, so nothing was predicted: {e}."
+
+    say("fitting heating curves")
+    every = pl.concat([r.table for r in runs], how="diagonal_relaxed")
+    curves = heating_curves(every)
+    iso = iso9283(every, window=ISO_WINDOW, tolerance_um=ISO_TOLERANCE_UM)
+
+    note = None
+    diag = diagnosis
+    if diag is None:
+        if fit_note is not None:
+            note = "No diagnosis: " + fit_note
+        elif not ho:
+            note = (
+                "One run only: a diagnosis needs runs held out from the fit, so none was made. "
+                "Give more runs to diagnose where the nominal model falls short."
+            )
+        else:
+            say("diagnosing")
+            diag, note = _diagnose(tr, ho, rig)
+
+    return ReportData(
+        rig=rig,
+        rig_view=rig_view,
+        runs=list(runs),
+        train=train_names,
+        holdout=holdout_names,
+        fit=fit_doc,
+        fit_note=fit_note,
+        alphas=alphas,
+        prediction=prediction,
+        prediction_in_sample=in_sample,
+        series=series,
+        curves=curves,
+        iso=iso.to_json(),
+        iso_windows=iso.windows,
+        table4=table4(runs),
+        diagnosis=diag,
+        diagnosis_note=note,
+        title=title or f"Thermal drift of {rig.name or rig.model}",
+        paper_reference=paper_reference,
+    )
+
+
+def diagnosis_json(diag: Any) -> dict[str, Any]:
+    """The diagnosis as its JSON document (an object with ``to_json()``, or a mapping)."""
+    if isinstance(diag, Mapping):
+        return dict(diag)
+    doc = diag.to_json()
+    if not isinstance(doc, dict):
+        raise TypeError("Diagnosis.to_json() must return a dict")
+    return doc
+
+
+def diagnosis_residuals(diag: Any) -> pl.DataFrame | None:
+    """The diagnosis' per-visit residuals, or None."""
+    res = getattr(diag, "residuals", None)
+    return res if isinstance(res, pl.DataFrame) else None
