@@ -707,7 +707,7 @@ mod tests {
             ),
             (
                 r#"{"name":"unmodelled_length","length":"a2","temperature":"link2"}"#,
-                "already listed",
+                "already expands",
             ),
             (
                 r#"{"name":"unmodelled_length","length":"a3","temperature":"link9"}"#,
