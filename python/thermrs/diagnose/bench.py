@@ -312,6 +312,7 @@ def run_bench(
             "status": d.status,
             "effect": d.verdict["effect"],
             "confounded_with": d.verdict["confounded_with"],
+            "confounded": [c["effects"] for c in d.confounded],
             "params": d.verdict["params"],
             "gap_closed": d.how_far["gap_closed"],
             "holdout_rms_before_um": d.how_far["holdout_rms_before_um"],
@@ -339,7 +340,11 @@ def _correct(r: dict[str, Any]) -> bool:
     if r["status"] == "identified":
         return bool(r["effect"] == truth)
     if r["status"] == "ambiguous":
-        return bool(truth == r["effect"] or truth in r["confounded_with"])
+        # Correct only where the named set holds the truth and it is confounded (canonical
+        # correlation of the signatures ≥ 0.9) with the others on these runs.
+        named = {r["effect"], *r["confounded_with"]}
+        linked = any(truth in pair and set(pair) <= named for pair in r["confounded"])
+        return bool(truth in named and linked)
     return False
 
 
