@@ -14,13 +14,13 @@ from rich.table import Table
 out = Console(highlight=False)
 
 
-def _run_file() -> click.ParamType:
-    from thermrs.cli import run_file
+def _types() -> tuple[click.ParamType, click.ParamType]:
+    from thermrs.cli import input_file, run_file
 
-    return run_file
+    return input_file, run_file
 
 
-run_file = _run_file()
+input_file, run_file = _types()
 
 
 def _f(x: Any, digits: int = 2) -> str:
@@ -142,7 +142,7 @@ def render_paper(doc: dict[str, Any]) -> None:
 @click.option(
     "--rig",
     "rig_path",
-    type=click.Path(path_type=Path),
+    type=input_file,
     default=None,
     help="Rig file (default with --paper: the embedded paper rig).",
 )
@@ -203,9 +203,11 @@ def diagnose(
 
     Exits 3 (after diagnosing) if part of a recording was lost.
     """
-    from thermrs.cli import EXIT_DATA_LOSS, _run_tables, _write_json
+    from thermrs.cli import EXIT_DATA_LOSS, _run_tables, _write_json, writable
     from thermrs.errors import InputError
     from thermrs.rig import load_rig
+
+    writable(json_path, "--json", suffixes=(".json",))
 
     if paper:
         if train or holdout:
@@ -248,7 +250,7 @@ def diagnose(
 @click.option(
     "--rig",
     "rig_path",
-    type=click.Path(path_type=Path),
+    type=input_file,
     default=None,
     help="Rig file (default: the embedded paper rig; needs ROIs link2 and link3).",
 )
@@ -284,8 +286,10 @@ def diagnose_bench(
     """The diagnoser on simulated runs with each SPEC §6 effect injected (and withheld from
     its library), with what it does not model perturbed: confusion matrix, parameter
     recovery, held-out shrink, false attributions."""
-    from thermrs.cli import _write_json
+    from thermrs.cli import _write_json, writable
     from thermrs.diagnose.bench import run_bench
+
+    writable(json_path, "--json", suffixes=(".json",))
     from thermrs.effects import EFFECT_NAMES
     from thermrs.errors import InputError
     from thermrs.rig import load_rig
