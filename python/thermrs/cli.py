@@ -119,7 +119,7 @@ class RunFileType(click.ParamType):  # type: ignore[type-arg]
         if path.is_dir():
             self.fail(f"{path}: is a directory, expected a recording (.mcap) or tables", param, ctx)
         if not path.exists():
-            self.fail(f"{path}: no such file", param, ctx)
+            self.fail(f"{str(path)!r} does not exist.", param, ctx)
         return Path(text)
 
 

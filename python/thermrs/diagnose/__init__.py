@@ -25,7 +25,8 @@ The procedure (see ``shared/notes/diagnosis.md`` for the field's tools and their
    least half of the gap above the noise floor, beats its placebo, is plausible and has no
    rival it cannot be told from. ``ambiguous``: such a gain but rivals that explain it as well
    (named). ``unexplained``: a residual above the floor that no candidate removes enough of.
-   ``none``: nothing above the floor and no candidate with a real held-out gain.
+   ``none``: the held-out residual within 8 % of the noise floor (what is above it is too
+   little to attribute, whatever a candidate gains).
 5. **How far.** Held-out RMS and maximum before and after; the gap closed as a fraction of the
    gap above the floor.
 
@@ -535,12 +536,13 @@ def _diagnose(
         conf_names = {
             e for c in confounded if best["family"].effect in c["effects"] for e in c["effects"]
         } - {best["family"].effect}
-        if not structured and closed < MIN_GAP_CLOSED:
+        if not structured:
             status = "none"
             reason = (
                 f"the held-out residual ({base_rms:.2f} µm) is within {STRUCTURED - 1:.0%} of the "
-                f"noise floor ({floor:.2f} µm); the best candidate, {best['family'].label}, "
-                f"closes only {closed:.0%} of what is above it"
+                f"noise floor ({floor:.2f} µm): too close to it to attribute; the best "
+                f"candidate, {best['family'].label}, would take it to "
+                f"{best['fit'].holdout_rms_um:.2f} µm"
             )
         elif closed < MIN_GAP_CLOSED:
             status = "unexplained"

@@ -23,12 +23,14 @@ diagnoser does not model:
 
 Verdicts are scored against the truth: ``none`` cases must get ``none``; an effect case must
 get ``identified`` with that effect, or ``ambiguous`` naming it where it is confounded on those
-runs. ``laser_tilt`` moves a drift-anchored spot by far less than the noise (a tilt turns the
-throw, not the expansion), so its truth is "invisible": ``none`` is the right answer there, and
-the bench reports what its injected tilt does to the held-out residual so that this is a
-measurement, not an assumption. With the true effect excluded from the library, the answer
-must be ``unexplained`` or ``ambiguous`` (or ``none`` where the effect is invisible), never a
-confidently wrong ``identified``.
+runs. Some injected effects cannot be seen at all: a tilted laser moves a drift-anchored spot by
+far less than the noise (a tilt turns the throw, not the expansion), and a length along the
+laser ray or a small effect on a short-armed robot leaves almost nothing once α is refitted.
+Each case therefore measures what its effect leaves after the nominal refit (the same runs made
+with and without it, same seed and noise: ``implied_rms_um``); below 0.4× the noise floor the
+case is *invisible* and ``none`` is the right answer — a measurement, not an assumption. With
+the true effect excluded from the library, the answer must be ``unexplained`` or ``ambiguous``
+(or ``none`` where the effect is invisible), never a confidently wrong ``identified``.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ import numpy.typing as npt
 import polars as pl
 
 from thermrs.effects import Effect, from_dict
+from thermrs.errors import InputError
 from thermrs.model import ForwardModel
 from thermrs.rig import Rig
 
@@ -68,8 +71,17 @@ class BenchCase:
     magnitude: str
 
 
-def _rise(link: str, speed: float) -> float:
-    _, r0, span, s0 = LINKS[link]
+def _links(rig: Rig) -> dict[str, tuple[float, float, float, float]]:
+    """The paper's two calibrated links, put on the rig's first two mapped temperatures (the
+    paper rig's ``link2`` and ``link3``; on another rig, its own two ROIs)."""
+    names = [t for t in dict.fromkeys(rig.mapped_temperatures) if t != "ambient"][:2]
+    if len(names) < 2:
+        raise InputError(f"rig {rig.source}: the bench needs two mapped link temperatures")
+    return dict(zip(names, LINKS.values(), strict=True))
+
+
+def _rise(params: tuple[float, float, float, float], speed: float) -> float:
+    _, r0, span, s0 = params
     return float(r0 + span * (1.0 - np.exp(-speed / s0)))
 
 
@@ -96,7 +108,7 @@ def make_runs(
 ) -> list[pl.DataFrame]:
     """Three run tables (``train``, ``hold_fast``, ``hold_cool``) of ``rig`` with ``effect``.
 
-    The rig must carry ROIs ``link2`` and ``link3`` (the paper's calibration drives them).
+    The paper's calibrated links drive the rig's first two mapped temperatures.
     """
     rng = np.random.default_rng(seed)
     alpha = rig.alpha_per_k * rng.uniform(0.95, 1.05)
@@ -111,7 +123,8 @@ def make_runs(
     slot = cycle_s / (len(cams) + 1)
     clock_s = 30.0 if perturb else 0.0
     gain = 0.9 if perturb else 1.0
-    state = {k: 0.0 for k in LINKS}  # rise above ambient
+    links = _links(rig)
+    state = {k: 0.0 for k in links}  # rise above ambient
     tables = []
     t0 = 1_750_000_000 * 10**9
     lag_tau = None
@@ -127,23 +140,24 @@ def make_runs(
     model = ForwardModel(rig, alpha_per_k=alpha, effects=geo)
     for ri, (name, speed, start, slope) in enumerate(plan):
         if start == "ambient":
-            state = {k: 0.0 for k in LINKS}
+            state = {k: 0.0 for k in links}
         # Surface rise on a fine grid (closed form per step), sampled at the visits.
         t_fine = np.arange(0, n * cycle_s + cycle_s, 10.0)
         rise = {}
-        for k, (tau_min, *_rest) in LINKS.items():
-            ss = _rise(k, speed)
+        for k, par in links.items():
+            tau_min = par[0]
+            ss = _rise(par, speed)
             rise[k] = ss + (state[k] - ss) * np.exp(-t_fine / (tau_min * 60.0))
             state[k] = float(rise[k][-1])
         amb_fine = amb0 + 0.5 * ri + slope * t_fine / 3600.0
-        ir_off = {k: rng.uniform(-0.03, 0.03) if perturb else 0.0 for k in LINKS}
+        ir_off = {k: rng.uniform(-0.03, 0.03) if perturb else 0.0 for k in links}
         rows = []
         ar = np.zeros((len(cams), 6))
         for ci, cam in enumerate(cams):
             t_v = np.arange(n) * cycle_s + ci * slot
             amb_v = np.interp(t_v, t_fine, amb_fine)
             struct = {}
-            for k in LINKS:
+            for k in links:
                 s_fine = amb_fine + rise[k]
                 if lag_tau is not None:
                     s_fine = _lag(t_fine, s_fine, lag_tau)
@@ -180,7 +194,7 @@ def make_runs(
             # What the instruments report: IR at the thermal camera's (offset) clock, its offset
             # drifting, its noise; ambient with thermometer noise.
             obs = {}
-            for k in LINKS:
+            for k in links:
                 t_ir = t_v - clock_s
                 drift = ir_off[k] * t_ir / (n * cycle_s)
                 obs[f"{k}_c"] = (
@@ -210,18 +224,24 @@ def make_runs(
 def _library(rig: Rig) -> dict[str, dict[str, dict[str, Any]]]:
     a, b = rig.cameras[0].name, rig.cameras[-1].name
     j2 = rig.joint_names[1]
+    t2, t3 = list(_links(rig))
+    from thermrs.effects import _length_names
+
+    lengths = _length_names(rig)
+    l1 = "a3" if "a3" in lengths else lengths[0]
+    l2 = "d1" if "d1" in lengths else lengths[-1]
     return {
         "thermal_lag": {
             "small": {"name": "thermal_lag", "tau_min": 60.0},
             "large": {"name": "thermal_lag", "tau_min": 120.0},
         },
         "alpha_per_link": {
-            "small": {"name": "alpha_per_link", "alpha_per_k": {"link2": 18e-6, "link3": 26e-6}},
-            "large": {"name": "alpha_per_link", "alpha_per_k": {"link2": 30e-6, "link3": 16e-6}},
+            "small": {"name": "alpha_per_link", "alpha_per_k": {t2: 18e-6, t3: 26e-6}},
+            "large": {"name": "alpha_per_link", "alpha_per_k": {t2: 30e-6, t3: 16e-6}},
         },
         "unmodelled_length": {
-            "small": {"name": "unmodelled_length", "length": "a3", "temperature": "link3"},
-            "large": {"name": "unmodelled_length", "length": "d1", "temperature": "link2"},
+            "small": {"name": "unmodelled_length", "length": l1, "temperature": t3},
+            "large": {"name": "unmodelled_length", "length": l2, "temperature": t2},
         },
         "fixture_drift": {
             "small": {"name": "fixture_drift", "camera": a, "um_per_k": [10.0, -8.0]},
@@ -235,13 +255,13 @@ def _library(rig: Rig) -> dict[str, dict[str, dict[str, Any]]]:
             "small": {
                 "name": "joint_offset",
                 "joint": j2,
-                "temperature": "link2",
+                "temperature": t2,
                 "urad_per_k": 4.0,
             },
             "large": {
                 "name": "joint_offset",
                 "joint": j2,
-                "temperature": "link3",
+                "temperature": t3,
                 "urad_per_k": -8.0,
             },
         },
@@ -304,6 +324,11 @@ def run_bench(
         eff = None if c.effect is None else from_dict(c.effect, rig=rig)
         tables = make_runs(rig, eff, seed=c.seed, hours=hours)
         d = diagnose(tables[:1], tables[1:], rig, seed=c.seed)
+        implied = (
+            0.0
+            if eff is None
+            else _implied_rms(rig, tables, make_runs(rig, None, seed=c.seed, hours=hours))
+        )
         row: dict[str, Any] = {
             "truth": c.truth,
             "magnitude": c.magnitude,
@@ -318,6 +343,8 @@ def run_bench(
             "holdout_rms_before_um": d.how_far["holdout_rms_before_um"],
             "holdout_rms_after_um": d.how_far["holdout_rms_after_um"],
             "noise_floor_um": d.noise_floor_um,
+            "implied_rms_um": implied,
+            "visible": bool(implied >= VISIBLE * d.noise_floor_um),
         }
         row["recovered"] = (
             _recovered(c.effect, d.verdict["params"])
@@ -333,9 +360,31 @@ def run_bench(
     return _score(results, time.perf_counter() - t_start)
 
 
+def _implied_rms(rig: Rig, with_effect: list[pl.DataFrame], without: list[pl.DataFrame]) -> float:
+    """What the injected effect leaves once the nominal model (α and the offsets, fitted on all
+    three runs to the effect's own contribution) has taken what it can: the rms (µm) of the
+    difference between the same runs made with and without it (same seed, same noise)."""
+    from thermrs.signatures import VisitSet
+
+    a = VisitSet(with_effect, rig)
+    b = VisitSet(without, rig)
+    diff = a.y - b.y
+    x = np.column_stack([a.alpha_column(), a.offset_columns()[0]])
+    x = x / np.linalg.norm(x, axis=0)
+    q, _ = np.linalg.qr(x)
+    r = diff - q @ (q.T @ diff)
+    return float(np.sqrt(np.mean(r**2)))
+
+
+#: An effect is visible on a case when what it leaves after the nominal refit is at least this
+#: fraction of the noise floor (then the held-out residual stands ≥ 8 % above the floor, the
+#: diagnoser's threshold for a structured residual); below it, `none` is the right answer.
+VISIBLE = 0.4
+
+
 def _correct(r: dict[str, Any]) -> bool:
     truth = r["truth"]
-    if truth in ("none", "laser_tilt"):
+    if truth == "none" or not r.get("visible", True):
         return bool(r["status"] == "none")
     if r["status"] == "identified":
         return bool(r["effect"] == truth)
@@ -360,12 +409,13 @@ def _score(results: list[dict[str, Any]], seconds: float) -> dict[str, Any]:
         confusion.setdefault(r["truth"], {})
         confusion[r["truth"]][got] = confusion[r["truth"]].get(got, 0) + 1
     eff = [r for r in results if r["truth"] != "none"]
+    invisible = [f"{r['truth']} {r['magnitude']} seed {r['seed']}" for r in eff if not r["visible"]]
     none = [r for r in results if r["truth"] == "none"]
     correct = [_correct(r) for r in results]
     excl = [r for r in eff if "excluded_status" in r]
     excl_ok = [
         r["excluded_status"] in ("unexplained", "ambiguous")
-        or (r["excluded_status"] == "none" and r["truth"] == "laser_tilt")
+        or (r["excluded_status"] == "none" and not r.get("visible", True))
         for r in excl
     ]
     excl_wrong = [r for r in excl if r["excluded_status"] == "identified"]
@@ -390,6 +440,7 @@ def _score(results: list[dict[str, Any]], seconds: float) -> dict[str, Any]:
             "share_ge_70pct": float(np.mean(np.array(closed) >= 0.7)) if closed else None,
         },
         "params_within_25pct": float(np.mean(recovered)) if recovered else None,
+        "invisible_cases": invisible,
         "confusion": confusion,
         "labels": labels,
         "results": results,
