@@ -705,7 +705,7 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(EXIT_BAD_INPUT)
     except (SystemExit, GeneratorExit):
         raise
-    except BaseException as e:  # noqa: BLE001 - includes pyo3's PanicException
+    except BaseException as e:  # pyo3's PanicException is a BaseException
         if _debug():
             traceback.print_exc()
         first = str(e).strip().splitlines()
