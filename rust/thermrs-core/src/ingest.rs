@@ -906,29 +906,22 @@ impl<'r> Context<'r> {
                         }
                         &scratch
                     };
-                    if self.verify_crc && !*partial && header.uncompressed_crc != 0 {
-                        let crc = crc32fast::hash(buf);
-                        if crc != header.uncompressed_crc {
-                            part.report.crc_failures = 1;
-                            let mut loss = Loss::new(
-                                "corrupt_chunk",
-                                *offset,
-                                *bytes,
-                                format!(
-                                    "chunk at bytes {offset}..{} skipped: its CRC-32 is {crc:08x}, the header says {:08x}",
-                                    offset + bytes,
-                                    header.uncompressed_crc
-                                ),
-                            );
-                            loss.channels_lost = recovery::count_messages(buf);
-                            part.report.losses.push(loss);
-                            return;
-                        }
-                    }
+                    // The CRC is taken record by record just before each is interpreted, so
+                    // that its pass brings the frame into cache for the detector (one pass
+                    // over memory, not two); a chunk that fails is dropped whole.
+                    let check = self.verify_crc && !*partial && header.uncompressed_crc != 0;
+                    let mut hasher = crc32fast::Hasher::new();
+                    let mut hashed = 0usize;
                     let mut local = Registry::default();
                     let mut err: Option<String> = None;
                     let mut n = 0u64;
-                    let stop = walk(buf, |_, opcode, body| match opcode {
+                    let stop = walk(buf, |at, opcode, body| {
+                        if check {
+                            let end = at + 9 + body.len();
+                            hasher.update(&buf[hashed..end]);
+                            hashed = end;
+                        }
+                        match opcode {
                         op::SCHEMA | op::CHANNEL => match mcap::read::parse_record(opcode, body) {
                             Ok(r) => {
                                 local.absorb(&r);
@@ -956,7 +949,29 @@ impl<'r> Context<'r> {
                             }
                         },
                         _ => true,
-                    });
+                    }});
+                    if check && !part.retry {
+                        hasher.update(&buf[hashed..]);
+                        let crc = hasher.finalize();
+                        if crc != header.uncompressed_crc {
+                            part = Part::default();
+                            part.report.chunks = 1;
+                            part.report.crc_failures = 1;
+                            let mut loss = Loss::new(
+                                "corrupt_chunk",
+                                *offset,
+                                *bytes,
+                                format!(
+                                    "chunk at bytes {offset}..{} skipped: its CRC-32 is {crc:08x}, the header says {:08x}",
+                                    offset + bytes,
+                                    header.uncompressed_crc
+                                ),
+                            );
+                            loss.channels_lost = recovery::count_messages(buf);
+                            part.report.losses.push(loss);
+                            return;
+                        }
+                    }
                     part.registry = local;
                     if part.retry {
                         return;
