@@ -16,6 +16,7 @@ Each file is read once before timing so that all routes see it in the page cache
 one thread (the decompressor's own speed), from the ``zstandard``/``lz4`` Python bindings.
 
 Run:  python benchmarks/bench_extract.py [--frames 2000] [--dir bench-out/rec]
+      [--compressions none lz4 zstd]
 """
 
 from __future__ import annotations
@@ -220,6 +221,9 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=2000)
     ap.add_argument("--dir", type=Path, default=Path("bench-out/rec"))
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument(
+        "--compressions", nargs="+", default=["none", "lz4", "zstd"], help="recordings to run"
+    )
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--path", type=Path, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -230,7 +234,7 @@ def main() -> None:
     rows = []
     print(f"| recording ({args.frames:,} frames) | route | frames/s | × python | peak RSS (MB) |")
     print("| --- | --- | ---: | ---: | ---: |")
-    for comp in ("none", "lz4", "zstd"):
+    for comp in args.compressions:
         for frac in (0.1, 1.0):
             path = args.dir / f"{comp}-{int(frac * 100)}pct-{args.frames}.mcap"
             if not path.exists():

@@ -42,7 +42,9 @@ use crate::error::{Error, Result};
 use crate::rig::Rig;
 use crate::thermal::{roi_maxima, ThermalFormat, ThermalView};
 
+mod png;
 mod recovery;
+pub use png::decode_png;
 pub use recovery::MAX_CHUNK_BYTES;
 
 const MAGIC: &[u8] = b"\x89MCAP0\r\n";
@@ -913,29 +915,22 @@ impl<'r> Context<'r> {
                         }
                         &scratch
                     };
-                    if self.verify_crc && !*partial && header.uncompressed_crc != 0 {
-                        let crc = crc32fast::hash(buf);
-                        if crc != header.uncompressed_crc {
-                            part.report.crc_failures = 1;
-                            let mut loss = Loss::new(
-                                "corrupt_chunk",
-                                *offset,
-                                *bytes,
-                                format!(
-                                    "chunk at bytes {offset}..{} skipped: its CRC-32 is {crc:08x}, the header says {:08x}",
-                                    offset + bytes,
-                                    header.uncompressed_crc
-                                ),
-                            );
-                            loss.channels_lost = recovery::count_messages(buf);
-                            part.report.losses.push(loss);
-                            return;
-                        }
-                    }
+                    // The CRC is taken record by record just before each is interpreted, so
+                    // that its pass brings the frame into cache for the detector (one pass
+                    // over memory, not two); a chunk that fails is dropped whole.
+                    let check = self.verify_crc && !*partial && header.uncompressed_crc != 0;
+                    let mut hasher = crc32fast::Hasher::new();
+                    let mut hashed = 0usize;
                     let mut local = Registry::default();
                     let mut err: Option<String> = None;
                     let mut n = 0u64;
-                    let stop = walk(buf, |_, opcode, body| match opcode {
+                    let stop = walk(buf, |at, opcode, body| {
+                        if check {
+                            let end = at + 9 + body.len();
+                            hasher.update(&buf[hashed..end]);
+                            hashed = end;
+                        }
+                        match opcode {
                         op::SCHEMA | op::CHANNEL => match mcap::read::parse_record(opcode, body) {
                             Ok(r) => {
                                 local.absorb(&r);
@@ -963,7 +958,29 @@ impl<'r> Context<'r> {
                             }
                         },
                         _ => true,
-                    });
+                    }});
+                    if check && !part.retry {
+                        hasher.update(&buf[hashed..]);
+                        let crc = hasher.finalize();
+                        if crc != header.uncompressed_crc {
+                            part = Part::default();
+                            part.report.chunks = 1;
+                            part.report.crc_failures = 1;
+                            let mut loss = Loss::new(
+                                "corrupt_chunk",
+                                *offset,
+                                *bytes,
+                                format!(
+                                    "chunk at bytes {offset}..{} skipped: its CRC-32 is {crc:08x}, the header says {:08x}",
+                                    offset + bytes,
+                                    header.uncompressed_crc
+                                ),
+                            );
+                            loss.channels_lost = recovery::count_messages(buf);
+                            part.report.losses.push(loss);
+                            return;
+                        }
+                    }
                     part.registry = local;
                     if part.retry {
                         return;
@@ -1017,69 +1034,6 @@ fn invalid_frame(f: &mut FrameTable, cam: usize, t: i64) {
         col.push(f64::NAN);
     }
     f.status.push(STATUS_INVALID);
-}
-
-/// Decode a lossless PNG (8- or 16-bit grey) of the rig's frame size `(w, h)` to
-/// native-endian pixel bytes: (bytes, bytes per pixel). The header's size is compared with the
-/// rig's before anything is allocated, and the decoder runs with limits set from it (image
-/// size and memory), so a crafted header or a decompression bomb costs at most one frame.
-pub fn decode_png(
-    format: &str,
-    data: &[u8],
-    (w, h): (usize, usize),
-) -> std::result::Result<(Vec<u8>, usize), String> {
-    use image::ImageDecoder;
-    if !format.to_ascii_lowercase().contains("png") {
-        return Err(format!("compressed format {format:?} is not PNG"));
-    }
-    // A 16-bit grey frame of the rig's size, and the decoder's own row buffers beside it.
-    let frame = (w as u64).saturating_mul(h as u64).saturating_mul(2);
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(u32::try_from(w).unwrap_or(u32::MAX));
-    limits.max_image_height = Some(u32::try_from(h).unwrap_or(u32::MAX));
-    limits.max_alloc = Some(frame.saturating_mul(2).saturating_add(1 << 20));
-    let dec = match image::codecs::png::PngDecoder::with_limits(std::io::Cursor::new(data), limits)
-    {
-        Err(image::ImageError::Limits(_)) => {
-            // Say what the header claims, read without decoding anything.
-            return Err(match png_size(data) {
-                Some((pw, ph)) => format!("frame is {pw}x{ph}, the rig says {w}x{h}"),
-                None => format!("PNG larger than the rig's {w}x{h} frame"),
-            });
-        }
-        Err(e) => return Err(format!("PNG: {e}")),
-        Ok(d) => d,
-    };
-    let (pw, ph) = dec.dimensions();
-    if (pw as usize, ph as usize) != (w, h) {
-        return Err(format!("frame is {pw}x{ph}, the rig says {w}x{h}"));
-    }
-    let bpp = match dec.color_type() {
-        image::ColorType::L8 => 1,
-        image::ColorType::L16 => 2,
-        c => return Err(format!("PNG colour type {c:?} is not 8- or 16-bit grey")),
-    };
-    let total = dec.total_bytes();
-    if total > frame {
-        return Err(format!(
-            "PNG of {total} bytes is larger than the rig's frame"
-        ));
-    }
-    let mut buf = vec![0u8; total as usize];
-    dec.read_image(&mut buf).map_err(|e| format!("PNG: {e}"))?;
-    Ok((buf, bpp))
-}
-
-/// Width and height from a PNG's IHDR chunk, without decoding.
-fn png_size(data: &[u8]) -> Option<(u32, u32)> {
-    let ihdr = data.get(12..24)?;
-    if &ihdr[..4] != b"IHDR" {
-        return None;
-    }
-    Some((
-        u32::from_be_bytes(ihdr[4..8].try_into().ok()?),
-        u32::from_be_bytes(ihdr[8..12].try_into().ok()?),
-    ))
 }
 
 /// Parse the fixed part of a chunk record that was cut short: its header and whatever records
@@ -1476,34 +1430,7 @@ fn extract_in(
     if !flush(&mut window, &mut reg, &mut tables, &mut report, body.len()) {
         return Err(Error::Interrupted);
     }
-    // What each loss held, by topic: the message indexes the file wrote after the chunk
-    // where they survive, else the summary's index or the chunk's own records.
-    report.losses.sort_by_key(|l| l.offset);
-    for loss in &mut report.losses {
-        if let Some(m) = indexed.get(&loss.offset) {
-            loss.channels_lost = m.clone();
-        }
-        for (ch, n) in &loss.channels_lost {
-            let topic = reg
-                .channels
-                .get(ch)
-                .map(|c| c.topic.clone())
-                .unwrap_or_else(|| format!("channel {ch}"));
-            *loss.messages_lost.entry(topic).or_insert(0) += n;
-        }
-        if !loss.messages_lost.is_empty() {
-            let list: Vec<String> = loss
-                .messages_lost
-                .iter()
-                .map(|(t, n)| format!("{n} on {t}"))
-                .collect();
-            loss.detail
-                .push_str(&format!("; messages lost: {}", list.join(", ")));
-        }
-        for (t, n) in &loss.messages_lost {
-            *report.lost_messages.entry(t.clone()).or_insert(0) += n;
-        }
-    }
+    recovery::name_losses(&mut report, &indexed, &reg);
     // A recording with none of the rig's topics is an error naming them.
     let present: Vec<&str> = reg.channels.values().map(|c| c.topic.as_str()).collect();
     let wanted = ctx.rig_topics();

@@ -231,7 +231,7 @@ fn mutate(rng: &mut StdRng, buf: &mut Vec<u8>) {
         4 => {
             // a chunk header's sizes: uncompressed size (+16), CRC (+24), compressed size
             let chunks: Vec<_> = recs.iter().filter(|r| r.1 == 0x06).collect();
-            if let Some(&&(_, _, ref body)) = chunks.get(rng.random_range(0..chunks.len().max(1))) {
+            if let Some((_, _, body)) = chunks.get(rng.random_range(0..chunks.len().max(1))) {
                 let field = [16usize, 24, 28][rng.random_range(0..3)];
                 let v = interesting[rng.random_range(0..interesting.len())];
                 let at = body.start + field;
@@ -447,7 +447,9 @@ fn chunk_messages(file: &[u8]) -> Vec<(usize, usize, BTreeMap<u16, u64>)> {
     out
 }
 
-/// One chunk in the middle damaged three ways, with and without a summary: every message
+type Damage = Box<dyn Fn(&mut Vec<u8>)>;
+
+/// One chunk in the middle damaged four ways, with and without a summary: every message
 /// outside it is read, the loss names its byte range and (where the file tells) the
 /// messages per channel it held.
 #[test]
@@ -466,7 +468,7 @@ fn one_bad_chunk_in_the_middle_loses_only_itself() {
         assert!(chunks.len() >= 5, "{name}: {} chunks", chunks.len());
         let (pos, end, ref held) = chunks[chunks.len() / 2];
         let in_chunk: u64 = held.values().sum();
-        let damages: [(&str, Box<dyn Fn(&mut Vec<u8>)>); 4] = [
+        let damages: [(&str, Damage); 4] = [
             (
                 "length 2^63",
                 Box::new(move |b: &mut Vec<u8>| {

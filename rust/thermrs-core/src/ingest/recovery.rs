@@ -3,7 +3,7 @@
 //! has one and by scanning where it has none; the limits every size read from a file is held
 //! to; and what is known about the messages a damaged stretch held.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 
 use mcap::records::op;
 
@@ -141,6 +141,42 @@ pub fn count_messages(records: &[u8]) -> BTreeMap<u16, u64> {
         pos = e;
     }
     out
+}
+
+/// Name what each loss held by topic (the message indexes the file wrote after the chunk
+/// where they survive, else the summary's index or the chunk's own records), add it to the
+/// loss's line and sum it per topic.
+pub(super) fn name_losses(
+    report: &mut super::Report,
+    indexed: &HashMap<u64, BTreeMap<u16, u64>>,
+    reg: &super::Registry,
+) {
+    report.losses.sort_by_key(|l| l.offset);
+    for loss in &mut report.losses {
+        if let Some(m) = indexed.get(&loss.offset) {
+            loss.channels_lost = m.clone();
+        }
+        for (ch, n) in &loss.channels_lost {
+            let topic = reg
+                .channels
+                .get(ch)
+                .map(|c| c.topic.clone())
+                .unwrap_or_else(|| format!("channel {ch}"));
+            *loss.messages_lost.entry(topic).or_insert(0) += n;
+        }
+        if !loss.messages_lost.is_empty() {
+            let list: Vec<String> = loss
+                .messages_lost
+                .iter()
+                .map(|(t, n)| format!("{n} on {t}"))
+                .collect();
+            loss.detail
+                .push_str(&format!("; messages lost: {}", list.join(", ")));
+        }
+        for (t, n) in &loss.messages_lost {
+            *report.lost_messages.entry(t.clone()).or_insert(0) += n;
+        }
+    }
 }
 
 #[cfg(test)]
