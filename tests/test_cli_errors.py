@@ -300,3 +300,9 @@ def test_ctrl_c_stops_extract_cleanly_wherever_it_lands(
         assert err.splitlines() == ["thermrs: interrupted"], err
         assert list(tmp_path.iterdir()) == []  # no table, no temporary file
     assert interrupted > 0
+
+
+def test_cli_defaults_written_out_for_a_fast_start_match_the_library() -> None:
+    from thermrs import cli, visits
+
+    assert cli.VISIT_TOLERANCE_DEG == visits.DEFAULT_TOLERANCE_DEG
