@@ -100,6 +100,21 @@ def noise_um(values: npt.ArrayLike) -> float:
     σ̂² = var(d)/(2(1−ρ̂)): the von Neumann estimator when the noise is white, and the
     noise's full (marginal) level, not only its fast part, when it is not.
 
+    Parameters
+    ----------
+    values
+        The series; non-finite values are dropped.
+
+    Returns
+    -------
+    float
+        The noise's standard deviation; NaN with fewer than three finite values.
+
+    Raises
+    ------
+    ValueError
+        ``values`` cannot be read as numbers.
+
     Examples
     --------
     >>> import numpy as np
