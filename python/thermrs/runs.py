@@ -174,11 +174,27 @@ def find_runs(
     gap_factor: float = DEFAULT_GAP_FACTOR,
     min_gap_s: float = DEFAULT_MIN_GAP_S,
 ) -> pl.DataFrame:
-    """The recording's runs: from its run markers when it has any, else from idle gaps."""
+    """The recording's runs: from its run markers when it has any, else from idle gaps.
+
+    Visits no marker covers (a recording cut short before its last run's marker was
+    written) are split by idle gaps into further runs named ``unmarked1``, … (source
+    ``gap``), so that no visit is silently left out.
+    """
     marked = runs_from_markers(metadata)
-    if marked.height:
+    if marked.height == 0:
+        return runs_from_gaps(visits, gap_factor=gap_factor, min_gap_s=min_gap_s)
+    if visits.height == 0:
         return marked
-    return runs_from_gaps(visits, gap_factor=gap_factor, min_gap_s=min_gap_s)
+    t_mid = visits.select(
+        pl.col("t_ns").fill_null((pl.col("t_start_ns") + pl.col("t_end_ns")) // 2)
+    ).to_series()
+    loose = visits.filter(label_runs(t_mid, marked).is_null())
+    if loose.height == 0:
+        return marked
+    extra = runs_from_gaps(loose, gap_factor=gap_factor, min_gap_s=min_gap_s).with_columns(
+        run=pl.lit("unmarked") + pl.int_range(1, pl.len() + 1).cast(pl.String)
+    )
+    return pl.concat([marked, extra]).sort("start_ns")
 
 
 def label_runs(t_ns: pl.Series | np.ndarray, runs: pl.DataFrame) -> pl.Series:
