@@ -326,6 +326,11 @@ def _write_json(path: Path, doc: object) -> None:
         raise
 
 
+#: Files read by this process's command, by path: `predict --train rec#run1 --run rec#run2`
+#: extracts `rec` once.
+_FILES: dict[Any, Any] = {}
+
+
 def _run_tables(paths: tuple[Path, ...], rig: Any, what: str) -> tuple[list[Any], bool]:
     """Run tables of recordings or extracted tables (``FILE`` or ``FILE#RUN``), and whether
     any recording lost data; lists the runs found in each file on stderr."""
@@ -337,7 +342,7 @@ def _run_tables(paths: tuple[Path, ...], rig: Any, what: str) -> tuple[list[Any]
     for p in paths:
         # Two files of one name in different folders: name the runs by their paths.
         base = split_run_spec(p)[0]
-        rt = load_runs(p, rig, name=str(base) if names.count(base.name) > 1 else None)
+        rt = load_runs(p, rig, name=str(base) if names.count(base.name) > 1 else None, cache=_FILES)
         click.echo(f"thermrs: {what} {rt.describe()}", err=True)
         for t in rt.tables:
             if t.height == 0:

@@ -285,6 +285,7 @@ def load_runs(
     *,
     name: str | None = None,
     temperature: str = "peak",
+    cache: dict[Any, Any] | None = None,
 ) -> RunTables:
     """Run tables of one file: a recording (``.mcap``, extracted here) or the tables
     ``thermrs extract`` wrote (any of its ``.parquet`` files), with an optional ``#run``.
@@ -299,6 +300,10 @@ def load_runs(
         The base name of the run tables (default the file's stem).
     temperature
         ``"peak"`` or ``"max"`` (see :func:`thermrs.fit.run_table_from`).
+    cache
+        A dict kept between calls: a file read once (a recording extracted once) serves
+        every run asked of it (``rec.mcap#run1`` and ``rec.mcap#run2``); keyed by path,
+        modification time and size.
 
     Raises
     ------
@@ -311,12 +316,17 @@ def load_runs(
     path, wanted = split_run_spec(spec)
     if not path.exists():
         raise InputError(f"{path}: no such file")
-    loss = False
-    if path.name.endswith(".parquet"):
-        visits, temps, runs = _read_tables(path)
+    st = path.stat()
+    key = (path.resolve(), st.st_mtime_ns, st.st_size)
+    if cache is not None and key in cache:
+        visits, temps, runs, loss, stem = cache[key]
+    elif path.name.endswith(".parquet"):
+        visits, temps, read_runs = _read_tables(path)
+        loss = False
         stem = path.name[: -len(".parquet")]
         for part in (".visits", ".temperatures", ".joints", ".runs"):
             stem = stem.removesuffix(part)
+        runs = read_runs
         if runs is None or "run" not in visits.columns:
             runs = pl.DataFrame(schema=RUNS_SCHEMA)
     else:
@@ -325,6 +335,8 @@ def load_runs(
         ex = extract(path, rig)
         visits, temps, runs, loss = ex.visits, ex.temperatures, ex.runs, ex.report.data_loss
         stem = path.name[: -len(".mcap")] if path.name.endswith(".mcap") else path.stem
+    if cache is not None:
+        cache[key] = (visits, temps, runs, loss, stem)
     base = name or stem
     if runs.height == 0 or "run" not in visits.columns:
         if wanted is not None:
