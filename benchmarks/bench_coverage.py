@@ -198,7 +198,7 @@ def main() -> None:
     ap.add_argument("--cycle-s", type=float, default=180)
     ap.add_argument("--out", type=Path, default=Path("bench-out/coverage.json"))
     args = ap.parse_args()
-    syn = synthetic(args)
+    syn = synthetic(args) if args.trials > 0 else []
     print(
         "| geometry | trials | coverage of the 95 % interval | half-width / (1.96 × true "
         "spread) | mean n_eff (of visits) | iid interval: coverage, width | before #9: "

@@ -266,7 +266,13 @@ def test_cli_exits_1_with_one_line_on_a_panic(
     if debug:
         env["THERMRS_DEBUG"] = "1"
     p = subprocess.run(
-        [sys.executable, "-c", PANIC_CLI.format(guarded=guarded), str(path), str(tmp_path / "o.parquet")],
+        [
+            sys.executable,
+            "-c",
+            PANIC_CLI.format(guarded=guarded),
+            str(path),
+            str(tmp_path / "o.parquet"),
+        ],
         capture_output=True,
         text=True,
         env=env,

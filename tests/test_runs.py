@@ -238,3 +238,21 @@ def test_extracted_tables_carry_the_runs(
     from_tables = load_runs(f"{tmp_path / 'x.visits.parquet'}#run2", paper_rig).tables[0]
     from_rec = load_runs(f"{rec}#run2", paper_rig).tables[0]
     assert from_tables.equals(from_rec)
+
+
+def test_visits_after_the_last_marker_are_not_dropped() -> None:
+    """A recording cut short before its last run's marker: the unmarked visits form a run of
+    their own."""
+    from thermrs.runs import find_runs
+
+    first = [60.0 * k for k in range(30)]
+    second = [first[-1] + 7200 + 60.0 * k for k in range(30)]
+    v = visits(first + second).with_columns(t_ns=pl.col("t_start_ns"))
+    marker = {
+        "name": "thermrs.run",
+        "values": {"name": "run1", "start_ns": "0", "end_ns": str(int((first[-1] + 60) * 1e9))},
+    }
+    runs = find_runs([marker], v)
+    assert runs["run"].to_list() == ["run1", "unmarked1"]
+    assert runs["source"].to_list() == ["marker", "gap"]
+    assert runs["start_ns"][1] == int(second[0] * 1e9)

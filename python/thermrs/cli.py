@@ -523,6 +523,11 @@ def _write_json(path: Path, doc: object) -> None:
         raise
 
 
+#: Files read by this process's command, by path: `predict --train rec#run1 --run rec#run2`
+#: extracts `rec` once.
+_FILES: dict[Any, Any] = {}
+
+
 def _run_tables(paths: tuple[Path, ...], rig: Rig, what: str) -> tuple[list[pl.DataFrame], bool]:
     """Run tables of recordings or extracted tables (``FILE`` or ``FILE#RUN``), and whether
     any recording lost data (for extracted tables: as their Parquet metadata records); lists
@@ -547,7 +552,7 @@ def _run_tables(paths: tuple[Path, ...], rig: Rig, what: str) -> tuple[list[pl.D
             for q, n in zip(paths, names, strict=True)
             if n == name and split_run_spec(q)[0] != base
         )
-        rt = load_runs(p, rig, name=str(base) if same else None)
+        rt = load_runs(p, rig, name=str(base) if same else None, cache=_FILES)
         click.echo(f"thermrs: {what} {rt.describe()}", err=True)
         for t in rt.tables:
             if t.height == 0:

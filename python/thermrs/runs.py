@@ -174,11 +174,27 @@ def find_runs(
     gap_factor: float = DEFAULT_GAP_FACTOR,
     min_gap_s: float = DEFAULT_MIN_GAP_S,
 ) -> pl.DataFrame:
-    """The recording's runs: from its run markers when it has any, else from idle gaps."""
+    """The recording's runs: from its run markers when it has any, else from idle gaps.
+
+    Visits no marker covers (a recording cut short before its last run's marker was
+    written) are split by idle gaps into further runs named ``unmarked1``, … (source
+    ``gap``), so that no visit is silently left out.
+    """
     marked = runs_from_markers(metadata)
-    if marked.height:
+    if marked.height == 0:
+        return runs_from_gaps(visits, gap_factor=gap_factor, min_gap_s=min_gap_s)
+    if visits.height == 0:
         return marked
-    return runs_from_gaps(visits, gap_factor=gap_factor, min_gap_s=min_gap_s)
+    t_mid = visits.select(
+        pl.col("t_ns").fill_null((pl.col("t_start_ns") + pl.col("t_end_ns")) // 2)
+    ).to_series()
+    loose = visits.filter(label_runs(t_mid, marked).is_null())
+    if loose.height == 0:
+        return marked
+    extra = runs_from_gaps(loose, gap_factor=gap_factor, min_gap_s=min_gap_s).with_columns(
+        run=pl.lit("unmarked") + pl.int_range(1, pl.len() + 1).cast(pl.String)
+    )
+    return pl.concat([marked, extra]).sort("start_ns")
 
 
 def label_runs(t_ns: pl.Series | np.ndarray, runs: pl.DataFrame) -> pl.Series:
@@ -269,6 +285,7 @@ def load_runs(
     *,
     name: str | None = None,
     temperature: str = "peak",
+    cache: dict[Any, Any] | None = None,
 ) -> RunTables:
     """Run tables of one file: a recording (``.mcap``, extracted here) or the tables
     ``thermrs extract`` wrote (any of its ``.parquet`` files), with an optional ``#run``.
@@ -283,6 +300,10 @@ def load_runs(
         The base name of the run tables (default the file's stem).
     temperature
         ``"peak"`` or ``"max"`` (see :func:`thermrs.fit.run_table_from`).
+    cache
+        A dict kept between calls: a file read once (a recording extracted once) serves
+        every run asked of it (``rec.mcap#run1`` and ``rec.mcap#run2``); keyed by path,
+        modification time and size.
 
     Raises
     ------
@@ -299,11 +320,14 @@ def load_runs(
         raise InputError(f"{path}: is a directory, expected a recording (.mcap) or tables")
     if not path.exists():
         raise InputError(f"{path}: no such file")
-    loss = False
-    if path.name.endswith(".parquet"):
+    st = path.stat()
+    key = (path.resolve(), st.st_mtime_ns, st.st_size)
+    if cache is not None and key in cache:
+        visits, temps, runs, loss, stem = cache[key]
+    elif path.name.endswith(".parquet"):
         from thermrs.ingest import data_loss
 
-        visits, temps, runs = _read_tables(path)
+        visits, temps, read_runs = _read_tables(path)
         stem = path.name[: -len(".parquet")]
         for part in (".visits", ".temperatures", ".joints", ".runs"):
             stem = stem.removesuffix(part)
@@ -311,6 +335,7 @@ def load_runs(
         loss = any(
             data_loss(path.with_name(f"{stem}.{k}.parquet")) for k in ("visits", "temperatures")
         )
+        runs = read_runs
         if runs is None or "run" not in visits.columns:
             runs = pl.DataFrame(schema=RUNS_SCHEMA)
     else:
@@ -319,6 +344,8 @@ def load_runs(
         ex = extract(path, rig)
         visits, temps, runs, loss = ex.visits, ex.temperatures, ex.runs, ex.report.data_loss
         stem = path.name[: -len(".mcap")] if path.name.endswith(".mcap") else path.stem
+    if cache is not None:
+        cache[key] = (visits, temps, runs, loss, stem)
     base = name or stem
     if runs.height == 0 or "run" not in visits.columns:
         if wanted is not None:
