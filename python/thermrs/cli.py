@@ -1004,7 +1004,7 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(EXIT_BAD_INPUT)
     except (SystemExit, GeneratorExit):
         raise
-    except BaseException as e:  # noqa: BLE001 - pyo3's PanicException is a BaseException
+    except BaseException as e:
         if _is_interrupt(e):
             _exit_interrupted()
         if _debug():

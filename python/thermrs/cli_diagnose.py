@@ -14,7 +14,7 @@ from rich.table import Table
 out = Console(highlight=False)
 
 
-def _types() -> tuple[click.ParamType, click.ParamType]:
+def _types() -> tuple[click.ParamType, click.ParamType]:  # type: ignore[type-arg]
     from thermrs.cli import input_file, run_file
 
     return input_file, run_file

@@ -274,7 +274,7 @@ def load_run_table(
     """
     from thermrs.runs import load_runs
 
-    rt = load_runs(path, as_rig(rig), name=run, temperature=temperature)
+    rt = load_runs(Path(path), as_rig(rig), name=run, temperature=temperature)
     return pl.concat(rt.tables, how="diagonal_relaxed"), rt.data_loss
 
 
