@@ -554,11 +554,13 @@ def _diagnose(
             status = "ambiguous"
             chosen = best
             rivals = sorted(set(rivals) | (conf_names & {s["family"].effect for s in good}))
-            others = [*rivals, *(["an effect excluded from the library"] if hidden_rival else [])]
-            reason = (
-                f"{best['family'].effect} and {' and '.join(others)} explain the held-out runs "
-                "about equally well"
-            )
+            names = [
+                best["family"].effect,
+                *rivals,
+                *(["an effect excluded from the library"] if hidden_rival else []),
+            ]
+            listed = ", ".join(names[:-1]) + " and " + names[-1]
+            reason = f"{listed} explain the held-out runs about equally well"
         else:
             status = "identified"
             chosen = best
