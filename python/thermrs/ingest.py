@@ -150,8 +150,26 @@ class Extraction:
             "runs": out.with_name(f"{stem}.runs.parquet"),
         }
         meta = {LOSS_KEY: json.dumps(self.report.losses)}
-        for name, path in paths.items():
-            write_parquet_atomic(getattr(self, name), path, metadata=meta)
+        # All or nothing: every table to a temporary file first, then the renames; an error or
+        # Ctrl-C on the way removes what this call wrote.
+        tmps: dict[str, Path] = {}
+        published: list[Path] = []
+        try:
+            for name, path in paths.items():
+                tmps[name] = atomic_tmp(path)
+                try:
+                    getattr(self, name).write_parquet(tmps[name], metadata=meta)
+                except OSError as e:
+                    raise InputError(f"cannot write {path}: {e.strerror or e}") from None
+            for name, path in paths.items():
+                publish(tmps[name], path)
+                published.append(path)
+        except BaseException:
+            for t in tmps.values():
+                t.unlink(missing_ok=True)
+            for p in published:
+                p.unlink(missing_ok=True)
+            raise
         return paths
 
 
