@@ -87,7 +87,10 @@ impl PyRig {
     /// Read and validate a rig file.
     #[staticmethod]
     fn from_path(py: Python<'_>, path: PathBuf) -> PyResult<PyRig> {
-        let inner = py.detach(|| Rig::from_path(&path)).map_err(to_py)?;
+        let inner = py
+            .detach(|| panic::guard("reading a rig", || Rig::from_path(&path)))
+            .map_err(panic::to_py)?
+            .map_err(to_py)?;
         Ok(PyRig { inner })
     }
 
@@ -95,7 +98,9 @@ impl PyRig {
     #[staticmethod]
     #[pyo3(signature = (text, source_name = "<string>"))]
     fn from_toml(text: &str, source_name: &str) -> PyResult<PyRig> {
-        let inner = Rig::from_toml(text, source_name).map_err(|e| to_py(e.into()))?;
+        let inner = panic::guard("reading a rig", || Rig::from_toml(text, source_name))
+            .map_err(panic::to_py)?
+            .map_err(|e| to_py(e.into()))?;
         Ok(PyRig { inner })
     }
 
@@ -107,7 +112,9 @@ impl PyRig {
     /// The rig explained pose by pose (SPEC §7 `thermrs rig --json`, extended) as JSON, plus
     /// a `problems` list (poses whose own camera the laser misses).
     fn explain_json(&self) -> PyResult<String> {
-        let view = explain::explain(&self.inner).map_err(to_py)?;
+        let view = panic::guard("explaining a rig", || explain::explain(&self.inner))
+            .map_err(panic::to_py)?
+            .map_err(to_py)?;
         let mut v = view.to_spec_json();
         v["problems"] = serde_json::json!(view.problems);
         Ok(v.to_string())
@@ -187,7 +194,9 @@ impl PyForwardModel {
                 .as_ref()
                 .map(|cs| cs.iter().map(|c| &c[start..end]).collect());
             let oc = &mut out[width * start..width * end];
-            py.detach(|| f(qc, tc.as_deref(), oc)).map_err(to_py)?;
+            py.detach(|| panic::guard("computing the forward model", || f(qc, tc.as_deref(), oc)))
+                .map_err(panic::to_py)?
+                .map_err(to_py)?;
             start = end;
             report(py, progress, start, n)?;
         }
@@ -209,15 +218,17 @@ impl PyForwardModel {
             Some(j) => effects::parse_list(j)?,
             None => Vec::new(),
         };
-        let fx = Effects::build(
-            &rig.inner,
-            &list,
-            alpha_per_k.unwrap_or(rig.inner.expansion.alpha_per_k),
-            reference_c.unwrap_or(rig.inner.expansion.reference_c),
-        )
-        .map_err(to_py)?;
-        let inner = ForwardModel::new(&rig.inner, &fx.params).map_err(to_py)?;
-        Ok(PyForwardModel { inner, effects: fx })
+        let built = panic::guard("building the forward model", || {
+            let fx = Effects::build(
+                &rig.inner,
+                &list,
+                alpha_per_k.unwrap_or(rig.inner.expansion.alpha_per_k),
+                reference_c.unwrap_or(rig.inner.expansion.reference_c),
+            )?;
+            let inner = ForwardModel::new(&rig.inner, &fx.params)?;
+            Ok::<_, CoreError>(PyForwardModel { inner, effects: fx })
+        });
+        built.map_err(panic::to_py)?.map_err(to_py)
     }
 
     /// Whether an effect lags the structure behind the surface temperatures.
@@ -238,10 +249,12 @@ impl PyForwardModel {
         t_s: PyReadonlyArray1<'py, f64>,
         x: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let y = self
-            .effects
-            .structure_series(t_s.as_slice()?, x.as_slice()?)
-            .map_err(to_py)?;
+        let (t, x) = (t_s.as_slice()?, x.as_slice()?);
+        let y = panic::guard("lagging temperatures", || {
+            self.effects.structure_series(t, x)
+        })
+        .map_err(panic::to_py)?
+        .map_err(to_py)?;
         Ok(y.into_pyarray(py))
     }
 
@@ -490,38 +503,40 @@ fn simulate<'py>(
     let inner = &rig.inner;
     let path = out_path.clone();
     let pending: Mutex<Option<PyErr>> = Mutex::new(None);
-    let res = py.detach(|| -> Result<_, CoreError> {
-        let last = std::cell::Cell::new(std::time::Instant::now());
-        let cancel = || -> bool {
-            if last.get().elapsed() < SIGNAL_EVERY {
-                return false;
-            }
-            last.set(std::time::Instant::now());
-            Python::attach(|py| match py.check_signals() {
-                Ok(()) => false,
-                Err(e) => {
-                    *pending.lock().expect("lock") = Some(e);
-                    true
+    let res = py.detach(|| {
+        panic::guard("simulating", || -> Result<_, CoreError> {
+            let last = std::cell::Cell::new(std::time::Instant::now());
+            let cancel = || -> bool {
+                if last.get().elapsed() < SIGNAL_EVERY {
+                    return false;
                 }
-            })
-        };
-        let f = std::fs::File::create(&path).map_err(|source| CoreError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        let (w, truth) = thermrs_core::simulate::simulate_cancellable(
-            inner,
-            &sc,
-            std::io::BufWriter::new(f),
-            &cancel,
-        )?;
-        drop(w);
-        Ok(truth)
+                last.set(std::time::Instant::now());
+                Python::attach(|py| match py.check_signals() {
+                    Ok(()) => false,
+                    Err(e) => {
+                        *pending.lock().expect("lock") = Some(e);
+                        true
+                    }
+                })
+            };
+            let f = std::fs::File::create(&path).map_err(|source| CoreError::Io {
+                path: path.display().to_string(),
+                source,
+            })?;
+            let (w, truth) = thermrs_core::simulate::simulate_cancellable(
+                inner,
+                &sc,
+                std::io::BufWriter::new(f),
+                &cancel,
+            )?;
+            drop(w);
+            Ok(truth)
+        })
     });
     if let Some(e) = pending.lock().expect("lock").take() {
         return Err(e);
     }
-    let truth = res.map_err(to_py)?;
+    let truth = res.map_err(panic::to_py)?.map_err(to_py)?;
     py.check_signals()?;
     let n = truth.sample_t_ns.len();
     let k = truth.node_names.len();
