@@ -992,6 +992,10 @@ def main(argv: list[str] | None = None) -> None:
     try:
         args = sys.argv[1:] if argv is None else argv
         cli.main(args=_expand_multi(list(args)), prog_name="thermrs", standalone_mode=False)
+        if _invoked_as_cli():
+            # Done and reported: a Ctrl-C while the interpreter shuts down must not turn exit 0
+            # into death by SIGINT (Python re-raises an uncaught KeyboardInterrupt as a signal).
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
     except click.exceptions.Exit as e:
         sys.exit(e.exit_code)
     except click.UsageError as e:  # one line, like every other bad input: exit 2
