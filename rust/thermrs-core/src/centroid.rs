@@ -1669,8 +1669,14 @@ mod tests {
     fn sample_recording_frames() {
         let dir = std::env::var("THERMRS_CENTROID_FRAMES")
             .unwrap_or_else(|_| "/tmp/dev-centroid/frames".to_string());
-        let truth_path = std::env::var("THERMRS_SAMPLE_TRUTH")
-            .unwrap_or_else(|_| "/work/shared/samples/kr15-sample.truth.csv".to_string());
+        let truth_path = std::env::var("THERMRS_SAMPLE_TRUTH").unwrap_or_else(|_| {
+            // The shared folder beside the repository (SPEC's `samples/`).
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../../shared/samples/kr15-sample.truth.csv"
+            )
+            .to_string()
+        });
         let (Ok(entries), Ok(truth)) = (
             std::fs::read_dir(&dir),
             std::fs::read_to_string(&truth_path),
