@@ -62,7 +62,7 @@ def test_the_lag_withheld_is_not_blamed_on_another_effect(
     rig: thermrs.Rig, lag_runs: list[pl.DataFrame]
 ) -> None:
     d = diagnose(lag_runs[:1], lag_runs[1:], rig, bootstrap=0, exclude=["thermal_lag"])
-    assert d.status in ("unexplained", "ambiguous"), d.summary
+    assert d.status in ("unexplained", "ambiguous", "partially explained"), d.summary
     assert "thermal_lag" not in [r["effect"] for r in d.ranking]
 
 

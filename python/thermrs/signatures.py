@@ -21,7 +21,12 @@ from thermrs.errors import InputError
 from thermrs.model import ForwardModel
 from thermrs.rig import Rig
 
-__all__ = ["VisitSet"]
+__all__ = ["CHAIN_GAP_S", "VisitSet"]
+
+#: Longest pause (s) between two runs of a camera across which a stateful effect's state is
+#: carried (an idle robot between runs of one session); after a longer pause, or between runs
+#: that overlap in time (two clocks), each run starts from equilibrium.
+CHAIN_GAP_S = 3600.0
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -72,11 +77,35 @@ class VisitSet:
                 v = table[c].to_numpy().astype(np.float64)
                 if np.all(np.isfinite(v)):
                     self.temps[c[:-2]] = v
+        # Chains: per camera, runs that follow one another (the next starts after the last
+        # ends, within CHAIN_GAP_S): a stateful effect (the structure's lag, a chip's
+        # self-heating) carries its state from one into the next instead of restarting.
+        self.chains: list[list[np.ndarray]] = []
+        by_cam: dict[str, list[np.ndarray]] = {}
+        for g in self.groups:
+            by_cam.setdefault(str(self.camera[g[0]]), []).append(g)
+        self.t_since_chain = self.t_since_start.copy()
+        for gs in by_cam.values():
+            gs = sorted(gs, key=lambda g: float(self.t_s[g[0]]))
+            chain = [gs[0]]
+            for g in gs[1:]:
+                gap = float(self.t_s[g[0]] - self.t_s[chain[-1][-1]])
+                if 0.0 <= gap <= CHAIN_GAP_S:
+                    chain.append(g)
+                else:
+                    self.chains.append(chain)
+                    chain = [g]
+            self.chains.append(chain)
+        for chain in self.chains:
+            t0 = self.t_s[chain[0][0]] - self.t_since_start[chain[0][0]]
+            for g in chain:
+                self.t_since_chain[g] = self.t_s[g] - t0
         self.shifted = shift_drivers
         if shift_drivers:
             for name in self.temps:
                 self.temps[name] = self._shift(self.temps[name])
             self.t_since_start = self._shift(self.t_since_start)
+            self.t_since_chain = self._shift(self.t_since_chain)
         self._cache: dict[str, FloatArray] = {}
 
     def _shift(self, a: FloatArray) -> FloatArray:
@@ -114,13 +143,24 @@ class VisitSet:
         chips = native.shifts_chips()
         u = np.empty(self.n)
         v = np.empty(self.n)
+        lagged: dict[str, FloatArray] = {}
+        if lag:
+            for n in names:
+                if n == "ambient":
+                    continue
+                out = np.empty(self.n)
+                for chain in self.chains:
+                    idx = np.concatenate(chain)
+                    out[idx] = native.structure_temperatures(
+                        np.ascontiguousarray(self.t_s[idx]),
+                        np.ascontiguousarray(self.temps[n][idx]),
+                    )
+                lagged[n] = out
         for g in self.groups:
             cam = str(self.camera[g[0]])
             temps = {}
             for n in names:
-                x = np.ascontiguousarray(self.temps[n][g])
-                if lag and n != "ambient":
-                    x = native.structure_temperatures(np.ascontiguousarray(self.t_s[g]), x)
+                x = np.ascontiguousarray((lagged[n] if n in lagged else self.temps[n])[g])
                 temps[n] = x
             s = model.spots(cam, self.rig.camera_pose(cam).joints_rad, temperatures=temps)
             su, sv = s.u_um, s.v_um
@@ -131,7 +171,7 @@ class VisitSet:
                     if amb is not None
                     else np.full(len(g), self.rig.reference_c)
                 )
-                d = native.chip_shifts(cam, a, np.ascontiguousarray(self.t_since_start[g]))
+                d = native.chip_shifts(cam, a, np.ascontiguousarray(self.t_since_chain[g]))
                 su = su + d[:, 0]
                 sv = sv + d[:, 1]
             u[g] = su

@@ -79,7 +79,13 @@ class Design:
         cam2 = np.concatenate([visits.camera, visits.camera])
         self.channel = np.char.add(np.char.add(cam2, "/"), visits.axis)
         self.series = np.char.add(np.char.add(run2, "/"), cam2)
-        self.unit = np.concatenate([np.arange(n), np.arange(n)])
+        # HAC: clustered by run (cameras see the same model error at once), a cycle's visits
+        # (both axes, every camera) one unit.
+        from thermrs.diagnose.resample import cycle_units
+
+        self.cluster = run2
+        cyc = cycle_units(visits)
+        self.unit = np.concatenate([cyc, cyc])
         self.order = np.concatenate([visits.t_s, visits.t_s])
         self.weights = np.ones(2 * n)
         base = self.fit(None, {}, label="nominal")
@@ -116,7 +122,7 @@ class Design:
             self.y[tr],
             weights=self.weights[tr],
             covariance="hac" if covariance == "hac" else "iid",
-            series=self.series[tr] if covariance == "hac" else None,
+            series=self.cluster[tr] if covariance == "hac" else None,
             units=self.unit[tr] if covariance == "hac" else None,
             order=self.order[tr] if covariance == "hac" else None,
         )
@@ -165,11 +171,19 @@ class Design:
             fr.append(float(np.linalg.norm(c - q @ (q.T @ c)) / nc))
         return min(fr)
 
-    def profile(self, fam: Family, visits: VisitSet | None = None) -> Fit | None:
+    def profile(
+        self, fam: Family, visits: VisitSet | None = None, *, prefix: FloatArray | None = None
+    ) -> Fit | None:
         """The family at its best non-linear parameters (least weighted training residual on
         its grid, refined continuously on log scale where the family allows); None if it
-        cannot be fitted on these runs."""
+        cannot be fitted on these runs. ``prefix``: columns of effects already in the model,
+        fitted beside the family's (its non-linear parameters then profiled jointly with
+        them)."""
         vs = self.vs if visits is None else visits
+
+        def with_prefix(c: FloatArray) -> FloatArray:
+            return c if prefix is None else np.column_stack([prefix, c])
+
         best: tuple[float, dict[str, float], FloatArray] | None = None
         scores: list[tuple[dict[str, float], float]] = []
         for eta in fam.grid:
@@ -179,7 +193,7 @@ class Design:
                 return None
             if not np.all(np.isfinite(cols)) or self.identifiable(cols) < 1e-6:
                 continue
-            f = self._try(cols, eta, fam.label)
+            f = self._try(with_prefix(cols), eta, fam.label)
             if f is None:
                 continue
             scores.append((eta, f.train_rss_w))
@@ -197,7 +211,7 @@ class Design:
             def rss(logt: float) -> float:
                 e = {**eta, key: float(np.exp(logt))}
                 c = fam.columns(vs, e)
-                f = self._try(c, e, fam.label)
+                f = self._try(with_prefix(c), e, fam.label)
                 return np.inf if f is None else f.train_rss_w
 
             if hi > lo:
@@ -210,7 +224,7 @@ class Design:
                 if np.isfinite(r.fun) and r.fun <= best[0]:
                     eta = {**eta, key: float(np.exp(r.x))}
                     cols = fam.columns(vs, eta)
-        f = self.fit(cols, eta, label=fam.label)
+        f = self.fit(with_prefix(cols), eta, label=fam.label)
         f.extra["profile"] = scores
         return f
 

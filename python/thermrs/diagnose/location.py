@@ -1,14 +1,6 @@
-"""Where the residual lies: the noise floor, phases, the breakdown by run, camera, chip axis
-and phase, the drivers it follows, and whether it is white.
+"""Where the residual lies: phases, the breakdown by run, camera, chip axis and phase, the
+drivers it follows, and whether it is white (the noise floor is :mod:`.floor`).
 
-Noise floor
-    The visit-to-visit repeatability of the measurement, estimated from the residual series
-    themselves with a variogram: for lags k = 1..8 visits, γ(k) = ½·mean((r[i+k] − r[i])²) of
-    each (run, camera, axis) series is fitted (non-negative least squares, ρ profiled) by
-    σ_w² + σ_a²·(1 − ρᵏ) + c·k²: white noise, AR(1) noise, and a slow structure that grows with
-    the lag. The floor is √(σ_w² + σ_a²). The plain von Neumann
-    estimator (γ(1)) reads low when pose errors are correlated from visit to visit (by √(1−ρ))
-    and high when a model error moves fast; the variogram separates the two.
 Phases
     From the mean of the rig's mapped temperatures over each (run, camera) series, smoothed:
     ``warm-up`` where it rises faster than 0.1 K/h, ``cool-down`` where it falls faster, else
@@ -25,62 +17,16 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from scipy import stats as sps
-from scipy.optimize import nnls
 
 from thermrs.signatures import VisitSet
 from thermrs.stats import effective_sample_size
 
-__all__ = ["drivers", "location_table", "noise_floor", "phases", "whiteness"]
+__all__ = ["drivers", "location_table", "phases", "whiteness"]
 
 FloatArray = npt.NDArray[np.float64]
 
 #: A temperature rate (K/h) above which a series is warming up or cooling down.
 PHASE_RATE_K_PER_H = 0.1
-
-
-def _variogram_sigma(r: FloatArray, max_lag: int = 8) -> tuple[float, float] | None:
-    """(σ², weight) of one series by the variogram fit (module docs); None if too short."""
-    r = r[np.isfinite(r)]
-    if len(r) < 3 * max_lag:
-        return None
-    lags = np.arange(1, max_lag + 1)
-    gam = np.array([0.5 * np.mean((r[k:] - r[:-k]) ** 2) for k in lags])
-    best: tuple[float, float] | None = None
-    for rho in np.linspace(0.0, 0.95, 39):
-        a = np.column_stack([np.ones(max_lag), 1.0 - rho**lags, lags.astype(np.float64) ** 2])
-        coef, err = nnls(a, gam)
-        if best is None or err < best[0]:
-            best = (float(err), float(coef[0] + coef[1]))
-    assert best is not None
-    return best[1], float(len(r))
-
-
-def noise_floor(visits: VisitSet, residual: FloatArray, groups: npt.NDArray[np.str_]) -> float:
-    """The measurement's own repeatability (µm rms), from residual series (module docs).
-
-    Parameters
-    ----------
-    visits
-        The visits (order of the rows).
-    residual
-        A residual per row (2n: u rows, then v rows).
-    groups
-        A series label per row (run, camera and axis).
-    """
-    num = 0.0
-    den = 0.0
-    order = np.concatenate([visits.t_s, visits.t_s])
-    for g in np.unique(groups):
-        idx = np.flatnonzero(groups == g)
-        idx = idx[np.argsort(order[idx])]
-        got = _variogram_sigma(residual[idx])
-        if got is not None:
-            num += got[0] * got[1]
-            den += got[1]
-    if den == 0:
-        r = residual[np.isfinite(residual)]
-        return float(np.sqrt(np.mean(np.diff(r) ** 2) / 2.0)) if len(r) > 2 else float("nan")
-    return float(np.sqrt(num / den))
 
 
 def phases(visits: VisitSet, temperatures: list[str]) -> npt.NDArray[np.str_]:

@@ -1,0 +1,197 @@
+"""The parametric bootstrap: what the whole pipeline does on data that have no gap.
+
+Every decision of the diagnoser that a constant once made is a test here, at a stated level,
+calibrated on the data at hand. A *world* is a model taken as the truth (the nominal model, or
+the nominal model with the effects selected so far) with its fitted values, plus noise drawn
+from the fitted noise model of every (run, camera, axis) series (:mod:`.floor`: white and a
+short-correlated part, u and v of a visit correlated as their increments are). In each
+replicate the whole scoring is redone exactly as on the data: α (and the world's effect
+amplitudes) refitted on the training runs, every candidate family profiled on its grid by the
+training residual, held-out offsets refitted, the held-out mean square taken. The statistics:
+
+``hold_ms``
+    the world's own held-out mean square after refitting (is the residual at the floor?);
+``low``
+    the mean square of the held-out residual smoothed over three allowed pose-noise correlation
+    times (is the residual white at the thermal time scales?);
+``gain``
+    per family, the drop in held-out mean square when it is added; the null of the largest
+    over every family is what one candidate's gain must beat (the search over the library is
+    in the null, so no multiplicity correction is left to make).
+
+Column 0 of every statistic is the data itself; columns 1… are the replicates.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy.linalg import solve_triangular
+
+from thermrs.diagnose.engine import Design
+from thermrs.diagnose.floor import NoiseFloor
+
+__all__ = ["Batch", "BatchFit", "draw_noise", "quantile_above"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass
+class BatchFit:
+    """One model fitted to many observation vectors at once."""
+
+    train_rss: FloatArray  # (B,)
+    hold_ms: FloatArray  # (B,)
+    hold_resid: FloatArray | None  # (n_hold, B)
+    fitted: FloatArray | None  # (2n, B) fitted values (model + offsets), when asked
+
+
+class Batch:
+    """Least squares of the design's training rows for many observation vectors.
+
+    Parameters
+    ----------
+    design
+        The diagnoser's design (:class:`thermrs.diagnose.engine.Design`).
+    window_s
+        The smoothing window of the low-frequency statistic (seconds).
+    """
+
+    def __init__(self, design: Design, window_s: float):
+        self.d = design
+        self.tr = np.flatnonzero(design.train)
+        self.ho = np.flatnonzero(design.hold)
+        self.used = np.unique(design.group[self.tr])
+        self.sw = np.sqrt(design.weights)
+        off = design.offsets
+        self.off_tr = off[np.ix_(self.tr, self.used)]
+        hold_groups = np.unique(design.group[self.ho])
+        self.off_ho = off[np.ix_(self.ho, hold_groups)]
+        w_ho = design.weights[self.ho]
+        self.w_ho = w_ho
+        self.wsum_ho = self.off_ho.T @ w_ho
+        # Smoothing of each held-out series (sorted by time) for the low-frequency statistic.
+        self.smooth: list[tuple[npt.NDArray[np.intp], int]] = []
+        t = design.order[self.ho]
+        for g in hold_groups:
+            rows = np.flatnonzero(design.group[self.ho] == g)
+            rows = rows[np.argsort(t[rows], kind="stable")]
+            if len(rows) < 4:
+                continue
+            dt = float(np.median(np.diff(t[rows])))
+            m = int(np.clip(round(window_s / dt) if dt > 0 else 1, 2, max(2, len(rows) // 3)))
+            self.smooth.append((rows, m))
+
+    def fit(
+        self, columns: FloatArray | None, y: FloatArray, *, keep: bool = False
+    ) -> BatchFit | None:
+        """Fit α, the columns' amplitudes and the training offsets to every column of ``y``
+        (2n × B); None when the design is rank-deficient."""
+        d = self.d
+        xs = [d.s[:, None]] if columns is None else [d.s[:, None], columns]
+        x_all = np.column_stack(xs)
+        k = x_all.shape[1]
+        x = np.column_stack([x_all[self.tr], self.off_tr]) * self.sw[self.tr, None]
+        norms = np.linalg.norm(x, axis=0)
+        if np.any(norms == 0) or not np.all(np.isfinite(norms)):
+            return None
+        q, r = np.linalg.qr(x / norms)
+        dg = np.abs(np.diag(r))
+        if dg.min() < 1e-10 * dg.max():
+            return None
+        yw = y[self.tr] * self.sw[self.tr, None]
+        qty = q.T @ yw
+        coef = solve_triangular(r, qty) / norms[:, None]
+        rss = np.sum(yw * yw, axis=0) - np.sum(qty * qty, axis=0)
+        resid_ho = y[self.ho] - x_all[self.ho] @ coef[:k]
+        means = (self.off_ho.T @ (self.w_ho[:, None] * resid_ho)) / self.wsum_ho[:, None]
+        resid_ho = resid_ho - self.off_ho @ means
+        fitted = None
+        if keep:
+            fitted = x_all @ coef[:k]
+            fitted[self.tr] += self.off_tr @ coef[k:]
+            fitted[self.ho] += self.off_ho @ means
+        return BatchFit(
+            train_rss=np.maximum(rss, 0.0),
+            hold_ms=np.mean(resid_ho**2, axis=0),
+            hold_resid=resid_ho,
+            fitted=fitted,
+        )
+
+    def low(self, hold_resid: FloatArray) -> FloatArray:
+        """The low-frequency statistic of held-out residuals (n_hold × B) (module docs)."""
+        tot = np.zeros(hold_resid.shape[1])
+        cnt = 0
+        for rows, m in self.smooth:
+            r = hold_resid[rows]
+            c = np.cumsum(np.vstack([np.zeros((1, r.shape[1])), r]), axis=0)
+            ma = (c[m:] - c[:-m]) / m
+            tot += np.sum(ma**2, axis=0)
+            cnt += ma.shape[0]
+        return tot / max(cnt, 1)
+
+
+def draw_noise(
+    design: Design, floor: NoiseFloor, draws: int, rng: np.random.Generator
+) -> FloatArray:
+    """Noise vectors (2n × draws) from the fitted noise model of every series (module docs)."""
+    vs = design.vs
+    n = vs.n
+    out = np.zeros((2 * n, draws))
+    noise = floor.by_key()
+    fallback = floor.holdout_um if np.isfinite(floor.holdout_um) else floor.train_um
+    for g in vs.groups:
+        run, cam = str(vs.run[g[0]]), str(vs.camera[g[0]])
+        su = noise.get((run, cam, "u"))
+        sv = noise.get((run, cam, "v"))
+        # u–v correlation of a visit from the residual's increments (high-passed).
+        rho_uv = 0.0
+        if len(g) > 4:
+            du = np.diff(design.y[g] - design.s[g] * design.vs.alpha0)
+            dv = np.diff(design.y[g + n] - design.s[g + n] * design.vs.alpha0)
+            if np.std(du) > 0 and np.std(dv) > 0:
+                rho_uv = float(np.clip(np.corrcoef(du, dv)[0, 1], -0.95, 0.95))
+        t = vs.t_s[g]
+        z1 = rng.standard_normal((len(g), draws))
+        z2 = rho_uv * z1 + np.sqrt(1 - rho_uv**2) * rng.standard_normal((len(g), draws))
+        a1 = _ar(t, rng.standard_normal((len(g), draws)), su)
+        a2p = _ar(t, rng.standard_normal((len(g), draws)), sv)
+        wu = su.white_um if su is not None else fallback
+        wv = sv.white_um if sv is not None else fallback
+        out[g] = wu * z1 + a1
+        # The correlated parts of u and v share the visit's pose error in the same proportion.
+        out[g + n] = wv * z2 + (rho_uv * _scale(a1, su, sv) + np.sqrt(1 - rho_uv**2) * a2p)
+    return out
+
+
+def _scale(a: FloatArray, su: object, sv: object) -> FloatArray:
+    from thermrs.diagnose.floor import SeriesNoise
+
+    if not isinstance(su, SeriesNoise) or not isinstance(sv, SeriesNoise):
+        return np.zeros_like(a)
+    if su.correlated_um <= 0:
+        return np.zeros_like(a)
+    return a * (sv.correlated_um / su.correlated_um)
+
+
+def _ar(t: FloatArray, z: FloatArray, s: object) -> FloatArray:
+    """A stationary AR(1) in time (irregular spacing) with the series' correlated part."""
+    from thermrs.diagnose.floor import SeriesNoise
+
+    if not isinstance(s, SeriesNoise) or s.correlated_um <= 0 or s.tau_c_s <= 0:
+        return np.zeros_like(z)
+    out = np.empty_like(z)
+    out[0] = z[0]
+    for i in range(1, len(t)):
+        phi = np.exp(-max(t[i] - t[i - 1], 0.0) / s.tau_c_s)
+        out[i] = phi * out[i - 1] + np.sqrt(1 - phi * phi) * z[i]
+    return out * s.correlated_um
+
+
+def quantile_above(null: FloatArray, observed: float) -> float:
+    """The bootstrap p-value of ``observed`` against ``null``: P(null ≥ observed), with the
+    observed value counted among the draws (never 0)."""
+    null = null[np.isfinite(null)]
+    return float((1 + np.sum(null >= observed)) / (len(null) + 1))

@@ -1,0 +1,297 @@
+"""Forward selection of effects, every step a test against its own parametric bootstrap.
+
+Step k takes the model so far (the nominal model, then with the effects already selected) as
+the truth of a null world (:mod:`.null`) and scores every remaining family *added to it*:
+profiled on its grid by the training residual, scored by the drop of the held-out mean square.
+A family is significant when its gain on the data exceeds the (1 − level) quantile of the
+largest gain any family reaches in the null world; the most significant plausible one is added
+(its non-linear parameters profiled jointly with the model so far), and the next step starts
+from the new model. Selection stops when nothing is significant or three effects are in.
+
+Rivals of a selected effect A are the other significant, plausible effects B that the data
+cannot reject as the truth: in a world where B (fitted) is the truth, how much better than B
+does A come out on the held-out runs? B is rejected when A's observed advantage exceeds that
+world's (1 − level) quantile (a parametric Cox-type test: collinear pairs are judged by what
+their difference would be under each, not by a standard error that vanishes with collinearity).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from thermrs.diagnose.engine import Design
+from thermrs.diagnose.floor import NoiseFloor
+from thermrs.diagnose.null import Batch, BatchFit, draw_noise, quantile_above
+from thermrs.effects import Family
+from thermrs.signatures import VisitSet
+
+__all__ = ["FamilyGrid", "Step", "build_grids", "forward_selection"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass
+class FamilyGrid:
+    """A family with its signature columns at every grid point, computed once."""
+
+    family: Family
+    etas: list[dict[str, float]]
+    cols: list[FloatArray]
+
+
+@dataclass
+class Choice:
+    """A family at its grid point, as selected."""
+
+    grid: FamilyGrid
+    index: int
+
+    @property
+    def columns(self) -> FloatArray:
+        return self.grid.cols[self.index]
+
+    @property
+    def eta(self) -> dict[str, float]:
+        return self.grid.etas[self.index]
+
+    @property
+    def label(self) -> str:
+        return self.grid.family.label
+
+    @property
+    def effect(self) -> str:
+        return self.grid.family.effect
+
+
+@dataclass
+class Step:
+    """One step of the selection: the model so far tested against its null, and what the
+    families gain on it."""
+
+    model: list[Choice]
+    hold_ms: float
+    p_at_floor: float
+    p_low: float
+    p_gain: float
+    p_floor_contradicted: float
+    gain: dict[str, float]
+    gain_p: dict[str, float]
+    best_index: dict[str, int]
+    threshold: float
+    significant: list[str] = field(default_factory=list)
+    chosen: Choice | None = None
+    rivals: list[str] = field(default_factory=list)
+    rival_p: dict[str, float] = field(default_factory=dict)
+    null_hold_ms: FloatArray = field(default_factory=lambda: np.zeros(0))
+
+
+def build_grids(families: list[Family], visits: VisitSet, design: Design) -> list[FamilyGrid]:
+    """Every family's columns at every grid point that can act on these runs."""
+    out = []
+    for fam in families:
+        etas, cols = [], []
+        try:
+            for eta in fam.grid:
+                c = fam.columns(visits, eta)
+                if not np.all(np.isfinite(c)) or design.identifiable(c) < 1e-6:
+                    continue
+                etas.append(dict(eta))
+                cols.append(np.asarray(c, dtype=np.float64))
+        except Exception:  # an effect that cannot act on these runs
+            continue
+        if etas:
+            out.append(FamilyGrid(fam, etas, cols))
+    return out
+
+
+def _stack(model: list[Choice], extra: FloatArray | None = None) -> FloatArray | None:
+    parts = [c.columns for c in model]
+    if extra is not None:
+        parts.append(extra)
+    return np.column_stack(parts) if parts else None
+
+
+def _profile(
+    batch: Batch, model: list[Choice], fg: FamilyGrid, y: FloatArray
+) -> tuple[FloatArray, npt.NDArray[np.intp]] | None:
+    """Held-out mean square per column of ``y`` of the family added to the model, at the grid
+    point with the least training residual for that column."""
+    rss, hms = [], []
+    for c in fg.cols:
+        f = batch.fit(_stack(model, c), y)
+        if f is None:
+            rss.append(np.full(y.shape[1], np.inf))
+            hms.append(np.full(y.shape[1], np.nan))
+        else:
+            rss.append(f.train_rss)
+            hms.append(f.hold_ms)
+    r = np.vstack(rss)
+    if not np.any(np.isfinite(r[:, 0])):
+        return None
+    best = np.argmin(r, axis=0)
+    return np.vstack(hms)[best, np.arange(y.shape[1])], best
+
+
+def _world(
+    batch: Batch,
+    design: Design,
+    floor: NoiseFloor,
+    model: list[Choice],
+    draws: int,
+    rng: np.random.Generator,
+) -> tuple[FloatArray, BatchFit]:
+    """The data and ``draws`` replicates of the world where ``model`` is the truth."""
+    y = design.y[:, None]
+    obs = batch.fit(_stack(model), y, keep=True)
+    if obs is None or obs.fitted is None:
+        raise np.linalg.LinAlgError("the model cannot be fitted")
+    ys = np.column_stack([y, obs.fitted + draw_noise(design, floor, draws, rng)])
+    cur = batch.fit(_stack(model), ys)
+    assert cur is not None
+    return ys, cur
+
+
+def run_step(
+    batch: Batch,
+    design: Design,
+    floor: NoiseFloor,
+    grids: list[FamilyGrid],
+    model: list[Choice],
+    *,
+    level: float,
+    draws: int,
+    rng: np.random.Generator,
+    plausible: Callable[[list[Choice], Choice], bool],
+) -> Step:
+    """Test the model against its null world and score every family added to it."""
+    ys, cur = _world(batch, design, floor, model, draws, rng)
+    assert cur.hold_resid is not None
+    low = batch.low(cur.hold_resid)
+    in_model = {c.effect for c in model}
+    gains: dict[str, FloatArray] = {}
+    best_idx: dict[str, int] = {}
+    hold: dict[str, FloatArray] = {}
+    by_label = {}
+    for fg in grids:
+        if fg.family.effect in in_model:
+            continue
+        got = _profile(batch, model, fg, ys)
+        if got is None:
+            continue
+        hm, idx = got
+        gains[fg.family.label] = cur.hold_ms - hm
+        hold[fg.family.label] = hm
+        best_idx[fg.family.label] = int(idx[0])
+        by_label[fg.family.label] = fg
+    if gains:
+        g = np.vstack(list(gains.values()))
+        max_null = np.nanmax(g[:, 1:], axis=0)
+        min_hold_null = np.nanmin(np.vstack(list(hold.values()))[:, 1:], axis=0)
+        obs_min_hold = float(np.nanmin([h[0] for h in hold.values()]))
+    else:
+        max_null = np.zeros(draws)
+        min_hold_null = cur.hold_ms[1:]
+        obs_min_hold = float(cur.hold_ms[0])
+    threshold = float(np.quantile(max_null, 1.0 - level))
+    step = Step(
+        model=list(model),
+        hold_ms=float(cur.hold_ms[0]),
+        p_at_floor=quantile_above(cur.hold_ms[1:], float(cur.hold_ms[0])),
+        p_low=quantile_above(low[1:], float(low[0])),
+        p_gain=quantile_above(max_null, max((float(v[0]) for v in gains.values()), default=0.0)),
+        # How often the null's best candidate leaves as little as the data's best does.
+        p_floor_contradicted=float(
+            (1 + np.sum(min_hold_null <= obs_min_hold)) / (len(min_hold_null) + 1)
+        ),
+        gain={k: float(v[0]) for k, v in gains.items()},
+        gain_p={k: quantile_above(max_null, float(v[0])) for k, v in gains.items()},
+        best_index=best_idx,
+        threshold=threshold,
+        null_hold_ms=cur.hold_ms[1:],
+    )
+    sig = [k for k, v in gains.items() if v[0] > threshold]
+    sig.sort(key=lambda k: float(hold[k][0]))
+    ok = []
+    for k in sig:
+        ch = Choice(by_label[k], best_idx[k])
+        if plausible(model, ch):
+            ok.append(ch)
+    step.significant = [c.label for c in ok]
+    if not ok:
+        return step
+    best = ok[0]
+    step.chosen = best
+    # One candidate per other effect name: can the data reject it as the truth?
+    seen = {best.effect}
+    for ch in ok[1:]:
+        if ch.effect in seen:
+            continue
+        seen.add(ch.effect)
+        p = _rival_p(batch, design, floor, model, best, ch, draws=max(49, draws // 2), rng=rng)
+        step.rival_p[ch.effect] = p
+        if p >= level:
+            step.rivals.append(ch.effect)
+    return step
+
+
+def _rival_p(
+    batch: Batch,
+    design: Design,
+    floor: NoiseFloor,
+    model: list[Choice],
+    best: Choice,
+    rival: Choice,
+    *,
+    draws: int,
+    rng: np.random.Generator,
+) -> float:
+    """P(best's held-out advantage over ``rival`` ≥ the observed one | rival is the truth)."""
+    ys, _ = _world(batch, design, floor, [*model, rival], draws, rng)
+    a = _profile(batch, model, best.grid, ys)
+    b = _profile(batch, model, rival.grid, ys)
+    if a is None or b is None:
+        return 1.0
+    d = b[0] - a[0]
+    return quantile_above(d[1:], float(d[0]))
+
+
+def forward_selection(
+    batch: Batch,
+    design: Design,
+    floor: NoiseFloor,
+    grids: list[FamilyGrid],
+    *,
+    level: float,
+    draws: int,
+    rng: np.random.Generator,
+    plausible: Callable[[list[Choice], Choice], bool],
+    max_effects: int = 3,
+    say: Callable[[str], object] = lambda _m: None,
+) -> list[Step]:
+    """The selection's steps (module docs); the last step tests the final model."""
+    steps: list[Step] = []
+    model: list[Choice] = []
+    while True:
+        say(f"step {len(steps) + 1}: testing {len(model)} effect(s) against the null")
+        st = run_step(
+            batch,
+            design,
+            floor,
+            grids,
+            model,
+            level=level,
+            draws=draws,
+            rng=rng,
+            plausible=plausible,
+        )
+        steps.append(st)
+        if st.chosen is None or len(model) + 1 > max_effects:
+            if st.chosen is not None:
+                st.chosen = None  # the limit: stop here, the step still tests the model
+            break
+        model = [*model, st.chosen]
+    return steps
