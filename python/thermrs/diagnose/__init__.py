@@ -221,6 +221,7 @@ def _diagnose(
     say("floor")
     holdout_runs = set(vs.run.tolist()) - set(names_t)
     floor = noise_floor(vs, base.residual, holdout_runs, rig.mapped_temperatures)
+    design.min_tau_min = floor.tau_c_max_s / 60.0
 
     say("where")
     phase = phases(vs, rig.mapped_temperatures)

@@ -88,6 +88,9 @@ class Design:
         self.unit = np.concatenate([cyc, cyc])
         self.order = np.concatenate([visits.t_s, visits.t_s])
         self.weights = np.ones(2 * n)
+        #: Shortest time constant (min) a family may take: faster than the floor's allowed
+        #: noise correlation time, an effect cannot be told from noise (set by the floor step).
+        self.min_tau_min = 0.0
         base = self.fit(None, {}, label="nominal")
         # Weights: inverse residual variance per camera and axis, from the nominal training fit.
         for ch in np.unique(self.channel):
@@ -186,7 +189,7 @@ class Design:
 
         best: tuple[float, dict[str, float], FloatArray] | None = None
         scores: list[tuple[dict[str, float], float]] = []
-        for eta in fam.grid:
+        for eta in self.grid(fam):
             try:
                 cols = fam.columns(vs, eta)
             except Exception:  # an effect that cannot act on these runs
@@ -202,9 +205,9 @@ class Design:
         if best is None:
             return None
         _, eta, cols = best
-        if fam.refine and len(fam.grid) > 2:
+        if fam.refine and len(self.grid(fam)) > 2:
             key = fam.refine[0]
-            grid = sorted(float(e[key]) for e in fam.grid)
+            grid = sorted(float(e[key]) for e in self.grid(fam))
             i = grid.index(float(eta[key]))
             lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
 
@@ -227,6 +230,10 @@ class Design:
         f = self.fit(with_prefix(cols), eta, label=fam.label)
         f.extra["profile"] = scores
         return f
+
+    def grid(self, fam: Family) -> list[dict[str, float]]:
+        """The family's grid without time constants below :attr:`min_tau_min`."""
+        return [e for e in fam.grid if float(e.get("tau_min", np.inf)) >= self.min_tau_min]
 
     def _try(self, cols: FloatArray, eta: dict[str, float], label: str) -> Fit | None:
         try:

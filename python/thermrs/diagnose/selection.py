@@ -95,7 +95,7 @@ def build_grids(families: list[Family], visits: VisitSet, design: Design) -> lis
     for fam in families:
         etas, cols = [], []
         try:
-            for eta in fam.grid:
+            for eta in design.grid(fam):
                 c = fam.columns(visits, eta)
                 if not np.all(np.isfinite(c)) or design.identifiable(c) < 1e-6:
                     continue
