@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 import polars as pl
 import pytest
-
 import thermrs
 from thermrs.diagnose import diagnose
 from thermrs.diagnose.bench import make_runs
