@@ -47,6 +47,26 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
         f"{b['train_rms_um']:.2f} µm training, {b['holdout_rms_um']:.2f} µm held out "
         f"(max {b['holdout_max_um']:.2f}); noise floor {doc['noise_floor_um']:.2f} µm"
     )
+    nf = doc.get("noise_floor") or {}
+    parts = nf.get("parts") or {}
+    if parts:
+        cen = parts.get("centroid_um")
+        corr_t = parts.get("pose_correlation_time_min")
+        out.print(
+            "[bold]Floor[/bold] (noise by physics): visit repeatability "
+            f"{parts.get('visit_white_um', float('nan')):.2f} µm white + "
+            f"{parts.get('pose_correlated_um', float('nan')):.2f} µm correlated"
+            + (f" over {corr_t:.1f} min" if corr_t else "")
+            + f" (allowed ≤ {nf.get('correlation_time_max_min', float('nan')):.1f} min, a tenth "
+            "of the shortest thermal time constant); centroid "
+            + (f"{cen:.2f} µm" if cen is not None else "not separable (one frame per visit)")
+            + "; per held-out run "
+            + ", ".join(
+                f"{r} {v:.2f} µm"
+                for r, v in (nf.get("per_run_um") or {}).items()
+                if any(x.get("run") == r and x.get("role") == "holdout" for x in doc["location"])
+            )
+        )
     t = Table(title="Where: largest shares of the residual (run, camera, chip axis, phase)")
     for c in ("run", "role", "camera", "axis", "phase", "visits", "rms µm", "share"):
         t.add_column(c, justify="right" if c in ("visits", "rms µm", "share") else "left")

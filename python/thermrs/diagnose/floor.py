@@ -214,6 +214,8 @@ def _series_noise(
             best = (float(err), float(coef[0]), float(coef[1]), float(tau))
     assert best is not None
     _, w2, a2, tau = best
+    if tau < dt:  # decorrelated within one cycle: white at this sampling
+        w2, a2, tau = w2 + a2, 0.0, 0.0
     return float(np.sqrt(max(w2, 0.0))), float(np.sqrt(max(a2, 0.0))), tau
 
 
