@@ -272,23 +272,59 @@ def diagnose(
     "rig_path",
     type=input_file,
     default=None,
-    help="Rig file (default: the embedded paper rig; needs ROIs link2 and link3).",
+    help="Rig file (default: the embedded paper rig).",
 )
 @click.option(
     "--seeds",
-    default=3,
+    default=1,
     show_default=True,
     type=click.IntRange(1, 1000),
-    help="Seeds per effect and magnitude.",
+    help="Repetitions of the whole plan (every case its own world).",
 )
 @click.option(
     "--hours",
-    default=8.0,
+    default=12.0,
     show_default=True,
     type=click.FloatRange(1.0, 48.0),
-    help="Length of each run.",
+    help="Length of each of the three runs.",
+)
+@click.option(
+    "--cycle-s",
+    "cycle_s",
+    default=600.0,
+    show_default=True,
+    type=click.FloatRange(30.0, 3600.0),
+    help="Seconds per cycle (one visit to each camera).",
 )
 @click.option("--effect", "effects", multiple=True, help="Only these effects (default: all).")
+@click.option(
+    "--world",
+    "worlds",
+    multiple=True,
+    type=click.Choice(["white", "ar1"]),
+    help="Nuisance worlds (default: both).",
+)
+@click.option(
+    "--snr",
+    "snrs",
+    multiple=True,
+    type=click.FloatRange(0.01, 100.0),
+    help="Target SNRs (default: 0.25 0.5 1 2 4).",
+)
+@click.option(
+    "--nulls",
+    default=4,
+    show_default=True,
+    type=click.IntRange(0, 1000),
+    help="No-effect cases per seed and world.",
+)
+@click.option(
+    "--jobs",
+    default=1,
+    show_default=True,
+    type=click.IntRange(1, 256),
+    help="Worker processes.",
+)
 @click.option(
     "--json",
     "json_path",
@@ -300,12 +336,18 @@ def diagnose_bench(
     rig_path: Path | None,
     seeds: int,
     hours: float,
+    cycle_s: float,
     effects: tuple[str, ...],
+    worlds: tuple[str, ...],
+    snrs: tuple[float, ...],
+    nulls: int,
+    jobs: int,
     json_path: Path | None,
 ) -> None:
-    """The diagnoser on simulated runs with each SPEC §6 effect injected (and withheld from
-    its library), with what it does not model perturbed: confusion matrix, parameter
-    recovery, held-out shrink, false attributions."""
+    """The diagnoser on runs made by an independent world (its own kinematics, thermal physics
+    and effects) with each SPEC §6 effect at target signal-to-noise ratios (and withheld from
+    the library), no effect, and two effects at once, in two nuisance worlds: right, false
+    `none` and false attributions per world and SNR bin."""
     from thermrs.cli import _write_json, writable
     from thermrs.diagnose.bench import run_bench
 
@@ -319,24 +361,46 @@ def diagnose_bench(
         raise InputError(f"--effect {bad}: not effects (known: {', '.join(EFFECT_NAMES)})")
     r = load_rig(rig_path)
     with out.status("bench…") as status:
-        doc = run_bench(r, seeds=seeds, hours=hours, effects=tuple(effects) or None,
-                        progress=lambda m: status.update(m))  # fmt: skip
+        doc = run_bench(
+            r,
+            seeds=seeds,
+            hours=hours,
+            cycle_s=cycle_s,
+            effects=tuple(effects) or None,
+            worlds=tuple(worlds) or ("white", "ar1"),
+            snrs=tuple(snrs) or (0.25, 0.5, 1.0, 2.0, 4.0),
+            nulls=nulls,
+            jobs=jobs,
+            progress=lambda m: status.update(m),
+        )
     if json_path is not None:
         _write_json(json_path, doc)
-    t = Table(title=f"Confusion over {doc['cases']} cases (rows: truth)")
-    cols = sorted({k for row in doc["confusion"].values() for k in row})
-    t.add_column("truth", justify="left")
-    for c in cols:
-        t.add_column(c, justify="right")
-    for truth, row in doc["confusion"].items():
-        t.add_row(truth, *[str(row.get(c, "")) for c in cols])
-    out.print(t)
-    g = doc["gap_closed_when_identified"]
-    out.print(
-        f"correct verdicts {doc['correct_rate']:.0%} (effects {doc['effect_correct_rate']:.0%}); "
-        f"effects named on none {doc['false_attribution_on_none']:.0%}; true effect excluded: "
-        f"unexplained/ambiguous {doc['excluded_ok_rate']:.0%}, confidently wrong "
-        f"{doc['excluded_confidently_wrong']}; gap closed when identified: median "
-        f"{_f(g['median'])}, ≥ 70 % in {_f(g['share_ge_70pct'])}; parameters within 25 %: "
-        f"{_f(doc['params_within_25pct'])}; {doc['seconds']:.0f} s"
+    render_bench(doc)
+
+
+def render_bench(doc: dict[str, Any]) -> None:
+    """Print a bench document (:func:`thermrs.diagnose.bench.run_bench`) as tables."""
+    sections = (
+        ("single", "One effect", ("right", "false none", "false attribution", "unexplained")),
+        ("withheld", "True effect excluded", ("honest", "none", "false attribution")),
+        ("pair", "Two effects", ("right", "false none", "wrong")),
     )
+    for key, title, cols in sections:
+        t = Table(title=f"{title} (rows: nuisance world, SNR bin)")
+        for c in ("world", "SNR", "cases", *cols):
+            t.add_column(c, justify="left" if c == "world" else "right")
+        for world, bins in doc[key].items():
+            for b, n in bins.items():
+                if n["cases"]:
+                    t.add_row(world, b, str(n["cases"]), *[str(n.get(c, 0)) for c in cols])
+        out.print(t)
+    t = Table(title="No effect")
+    for c in ("world", "cases", "none", "false attribution", "false gap"):
+        t.add_column(c, justify="left" if c == "world" else "right")
+    for world, n in doc["none"].items():
+        t.add_row(world, str(n["cases"]), str(n.get("right", 0)),
+                  str(n.get("false attribution", 0)), str(n.get("false gap", 0)))  # fmt: skip
+    out.print(t)
+    for s in doc["skipped"]:
+        out.print(f"not run: {s}")
+    out.print(f"{doc['cases']} cases in {doc['seconds']:.0f} s")

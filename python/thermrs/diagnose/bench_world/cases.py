@@ -1,0 +1,166 @@
+"""The bench's cases and the work of one: draw its world, scale its effects to their SNR,
+render the runs, diagnose them (and again with the true effect excluded from the library).
+
+A case is picklable and carries the rig's path, so a process pool can run cases in parallel,
+each worker with one BLAS and one Rayon thread.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from thermrs.diagnose.bench_world.geometry import WorldRig, read_rig
+from thermrs.diagnose.bench_world.snr import Sizer
+from thermrs.diagnose.bench_world.truth import EFFECTS, Truth, draw_truth
+from thermrs.diagnose.bench_world.world import Campaign, draw_scene, render
+
+__all__ = ["PAIRS", "Case", "plan", "run_case", "worker_init"]
+
+#: Two-effect cases: pairs acting at once, each at the target SNR on its own.
+PAIRS = (("thermal_lag", "fixture_drift"), ("joint_offset", "sensor_drift"))
+
+#: A case is diagnosed only if its effects reach at least this share of the target SNR within
+#: their amplitude caps (a tilted laser moves a drift-anchored spot by almost nothing).
+REACH = 0.5
+
+
+@dataclass(frozen=True)
+class Case:
+    """One bench case: ``effects`` (empty: a ``none`` case) at ``target_snr`` each."""
+
+    kind: str  # "none", "single" or "pair"
+    effects: tuple[str, ...]
+    target_snr: float
+    world: str
+    seed: int
+    rig_path: str
+    campaign: Campaign
+    withheld: bool
+
+
+def plan(
+    rig_path: str,
+    *,
+    seeds: int,
+    effects: tuple[str, ...],
+    worlds: tuple[str, ...],
+    snrs: tuple[float, ...],
+    campaign: Campaign,
+    nulls: int = 4,
+    pairs: bool = True,
+    withheld: bool = True,
+) -> list[Case]:
+    """Every case of a bench: per seed and world, ``nulls`` ``none`` cases, each effect at each
+    SNR, and each pair of :data:`PAIRS` (both of whose effects are in ``effects``) at each
+    SNR ≥ 1; every case its own world (its own seed)."""
+    for e in effects:
+        if e not in EFFECTS:
+            raise ValueError(f"not a SPEC §6 effect: {e!r}")
+    cases = []
+    for s in range(seeds):
+        base = 1000 + 1000 * s
+        k = 0
+        for world in worlds:
+            todo: list[tuple[str, tuple[str, ...], float]] = [("none", (), 0.0)] * nulls
+            todo += [("single", (e,), t) for e in effects for t in snrs]
+            if pairs:
+                todo += [
+                    ("pair", p, t) for p in PAIRS if set(p) <= set(effects) for t in snrs if t >= 1
+                ]
+            for kind, eff, t in todo:
+                cases.append(Case(kind, eff, t, world, base + k, rig_path, campaign, withheld))
+                k += 1
+    return cases
+
+
+def worker_init() -> None:
+    """One BLAS and one Rayon thread per worker process (the pool gives the parallelism)."""
+    os.environ["RAYON_NUM_THREADS"] = "1"
+    from threadpoolctl import threadpool_limits  # type: ignore[import-untyped]
+
+    threadpool_limits(1)
+
+
+_RIGS: dict[str, tuple[Any, WorldRig]] = {}
+
+
+def _rigs(path: str) -> tuple[Any, WorldRig]:
+    if path not in _RIGS:
+        from thermrs.rig import load_rig
+
+        _RIGS[path] = (load_rig(path), read_rig(path))
+    return _RIGS[path]
+
+
+def _named(doc: dict[str, Any]) -> list[str]:
+    """Every effect a diagnosis names: the verdict's, its confounded set, the selected ones."""
+    v = doc.get("verdict", {})
+    names = [v.get("effect"), *(v.get("confounded_with") or [])]
+    names += [s.get("effect") for s in doc.get("selected") or []]
+    return [n for n in dict.fromkeys(names) if n]
+
+
+def _summary(doc: dict[str, Any]) -> dict[str, Any]:
+    v = doc.get("verdict", {})
+    hf = doc.get("how_far", {})
+    return {
+        "status": v.get("status"),
+        "effect": v.get("effect"),
+        "confounded_with": v.get("confounded_with") or [],
+        "selected": [s.get("effect") for s in doc.get("selected") or []],
+        "named": _named(doc),
+        "params": v.get("params"),
+        "noise_floor_um": doc.get("noise_floor_um"),
+        "holdout_rms_before_um": hf.get("holdout_rms_before_um"),
+        "holdout_rms_after_um": hf.get("holdout_rms_after_um"),
+    }
+
+
+def run_case(case: Case) -> dict[str, Any]:
+    """Make and diagnose one case; returns its result row (``skipped`` where its effects cannot
+    reach the target SNR)."""
+    from thermrs.diagnose import diagnose
+
+    t0 = time.perf_counter()
+    rig, wrig = _rigs(case.rig_path)
+    scene = draw_scene(wrig, case.campaign, case.world, case.seed)
+    rng = np.random.default_rng([case.seed, 11])
+    truths: list[Truth] = []
+    snrs: list[float] = []
+    sizer = Sizer(scene) if case.effects else None
+    for name in case.effects:
+        assert sizer is not None
+        t, snr = sizer.scale(draw_truth(name, wrig, rng), case.target_snr)
+        truths.append(t)
+        snrs.append(snr)
+    row: dict[str, Any] = {
+        "kind": case.kind,
+        "world": case.world,
+        "truth": list(case.effects),
+        "seed": case.seed,
+        "target_snr": case.target_snr,
+        "snr": snrs,
+        "injected": [t.spec(scene.alpha_per_k) for t in truths],
+        "extra": [
+            {k: v for k, v in t.drawn.items() if k in ("ratio", "mount_tau_min")} for t in truths
+        ],
+    }
+    if sizer is not None and len(truths) > 1:
+        row["snr_together"] = sizer.snr(tuple(truths))
+    if any(s < REACH * case.target_snr for s in snrs):
+        row["skipped"] = "the effect cannot reach this SNR within its amplitude cap"
+        row["seconds"] = time.perf_counter() - t0
+        return row
+    tables = render(scene, tuple(truths))
+    d = diagnose(tables[:1], tables[1:], rig, seed=case.seed)
+    row.update(_summary(d.to_json()))
+    if case.withheld and case.kind == "single":
+        dx = diagnose(tables[:1], tables[1:], rig, seed=case.seed, exclude=list(case.effects))
+        row["excluded"] = _summary(dx.to_json())
+    row["seconds"] = time.perf_counter() - t0
+    return row

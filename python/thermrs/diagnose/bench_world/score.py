@@ -1,0 +1,143 @@
+"""Scoring of bench cases against their truth, per nuisance world and SNR bin.
+
+- **One effect, in the library**: ``right`` if the verdict (``identified``, ``ambiguous`` or
+  ``partially explained``) names the true effect among its effect, confounded set or selected
+  effects; ``false none``: ``none``; ``false attribution``: effects named, the truth not among
+  them; ``unexplained`` is counted on its own (honest, not right).
+- **Withheld** (the same runs, the true effect excluded from the library): ``honest`` is
+  ``unexplained``, ``ambiguous`` or ``partially explained``; ``none`` is a failure (where the
+  SNR ≥ 1); ``identified`` is a false attribution.
+- **No effect**: ``none`` is right; ``identified``/``ambiguous``/``partially explained`` is a
+  false attribution; ``unexplained`` a false gap.
+- **Two effects**: right if the verdict names both, or says ``partially explained`` or
+  ``unexplained``; ``false none``: ``none``; anything else (one effect ``identified`` and
+  nothing else, or a wrong one) is wrong.
+
+A case is binned by the SNR it reached (each effect's own, for a pair the smaller), at the
+nearest target on a log scale.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = ["outcome", "score"]
+
+NAMING = ("identified", "ambiguous", "partially explained")
+
+
+def outcome(row: dict[str, Any]) -> str:
+    """The outcome class of a diagnosed case (module docs)."""
+    status = row["status"]
+    named = set(row["named"])
+    truth = set(row["truth"])
+    if row["kind"] == "none":
+        if status == "none":
+            return "right"
+        return "false gap" if status == "unexplained" else "false attribution"
+    if status == "none":
+        return "false none"
+    if row["kind"] == "pair":
+        if truth <= named or status in ("partially explained", "unexplained"):
+            return "right"
+        return "wrong"
+    if status in NAMING:
+        return "right" if truth <= named else "false attribution"
+    return "unexplained"
+
+
+def withheld_outcome(row: dict[str, Any]) -> str:
+    """The outcome class of a case diagnosed with its true effect excluded."""
+    status = row["excluded"]["status"]
+    if status == "none":
+        return "none"
+    if status == "identified":
+        return "false attribution"
+    return "honest"
+
+
+def _bin(snr: float, targets: tuple[float, ...]) -> str:
+    t = min(targets, key=lambda x: abs(np.log(snr / x)) if snr > 0 else np.inf)
+    return f"{t:g}"
+
+
+def _count(rows: list[dict[str, Any]], key: str) -> dict[str, int]:
+    out: dict[str, int] = {"cases": len(rows)}
+    for r in rows:
+        out[r[key]] = out.get(r[key], 0) + 1
+    return out
+
+
+def score(
+    results: list[dict[str, Any]], targets: tuple[float, ...], seconds: float
+) -> dict[str, Any]:
+    """The bench document: counts per world and SNR bin of each case kind (module docs)."""
+    done = [r for r in results if "skipped" not in r]
+    for r in done:
+        r["outcome"] = outcome(r)
+        if "excluded" in r:
+            r["excluded_outcome"] = withheld_outcome(r)
+        r["bin"] = _bin(min(r["snr"]), targets) if r["snr"] else "-"
+    worlds = list(dict.fromkeys(r["world"] for r in results))
+    bins = [f"{t:g}" for t in targets]
+    doc: dict[str, Any] = {"single": {}, "withheld": {}, "none": {}, "pair": {}, "by_effect": {}}
+    for w in worlds:
+        here = [r for r in done if r["world"] == w]
+        doc["none"][w] = _count([r for r in here if r["kind"] == "none"], "outcome")
+        for kind in ("single", "pair"):
+            doc[kind][w] = {
+                b: _count([r for r in here if r["kind"] == kind and r["bin"] == b], "outcome")
+                for b in bins
+            }
+        doc["withheld"][w] = {
+            b: _count([r for r in here if "excluded" in r and r["bin"] == b], "excluded_outcome")
+            for b in bins
+        }
+    for e in dict.fromkeys(x for r in done if r["kind"] == "single" for x in r["truth"]):
+        doc["by_effect"][e] = {
+            b: _count(
+                [r for r in done if r["kind"] == "single" and r["truth"] == [e] and r["bin"] == b],
+                "outcome",
+            )
+            for b in bins
+        }
+    doc["skipped"] = [
+        f"{r['world']} {'+'.join(r['truth'])} SNR {r['target_snr']:g} seed {r['seed']}: "
+        f"reaches SNR {min(r['snr']):.3g}"
+        for r in results
+        if "skipped" in r
+    ]
+    doc["must_reach"] = _must_reach(done)
+    doc["cases"] = len(results)
+    doc["seconds"] = seconds
+    doc["results"] = results
+    return doc
+
+
+def _rate(rows: list[dict[str, Any]], key: str, values: tuple[str, ...]) -> dict[str, Any]:
+    n = len(rows)
+    k = sum(r[key] in values for r in rows)
+    return {"k": k, "n": n, "rate": k / n if n else None}
+
+
+def _must_reach(done: list[dict[str, Any]]) -> dict[str, Any]:
+    """Issue 16's targets per world: right and false ``none`` where SNR ≥ 1, false attribution
+    on ``none``, withheld honest where SNR ≥ 1 (and ``none`` there, which must be 0)."""
+    out: dict[str, Any] = {}
+    for w in dict.fromkeys(r["world"] for r in done):
+        here = [r for r in done if r["world"] == w]
+        strong = [r for r in here if r["kind"] == "single" and min(r["snr"]) >= 0.99]
+        held = [r for r in strong if "excluded" in r]
+        out[w] = {
+            "right_snr_ge_1": _rate(strong, "outcome", ("right",)),
+            "false_none_snr_ge_1": _rate(strong, "outcome", ("false none",)),
+            "false_attribution_on_none": _rate(
+                [r for r in here if r["kind"] == "none"], "outcome", ("false attribution",)
+            ),
+            "withheld_honest_snr_ge_1": _rate(held, "excluded_outcome", ("honest",)),
+            "withheld_none_snr_ge_1": _rate(held, "excluded_outcome", ("none",)),
+            "pair_right": _rate([r for r in here if r["kind"] == "pair"], "outcome", ("right",)),
+        }
+    return out
