@@ -212,7 +212,9 @@ def _diagnose(
     say("baseline")
     raw = [*tr, *ho]
     taus, _ = thermal_time_scales(VisitSet(raw, rig), rig.mapped_temperatures)
-    tables = smooth_temperatures(raw, min(taus.values()) * 60.0 / SCALE_SEPARATION)
+    # Reading noise out of the temperatures: a symmetric smoother over ± two allowed noise
+    # correlation times (a fifth of the shortest thermal time constant).
+    tables = smooth_temperatures(raw, 2.0 * min(taus.values()) * 60.0 / SCALE_SEPARATION)
     vs = VisitSet(tables, rig)
     design = Design(vs, set(names_t))
     base = design.fit(None, {}, label="nominal")

@@ -85,9 +85,10 @@ def smooth_temperatures(tables: list[pl.DataFrame], half_width_s: float) -> list
     A temperature read by an IR camera carries reading noise from visit to visit; fed through
     the model it is visit-to-visit noise on the predicted spot, which any smoothing effect
     (a short thermal lag, above all) would "explain". The links' temperatures change on the
-    thermal time scales, so a symmetric smoother over a window well below them (the floor's
-    allowed correlation time, a tenth of the shortest thermal time constant) takes the
-    reading noise out without shifting or bending the heating curve.
+    thermal time scales, so a symmetric smoother over a window well below them (± two of the
+    floor's allowed correlation times, a fifth of the shortest thermal time constant) takes
+    the reading noise out without shifting the heating curve (a local quadratic follows its
+    bend to third order).
     """
     if half_width_s <= 0:
         return tables
