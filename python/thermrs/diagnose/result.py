@@ -1,0 +1,272 @@
+"""The diagnosis as a document: the :class:`Diagnosis` record and its assembly from the
+steps' results (ranking rows, tests, verdict, how far, the residual table)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import polars as pl
+
+from thermrs.diagnose.candidates import Candidate
+from thermrs.diagnose.engine import Fit
+from thermrs.diagnose.floor import NoiseFloor
+from thermrs.diagnose.selection import Step
+from thermrs.diagnose.verdict import summary
+from thermrs.signatures import VisitSet
+
+__all__ = ["Diagnosis", "assemble"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass
+class Diagnosis:
+    """The result of :func:`diagnose`: see :meth:`to_json` for every field (SPEC §7)."""
+
+    noise_floor_um: float
+    baseline: dict[str, Any]
+    location: list[dict[str, Any]]
+    drivers: list[dict[str, Any]]
+    whiteness: dict[str, Any]
+    ranking: list[dict[str, Any]]
+    confounded: list[dict[str, Any]]
+    verdict: dict[str, Any]
+    how_far: dict[str, Any]
+    selected: list[dict[str, Any]]
+    library: list[str]
+    excluded: list[str]
+    summary: str
+    residuals: pl.DataFrame = field(repr=False)
+    noise_floor: dict[str, Any] = field(default_factory=dict)
+    tests: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def status(self) -> str:
+        """The verdict: ``identified``, ``ambiguous``, ``partially explained``,
+        ``unexplained`` or ``none``."""
+        return str(self.verdict["status"])
+
+    def to_json(self) -> dict[str, Any]:
+        """The SPEC §7 ``thermrs diagnose --json`` document (extended)."""
+        return {
+            "noise_floor_um": self.noise_floor_um,
+            "noise_floor": self.noise_floor,
+            "baseline": self.baseline,
+            "location": self.location,
+            "drivers": self.drivers,
+            "whiteness": self.whiteness,
+            "ranking": self.ranking,
+            "confounded": self.confounded,
+            "selected": self.selected,
+            "tests": self.tests,
+            "verdict": self.verdict,
+            "how_far": self.how_far,
+            "library": self.library,
+            "excluded": self.excluded,
+            "summary": self.summary,
+        }
+
+
+def _ranking_row(c: Candidate, base_rms: float, n_eff_train: float) -> dict[str, Any]:
+    f = c.fit
+    ci = dict(c.ci)
+    prof = f.extra.get("profile") or []
+    if c.family.refine and prof:
+        key = c.family.refine[0]
+        best_rss = min(r for _, r in prof)
+        lim = best_rss * (1.0 + 3.84 / max(n_eff_train, 1.0))
+        ok = [e[key] for e, r in prof if r <= lim] + [f.eta[key]]
+        ci[key] = [float(min(ok)), float(max(ok))]
+    return {
+        "effect": c.effect,
+        "family": c.family.label,
+        "params": c.params,
+        "params_ci95": ci,
+        "alpha_per_k": f.alpha,
+        "train_rms_um": f.train_rms_um,
+        "holdout_rms_um": f.holdout_rms_um,
+        "holdout_max_um": f.holdout_max_um,
+        "shrink": 1.0 - f.holdout_rms_um / base_rms if base_rms > 0 else 0.0,
+        "evidence": {
+            "gain_p": c.gain_p,
+            "gain_z": c.gain_z,
+            "gap_closed": c.closed,
+            "gap_closed_raw": c.closed_raw,
+            "delta_aicc": c.d_aicc,
+            "n_eff": n_eff_train,
+            "stability": c.stability,
+            "placebo_holdout_rms_um": c.placebo_rms,
+            "placebo_beaten": c.placebo_beaten,
+            "plausible": c.plausible,
+            "identifiable": c.identifiable,
+            "qualifies": c.significant and c.plausible,
+        },
+    }
+
+
+def _tests(steps: list[Step], level: float) -> dict[str, Any]:
+    return {
+        "level": level,
+        "per_test_level": level / 3.0,
+        "method": "parametric bootstrap of the whole pipeline in a world where the model of "
+        "each step is the truth (its fit plus the floor's noise model per series); "
+        "Bonferroni over the three tests that `none` must pass",
+        "steps": [
+            {
+                "model": [c.label for c in s.model],
+                "holdout_rms_um": float(np.sqrt(s.hold_ms)),
+                "null_holdout_rms_um_95": float(np.sqrt(np.quantile(s.null_hold_ms, 0.95)))
+                if len(s.null_hold_ms)
+                else None,
+                "p_at_floor": s.p_at_floor,
+                "p_white_at_thermal_scales": s.p_low,
+                "p_best_gain": s.p_gain,
+                "p_floor_contradicted": s.p_floor_contradicted,
+                "gain_threshold_um2": s.threshold,
+                "significant": s.significant,
+                "chosen": None if s.chosen is None else s.chosen.label,
+                "rivals": s.rivals,
+                "rival_p": s.rival_p,
+            }
+            for s in steps
+        ],
+    }
+
+
+def _how_far(base: Fit, after: Fit, fl: float, changed: bool) -> dict[str, Any]:
+    base_rms = base.holdout_rms_um
+    gap = base_rms - fl
+    raw = (base_rms - after.holdout_rms_um) / gap if gap > 0 and changed else None
+    return {
+        "holdout_rms_before_um": base_rms,
+        "holdout_rms_after_um": after.holdout_rms_um,
+        "holdout_max_before_um": base.holdout_max_um,
+        "holdout_max_after_um": after.holdout_max_um,
+        "noise_floor_um": fl,
+        "gap_closed": None if raw is None else min(raw, 1.0),
+        "gap_closed_raw": raw,
+        "gap_closed_note": (
+            "the effects remove more than the gap above the floor: the floor is an estimate "
+            "and reads high here"
+            if raw is not None and raw > 1.0
+            else None
+        ),
+    }
+
+
+def _residual_table(
+    vs: VisitSet,
+    base: Fit,
+    final: Fit | None,
+    phase: npt.NDArray[np.str_],
+    role_visit: npt.NDArray[np.str_],
+) -> pl.DataFrame:
+    t_h = (np.concatenate([vs.t_since_start, vs.t_since_start])) / 3600.0
+    return pl.DataFrame(
+        {
+            "run": np.concatenate([vs.run, vs.run]),
+            "role": np.concatenate([role_visit, role_visit]),
+            "camera": np.concatenate([vs.camera, vs.camera]),
+            "axis": vs.axis,
+            "t_ns": np.concatenate([vs.table["t_ns"].to_numpy()] * 2),
+            "t_h": t_h,
+            "phase": np.concatenate([phase, phase]),
+            "baseline_um": base.residual,
+            "after_um": final.residual if final is not None else np.full(2 * vs.n, np.nan),
+        }
+    ).with_columns(pl.col("after_um").fill_nan(None))
+
+
+def assemble(
+    *,
+    vs: VisitSet,
+    base: Fit,
+    floor: NoiseFloor,
+    final: Fit | None,
+    selected: list[dict[str, Any]],
+    steps: list[Step],
+    cands: list[Candidate],
+    verdict: tuple[str, str, list[str]],
+    level: float,
+    where: dict[str, Any],
+    role_visit: npt.NDArray[np.str_],
+    library: tuple[list[str], list[str]],
+    n_eff_train: float,
+) -> Diagnosis:
+    """The :class:`Diagnosis` from the steps' results."""
+    status, reason, rivals = verdict
+    classes, exclude = library
+    phase = where["phase"]
+    base_rms = base.holdout_rms_um
+    fl = floor.holdout_um
+    ranking = [_ranking_row(c, base_rms, n_eff_train) for c in cands]
+    after = final if final is not None else base
+    how_far = _how_far(base, after, fl, final is not None)
+    first = selected[0] if selected else None
+    verdict_doc = {
+        "status": status,
+        "effect": None if first is None or status == "unexplained" else first["effect"],
+        "effects": [s["effect"] for s in selected],
+        "params": {} if first is None else first["params"],
+        "params_ci95": {} if first is None else first["params_ci95"],
+        "confounded_with": rivals if status == "ambiguous" else [],
+        "holdout_rms_um": after.holdout_rms_um,
+        "reason": reason,
+    }
+    baseline = {
+        "alpha_per_k": {
+            "value": base.alpha,
+            "ci95": list(base.lsq.interval(0) if base.lsq is not None else (np.nan, np.nan)),
+        },
+        "train_rms_um": base.train_rms_um,
+        "holdout_rms_um": base_rms,
+        "holdout_max_um": base.holdout_max_um,
+        "per_run": _per_run(vs, base.residual, role_visit),
+    }
+    residuals = _residual_table(vs, base, final, phase, role_visit)
+    d = Diagnosis(
+        noise_floor_um=fl,
+        baseline=baseline,
+        location=where["loc"],
+        drivers=where["drv"][:20],
+        whiteness=where["white"],
+        ranking=ranking,
+        confounded=where["confounded"],
+        verdict=verdict_doc,
+        how_far=how_far,
+        selected=[{k: s[k] for k in ("effect", "family", "params")} for s in selected],
+        library=classes,
+        excluded=exclude,
+        summary="",
+        residuals=residuals,
+        noise_floor=floor.to_json(),
+        tests=_tests(steps, level),
+    )
+    d.summary = summary(d)
+    return d
+
+
+def _per_run(
+    vs: VisitSet, residual: FloatArray, role: npt.NDArray[np.str_]
+) -> list[dict[str, Any]]:
+    out = []
+    run2 = np.concatenate([vs.run, vs.run])
+    cam2 = np.concatenate([vs.camera, vs.camera])
+    for r in dict.fromkeys(vs.run.tolist()):
+        for c in dict.fromkeys(vs.camera.tolist()):
+            for ax in ("u", "v"):
+                m = (run2 == r) & (cam2 == c) & (vs.axis == ax)
+                if m.any():
+                    out.append(
+                        {
+                            "run": r,
+                            "role": str(role[vs.run == r][0]),
+                            "camera": c,
+                            "axis": ax,
+                            "rms_um": float(np.sqrt(np.mean(residual[m] ** 2))),
+                        }
+                    )
+    return out
