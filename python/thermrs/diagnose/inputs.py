@@ -109,7 +109,8 @@ def smooth_temperatures(tables: list[pl.DataFrame], half_width_s: float) -> list
 
 
 def _loess2(t: np.ndarray, y: np.ndarray, h: float) -> np.ndarray:
-    """Local quadratic regression with tricube weights of half-width ``h``."""
+    """Local quadratic regression with tricube weights of half-width ``h`` (every sample's
+    weighted least squares by QR on its window, all windows at once)."""
     ok = np.isfinite(y)
     if ok.sum() < 5:
         return y
@@ -117,15 +118,21 @@ def _loess2(t: np.ndarray, y: np.ndarray, h: float) -> np.ndarray:
     out = y.copy()
     lo = np.searchsorted(tt, t - h, side="left")
     hi = np.searchsorted(tt, t + h, side="right")
-    for i in np.flatnonzero(ok):
-        a, b = lo[i], hi[i]
-        if b - a < 5:
-            continue
-        x = (tt[a:b] - t[i]) / h
-        w = (1 - np.abs(x) ** 3) ** 3
-        xm = np.column_stack([np.ones_like(x), x, x * x]) * np.sqrt(w)[:, None]
-        q, r = np.linalg.qr(xm)
-        if abs(r[2, 2]) < 1e-9 * abs(r[0, 0]):
-            continue
-        out[i] = solve_triangular(r, q.T @ (yy[a:b] * np.sqrt(w)))[0]
+    idx = np.flatnonzero(ok & (hi - lo >= 5))
+    if not len(idx):
+        return out
+    width = int((hi - lo)[idx].max())
+    j = lo[idx, None] + np.arange(width)[None, :]
+    inside = j < hi[idx, None]
+    j = np.minimum(j, len(tt) - 1)
+    x = (tt[j] - t[idx, None]) / h
+    sw = np.where(inside, (1 - np.clip(np.abs(x), 0, 1) ** 3) ** 1.5, 0.0)
+    xm = np.stack([np.ones_like(x), x, x * x], axis=-1) * sw[..., None]
+    q, r = np.linalg.qr(xm)
+    good = np.abs(r[:, 2, 2]) > 1e-9 * np.abs(r[:, 0, 0])
+    rhs = np.einsum("nwk,nw->nk", q, yy[j] * sw)
+    coef = np.zeros_like(rhs)
+    for i in np.flatnonzero(good):
+        coef[i] = solve_triangular(r[i], rhs[i])
+    out[idx[good]] = coef[good, 0]
     return out

@@ -33,9 +33,19 @@ from scipy.linalg import solve_triangular
 from thermrs.diagnose.engine import Design
 from thermrs.diagnose.floor import NoiseFloor
 
-__all__ = ["Batch", "BatchFit", "draw_noise", "quantile_above"]
+__all__ = ["Batch", "BatchFit", "Observations", "draw_noise", "quantile_above"]
 
 FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass
+class Observations:
+    """Observation vectors with their training (weighted) and held-out rows split out."""
+
+    y: FloatArray
+    yw: FloatArray
+    yy: FloatArray
+    y_ho: FloatArray
 
 
 @dataclass
@@ -84,11 +94,21 @@ class Batch:
             m = int(np.clip(round(window_s / dt) if dt > 0 else 1, 2, max(2, len(rows) // 3)))
             self.smooth.append((rows, m))
 
+    def prepare(self, y: FloatArray) -> Observations:
+        """Observation vectors (2n × B) split once for many fits."""
+        yw = y[self.tr] * self.sw[self.tr, None]
+        return Observations(y=y, yw=yw, yy=np.sum(yw * yw, axis=0), y_ho=y[self.ho])
+
     def fit(
-        self, columns: FloatArray | None, y: FloatArray, *, keep: bool = False
+        self,
+        columns: FloatArray | None,
+        y: FloatArray | Observations,
+        *,
+        keep: bool = False,
     ) -> BatchFit | None:
         """Fit α, the columns' amplitudes and the training offsets to every column of ``y``
-        (2n × B); None when the design is rank-deficient."""
+        (2n × B, or prepared by :meth:`prepare`); None when the design is rank-deficient."""
+        obs = y if isinstance(y, Observations) else self.prepare(y)
         d = self.d
         xs = [d.s[:, None]] if columns is None else [d.s[:, None], columns]
         x_all = np.column_stack(xs)
@@ -101,11 +121,10 @@ class Batch:
         dg = np.abs(np.diag(r))
         if dg.min() < 1e-10 * dg.max():
             return None
-        yw = y[self.tr] * self.sw[self.tr, None]
-        qty = q.T @ yw
+        qty = q.T @ obs.yw
         coef = solve_triangular(r, qty) / norms[:, None]
-        rss = np.sum(yw * yw, axis=0) - np.sum(qty * qty, axis=0)
-        resid_ho = y[self.ho] - x_all[self.ho] @ coef[:k]
+        rss = obs.yy - np.sum(qty * qty, axis=0)
+        resid_ho = obs.y_ho - x_all[self.ho] @ coef[:k]
         means = (self.off_ho.T @ (self.w_ho[:, None] * resid_ho)) / self.wsum_ho[:, None]
         resid_ho = resid_ho - self.off_ho @ means
         fitted = None
@@ -136,44 +155,72 @@ class Batch:
 def draw_noise(
     design: Design, floor: NoiseFloor, draws: int, rng: np.random.Generator
 ) -> FloatArray:
-    """Noise vectors (2n × draws) from the fitted noise model of every series (module docs)."""
+    """Noise vectors (2n × draws) from the fitted noise model of every series (module docs).
+
+    Every channel of a run (camera × chip axis) gets its own white and correlated parts
+    (:class:`.floor.SeriesNoise`); the channels of one cycle are drawn correlated as the
+    residual's increments from cycle to cycle are (a pose error moves both cameras and both
+    axes at once), for the white draws and the correlated part's innovations alike.
+    """
     vs = design.vs
     n = vs.n
     out = np.zeros((2 * n, draws))
     noise = floor.by_key()
     fallback = floor.holdout_um if np.isfinite(floor.holdout_um) else floor.train_um
-    for g in vs.groups:
-        run, cam = str(vs.run[g[0]]), str(vs.camera[g[0]])
-        su = noise.get((run, cam, "u"))
-        sv = noise.get((run, cam, "v"))
-        # u–v correlation of a visit from the residual's increments (high-passed).
-        rho_uv = 0.0
-        if len(g) > 4:
-            du = np.diff(design.y[g] - design.s[g] * design.vs.alpha0)
-            dv = np.diff(design.y[g + n] - design.s[g + n] * design.vs.alpha0)
-            if np.std(du) > 0 and np.std(dv) > 0:
-                rho_uv = float(np.clip(np.corrcoef(du, dv)[0, 1], -0.95, 0.95))
-        t = vs.t_s[g]
-        z1 = rng.standard_normal((len(g), draws))
-        z2 = rho_uv * z1 + np.sqrt(1 - rho_uv**2) * rng.standard_normal((len(g), draws))
-        a1 = _ar(t, rng.standard_normal((len(g), draws)), su)
-        a2p = _ar(t, rng.standard_normal((len(g), draws)), sv)
-        wu = su.white_um if su is not None else fallback
-        wv = sv.white_um if sv is not None else fallback
-        out[g] = wu * z1 + a1
-        # The correlated parts of u and v share the visit's pose error in the same proportion.
-        out[g + n] = wv * z2 + (rho_uv * _scale(a1, su, sv) + np.sqrt(1 - rho_uv**2) * a2p)
+    for run, chans, pos, chol in _plan(design):
+        m = max(int(p.max()) for p in pos) + 1
+        zw = rng.standard_normal((m, draws, len(chans))) @ chol.T
+        za = rng.standard_normal((m, draws, len(chans))) @ chol.T
+        for c, (rows, axis) in enumerate(chans):
+            cam = str(vs.camera[rows[0] % n])
+            s = noise.get((run, cam, axis))
+            w = s.white_um if s is not None else fallback
+            out[rows] = w * zw[pos[c], :, c] + _ar(vs.t_s[rows % n], za[pos[c], :, c], s)
     return out
 
 
-def _scale(a: FloatArray, su: object, sv: object) -> FloatArray:
-    from thermrs.diagnose.floor import SeriesNoise
+def _plan(
+    design: Design,
+) -> list[
+    tuple[str, list[tuple[npt.NDArray[np.intp], str]], list[npt.NDArray[np.intp]], FloatArray]
+]:
+    """Per run: its channels (rows, axis), each row's cycle position, and the Cholesky factor
+    of the channels' correlation (from first differences of the measured spots across
+    cycles); computed once per design."""
+    cached = getattr(design, "_noise_plan", None)
+    if cached is not None:
+        return cached  # type: ignore[no-any-return]
+    from thermrs.diagnose.resample import cycle_units
 
-    if not isinstance(su, SeriesNoise) or not isinstance(sv, SeriesNoise):
-        return np.zeros_like(a)
-    if su.correlated_um <= 0:
-        return np.zeros_like(a)
-    return a * (sv.correlated_um / su.correlated_um)
+    vs = design.vs
+    n = vs.n
+    units = cycle_units(vs)
+    plan = []
+    for run in dict.fromkeys(vs.run.tolist()):
+        chans: list[tuple[npt.NDArray[np.intp], str]] = []
+        for g in vs.groups:
+            if vs.run[g[0]] == run:
+                chans += [(g, "u"), (g + n, "v")]
+        cyc = np.unique(units[vs.run == run])
+        pos = [np.searchsorted(cyc, units[rows % n]) for rows, _ in chans]
+        mat = np.full((len(cyc), len(chans)), np.nan)
+        for c, (rows, _) in enumerate(chans):
+            mat[pos[c], c] = design.y[rows]
+        d = np.diff(mat, axis=0)
+        k = len(chans)
+        r = np.eye(k)
+        for i in range(k):
+            for j in range(i + 1, k):
+                ok = np.isfinite(d[:, i]) & np.isfinite(d[:, j])
+                if ok.sum() > 5 and np.std(d[ok, i]) > 0 and np.std(d[ok, j]) > 0:
+                    r[i, j] = r[j, i] = float(np.corrcoef(d[ok, i], d[ok, j])[0, 1])
+        w, v = np.linalg.eigh(r)
+        r = (v * np.maximum(w, 1e-6)) @ v.T
+        dg = np.sqrt(np.diag(r))
+        r = r / np.outer(dg, dg)
+        plan.append((str(run), chans, pos, np.linalg.cholesky(r)))
+    design._noise_plan = plan  # type: ignore[attr-defined]
+    return plan
 
 
 def _ar(t: FloatArray, z: FloatArray, s: object) -> FloatArray:

@@ -25,7 +25,7 @@ import numpy.typing as npt
 
 from thermrs.diagnose.engine import Design
 from thermrs.diagnose.floor import NoiseFloor
-from thermrs.diagnose.null import Batch, BatchFit, draw_noise, quantile_above
+from thermrs.diagnose.null import Batch, BatchFit, Observations, draw_noise, quantile_above
 from thermrs.effects import Family
 from thermrs.signatures import VisitSet
 
@@ -116,16 +116,18 @@ def _stack(model: list[Choice], extra: FloatArray | None = None) -> FloatArray |
 
 
 def _profile(
-    batch: Batch, model: list[Choice], fg: FamilyGrid, y: FloatArray
+    batch: Batch, model: list[Choice], fg: FamilyGrid, ys: FloatArray | Observations
 ) -> tuple[FloatArray, npt.NDArray[np.intp]] | None:
     """Held-out mean square per column of ``y`` of the family added to the model, at the grid
     point with the least training residual for that column."""
+    y = ys if isinstance(ys, Observations) else batch.prepare(ys)
     rss, hms = [], []
+    width = y.y.shape[1]
     for c in fg.cols:
         f = batch.fit(_stack(model, c), y)
         if f is None:
-            rss.append(np.full(y.shape[1], np.inf))
-            hms.append(np.full(y.shape[1], np.nan))
+            rss.append(np.full(width, np.inf))
+            hms.append(np.full(width, np.nan))
         else:
             rss.append(f.train_rss)
             hms.append(f.hold_ms)
@@ -133,7 +135,7 @@ def _profile(
     if not np.any(np.isfinite(r[:, 0])):
         return None
     best = np.argmin(r, axis=0)
-    return np.vstack(hms)[best, np.arange(y.shape[1])], best
+    return np.vstack(hms)[best, np.arange(width)], best
 
 
 def _world(
@@ -168,7 +170,8 @@ def run_step(
     plausible: Callable[[list[Choice], Choice], bool],
 ) -> Step:
     """Test the model against its null world and score every family added to it."""
-    ys, cur = _world(batch, design, floor, model, draws, rng)
+    ys_raw, cur = _world(batch, design, floor, model, draws, rng)
+    ys = batch.prepare(ys_raw)
     assert cur.hold_resid is not None
     low = batch.low(cur.hold_resid)
     in_model = {c.effect for c in model}
@@ -250,7 +253,8 @@ def _rival_p(
     rng: np.random.Generator,
 ) -> float:
     """P(best's held-out advantage over ``rival`` ≥ the observed one | rival is the truth)."""
-    ys, _ = _world(batch, design, floor, [*model, rival], draws, rng)
+    ys_raw, _ = _world(batch, design, floor, [*model, rival], draws, rng)
+    ys = batch.prepare(ys_raw)
     a = _profile(batch, model, best.grid, ys)
     b = _profile(batch, model, rival.grid, ys)
     if a is None or b is None:
