@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from scipy import stats as sps
 from scipy.linalg import solve_triangular
 
 from thermrs.diagnose.engine import Design
@@ -239,6 +240,14 @@ def _ar(t: FloatArray, z: FloatArray, s: object) -> FloatArray:
 
 def quantile_above(null: FloatArray, observed: float) -> float:
     """The bootstrap p-value of ``observed`` against ``null``: P(null ≥ observed), with the
-    observed value counted among the draws (never 0)."""
+    observed value counted among the draws. Beyond every draw the empirical value (1/(B+1))
+    only says "less than that"; there the tail is extrapolated by the normal law of the
+    draws (mean and standard deviation), so that a value far out is told from one just out."""
     null = null[np.isfinite(null)]
-    return float((1 + np.sum(null >= observed)) / (len(null) + 1))
+    k = int(np.sum(null >= observed))
+    p = (1 + k) / (len(null) + 1)
+    if k == 0 and len(null) > 2:
+        sd = float(np.std(null, ddof=1))
+        if sd > 0:
+            p = min(p, float(sps.norm.sf((observed - float(np.mean(null))) / sd)))
+    return float(p)

@@ -8,8 +8,9 @@ largest gain any family reaches in the null world; the most significant plausibl
 (its non-linear parameters profiled jointly with the model so far), and the next step starts
 from the new model. Selection stops when nothing is significant or three effects are in.
 
-Rivals of a selected effect A are the other significant, plausible effects B that the data
-cannot reject as the truth: in a world where B (fitted) is the truth, how much better than B
+Rivals of a selected effect A are the other significant, plausible effects B (one family per
+effect name) that the data cannot reject as the truth, each tested at the level divided by the
+number of rivals (Bonferroni, so that an `identified` rejects them all at the level): in a world where B (fitted) is the truth, how much better than B
 does A come out on the held-out runs? B is rejected when A's observed advantage exceeds that
 world's (1 − level) quantile (a parametric Cox-type test: collinear pairs are judged by what
 their difference would be under each, not by a standard error that vanishes with collinearity).
@@ -228,15 +229,19 @@ def run_step(
         return step
     best = ok[0]
     step.chosen = best
-    # One candidate per other effect name: can the data reject it as the truth?
+    # One candidate per other effect name: can the data reject it as the truth? Every rival
+    # is tested, so each at level / (number of rivals) (Bonferroni): an `identified` claims
+    # that all of them are rejected together.
     seen = {best.effect}
+    rivals = []
     for ch in ok[1:]:
-        if ch.effect in seen:
-            continue
-        seen.add(ch.effect)
-        p = _rival_p(batch, design, floor, model, best, ch, draws=max(49, draws // 2), rng=rng)
+        if ch.effect not in seen:
+            seen.add(ch.effect)
+            rivals.append(ch)
+    for ch in rivals:
+        p = _rival_p(batch, design, floor, model, best, ch, draws=draws, rng=rng)
         step.rival_p[ch.effect] = p
-        if p >= level:
+        if p >= level / len(rivals):
             step.rivals.append(ch.effect)
     return step
 
