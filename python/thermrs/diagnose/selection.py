@@ -9,11 +9,12 @@ largest gain any family reaches in the null world; the most significant plausibl
 from the new model. Selection stops when nothing is significant or three effects are in.
 
 Rivals of a selected effect A are the other significant, plausible effects B (one family per
-effect name) that the data cannot reject as the truth, each tested at the level divided by the
-number of rivals (Bonferroni, so that an `identified` rejects them all at the level): in a world where B (fitted) is the truth, how much better than B
-does A come out on the held-out runs? B is rejected when A's observed advantage exceeds that
-world's (1 − level) quantile (a parametric Cox-type test: collinear pairs are judged by what
-their difference would be under each, not by a standard error that vanishes with collinearity).
+effect name) that the data cannot reject as the truth: in a world where B (fitted) is the
+truth, how much better than B does A come out on the held-out runs? B is rejected when A's
+observed advantage is beyond that world's (1 − level/k) quantile, k the number of rivals
+tested (Bonferroni: an `identified` rejects them all together at the level). A parametric
+Cox-type test: collinear pairs are judged by what their difference would be under each, not
+by a standard error that vanishes with collinearity.
 """
 
 from __future__ import annotations
