@@ -24,8 +24,10 @@ __all__ = ["PAIRS", "Case", "plan", "run_case", "worker_init"]
 #: Two-effect cases: pairs acting at once, each at the target SNR on its own.
 PAIRS = (("thermal_lag", "fixture_drift"), ("joint_offset", "sensor_drift"))
 
-#: A case is diagnosed only if its effects reach at least this share of the target SNR within
-#: their amplitude caps (a tilted laser moves a drift-anchored spot by almost nothing).
+#: A case is diagnosed only if its effects reach at least this share of the lowest target SNR
+#: within their amplitude caps (a tilted laser moves a drift-anchored spot by almost nothing);
+#: one that falls short of its own target but reaches that is diagnosed and binned by the SNR
+#: it reached (a lag's size saturates with τ).
 REACH = 0.5
 
 
@@ -36,6 +38,7 @@ class Case:
     kind: str  # "none", "single" or "pair"
     effects: tuple[str, ...]
     target_snr: float
+    lowest_snr: float
     world: str
     seed: int
     rig_path: str
@@ -73,7 +76,8 @@ def plan(
                     ("pair", p, t) for p in PAIRS if set(p) <= set(effects) for t in snrs if t >= 1
                 ]
             for kind, eff, t in todo:
-                cases.append(Case(kind, eff, t, world, base + k, rig_path, campaign, withheld))
+                low = min(snrs)
+                cases.append(Case(kind, eff, t, low, world, base + k, rig_path, campaign, withheld))
                 k += 1
     return cases
 
@@ -152,8 +156,8 @@ def run_case(case: Case) -> dict[str, Any]:
     }
     if sizer is not None and len(truths) > 1:
         row["snr_together"] = sizer.snr(tuple(truths))
-    if any(s < REACH * case.target_snr for s in snrs):
-        row["skipped"] = "the effect cannot reach this SNR within its amplitude cap"
+    if any(s < REACH * case.lowest_snr for s in snrs):
+        row["skipped"] = "the effect cannot reach the lowest SNR within its amplitude cap"
         row["seconds"] = time.perf_counter() - t0
         return row
     tables = render(scene, tuple(truths))

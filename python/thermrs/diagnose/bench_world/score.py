@@ -14,7 +14,8 @@
   nothing else, or a wrong one) is wrong.
 
 A case is binned by the SNR it reached (each effect's own, for a pair the smaller), at the
-nearest target on a log scale.
+nearest target on a log scale; the SNR ≥ 1 rates (``must_reach``) take every case that reached
+SNR ≥ 0.99.
 """
 
 from __future__ import annotations
