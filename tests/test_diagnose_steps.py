@@ -152,14 +152,15 @@ def test_two_effects_at_once_are_both_named_or_the_rest_called_unexplained(
     from thermrs.diagnose.bench_world.world import Campaign
 
     case = Case(
-        "pair",
-        ("thermal_lag", "fixture_drift"),
-        3.0,
-        "white",
-        4242,
-        str(rig.source),
-        Campaign(hours=12.0, cycle_s=600.0, sigma_um=2.0),
-        False,
+        kind="pair",
+        effects=("thermal_lag", "fixture_drift"),
+        target_snr=3.0,
+        lowest_snr=1.0,
+        world="white",
+        seed=4242,
+        rig_path=str(rig.source),
+        campaign=Campaign(hours=12.0, cycle_s=600.0, sigma_um=2.0),
+        withheld=False,
     )
     row = run_case(case)
     named = set(row["named"])
