@@ -371,6 +371,8 @@ def render_bench(doc: dict[str, Any]) -> None:
         ("pair", "Two effects", ("right", "false none", "wrong")),
     )
     for key, title, cols in sections:
+        if not any(n["cases"] for bins in doc[key].values() for n in bins.values()):
+            continue
         t = Table(title=f"{title} (rows: nuisance world, SNR bin)")
         for c in ("world", "SNR", "cases", *cols):
             t.add_column(c, justify="left" if c == "world" else "right")
