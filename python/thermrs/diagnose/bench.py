@@ -276,7 +276,6 @@ def run_bench(
         say(f"{len(results)}/{len(cases)} {row['world']} {truth} SNR {row['target_snr']:g}: {got}")
 
     if jobs <= 1:
-        worker_init()
         for c in cases:
             done(run_case(c))
     else:
