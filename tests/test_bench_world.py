@@ -206,3 +206,24 @@ def test_scoring_follows_the_issue() -> None:
     assert outcome(row("pair", pair, "identified", ["thermal_lag"])) == "wrong"
     assert outcome(row("pair", pair, "partially explained", ["thermal_lag"])) == "right"
     assert outcome(row("pair", pair, "identified", pair)) == "right"
+
+
+def test_diagnose_bench_cli_runs_a_case_blind_and_withheld(tmp_path: Path) -> None:
+    """The CLI end to end on one small case: the case reached its SNR, was diagnosed blind and
+    again with its effect excluded, and was scored in its world's bin."""
+    import json
+
+    from click.testing import CliRunner
+    from thermrs.cli import cli
+
+    out = tmp_path / "bench.json"
+    args = ["diagnose-bench", "--effect", "fixture_drift", "--snr", "4", "--world", "white"]
+    args += ["--nulls", "0", "--hours", "4", "--json", str(out)]
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    doc = json.loads(out.read_text())
+    (row,) = doc["results"]
+    assert abs(row["snr"][0] / 4 - 1) < 0.01
+    assert row["status"] and row["excluded"]["status"]
+    assert doc["single"]["white"]["4"]["cases"] == 1
+    assert doc["withheld"]["white"]["4"]["cases"] == 1

@@ -296,7 +296,12 @@ def diagnose(
     type=click.FloatRange(30.0, 3600.0),
     help="Seconds per cycle (one visit to each camera).",
 )
-@click.option("--effect", "effects", multiple=True, help="Only these effects (default: all).")
+@click.option(
+    "--effect",
+    "effects",
+    multiple=True,
+    help="Only these effects (default: all; `none`: only the no-effect cases).",
+)
 @click.option(
     "--world",
     "worlds",
@@ -356,9 +361,9 @@ def diagnose_bench(
     from thermrs.errors import InputError
     from thermrs.rig import load_rig
 
-    bad = sorted(set(effects) - set(EFFECT_NAMES))
+    bad = sorted(set(effects) - {*EFFECT_NAMES, "none"})
     if bad:
-        raise InputError(f"--effect {bad}: not effects (known: {', '.join(EFFECT_NAMES)})")
+        raise InputError(f"--effect {bad}: not effects (known: none, {', '.join(EFFECT_NAMES)})")
     r = load_rig(rig_path)
     with out.status("bench…") as status:
         doc = run_bench(
@@ -366,7 +371,7 @@ def diagnose_bench(
             seeds=seeds,
             hours=hours,
             cycle_s=cycle_s,
-            effects=tuple(effects) or None,
+            effects=tuple(e for e in effects if e != "none") if effects else None,
             worlds=tuple(worlds) or ("white", "ar1"),
             snrs=tuple(snrs) or (0.25, 0.5, 1.0, 2.0, 4.0),
             nulls=nulls,
@@ -386,6 +391,8 @@ def render_bench(doc: dict[str, Any]) -> None:
         ("pair", "Two effects", ("right", "false none", "wrong")),
     )
     for key, title, cols in sections:
+        if not any(n["cases"] for bins in doc[key].values() for n in bins.values()):
+            continue
         t = Table(title=f"{title} (rows: nuisance world, SNR bin)")
         for c in ("world", "SNR", "cases", *cols):
             t.add_column(c, justify="left" if c == "world" else "right")

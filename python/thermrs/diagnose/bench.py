@@ -219,7 +219,7 @@ def run_bench(
     seeds
         Repetitions of the whole plan, each case with its own world.
     effects
-        SPEC §6 effects to inject (default: all).
+        SPEC §6 effects to inject (default: all; empty: only the ``none`` cases).
     worlds
         Nuisance worlds: ``white`` and/or ``ar1``.
     snrs
@@ -259,7 +259,7 @@ def run_bench(
     cases = plan(
         rig.source,
         seeds=seeds,
-        effects=tuple(effects or EFFECTS),
+        effects=EFFECTS if effects is None else tuple(effects),
         worlds=tuple(worlds),
         snrs=tuple(sorted(snrs)),
         campaign=campaign,
@@ -276,7 +276,6 @@ def run_bench(
         say(f"{len(results)}/{len(cases)} {row['world']} {truth} SNR {row['target_snr']:g}: {got}")
 
     if jobs <= 1:
-        worker_init()
         for c in cases:
             done(run_case(c))
     else:

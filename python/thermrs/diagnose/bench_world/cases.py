@@ -13,13 +13,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import polars as pl
 
 from thermrs.diagnose.bench_world.geometry import WorldRig, read_rig
 from thermrs.diagnose.bench_world.snr import Sizer
 from thermrs.diagnose.bench_world.truth import EFFECTS, Truth, draw_truth
-from thermrs.diagnose.bench_world.world import Campaign, draw_scene, render
+from thermrs.diagnose.bench_world.world import Campaign, Scene, draw_scene, render
 
-__all__ = ["PAIRS", "Case", "plan", "run_case", "worker_init"]
+__all__ = ["PAIRS", "Case", "make_case", "plan", "run_case", "worker_init"]
 
 #: Two-effect cases: pairs acting at once, each at the target SNR on its own.
 PAIRS = (("thermal_lag", "fixture_drift"), ("joint_offset", "sensor_drift"))
@@ -125,23 +126,70 @@ def _summary(doc: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def _truths(
+    wrig: WorldRig, scene: Scene, effects: tuple[str, ...], snr: float, seed: int
+) -> tuple[list[Truth], list[float], Sizer | None]:
+    rng = np.random.default_rng([seed, 11])
+    sizer = Sizer(scene) if effects else None
+    truths: list[Truth] = []
+    snrs: list[float] = []
+    for name in effects:
+        assert sizer is not None
+        t, reached = sizer.scale(draw_truth(name, wrig, rng), snr)
+        truths.append(t)
+        snrs.append(reached)
+    return truths, snrs, sizer
+
+
+def make_case(
+    rig_path: str,
+    effects: tuple[str, ...],
+    snr: float,
+    *,
+    world: str = "white",
+    seed: int = 0,
+    campaign: Campaign | None = None,
+) -> tuple[list[pl.DataFrame], list[dict[str, Any]], list[float]]:
+    """Runs of the independent world for a test or an experiment: ``effects`` (SPEC §6 names,
+    none for a ``none`` case) each scaled to ``snr`` in nuisance world ``world``.
+
+    Parameters
+    ----------
+    rig_path
+        The rig file.
+    effects
+        Effects to inject.
+    snr
+        Target SNR of each (module :mod:`.snr`).
+    world
+        ``white`` or ``ar1``.
+    seed
+        Seed of the world and the effects' draws.
+    campaign
+        Run length, cycle and σ (default: three 12-h runs at 600 s cycles, σ = 2 µm).
+
+    Returns
+    -------
+    tables, injected, snrs
+        The three run tables (training, then the two held-out runs), the SPEC §6 JSON of each
+        injected effect (its true parameters), and the SNR each reached.
+    """
+    wrig = read_rig(rig_path)
+    scene = draw_scene(wrig, campaign or Campaign(), world, seed)
+    truths, snrs, _ = _truths(wrig, scene, tuple(effects), snr, seed)
+    tables = render(scene, tuple(truths))
+    return tables, [t.spec(scene.alpha_per_k) for t in truths], snrs
+
+
 def run_case(case: Case) -> dict[str, Any]:
     """Make and diagnose one case; returns its result row (``skipped`` where its effects cannot
-    reach the target SNR)."""
+    reach the lowest target SNR)."""
     from thermrs.diagnose import diagnose
 
     t0 = time.perf_counter()
     rig, wrig = _rigs(case.rig_path)
     scene = draw_scene(wrig, case.campaign, case.world, case.seed)
-    rng = np.random.default_rng([case.seed, 11])
-    truths: list[Truth] = []
-    snrs: list[float] = []
-    sizer = Sizer(scene) if case.effects else None
-    for name in case.effects:
-        assert sizer is not None
-        t, snr = sizer.scale(draw_truth(name, wrig, rng), case.target_snr)
-        truths.append(t)
-        snrs.append(snr)
+    truths, snrs, sizer = _truths(wrig, scene, case.effects, case.target_snr, case.seed)
     row: dict[str, Any] = {
         "kind": case.kind,
         "world": case.world,

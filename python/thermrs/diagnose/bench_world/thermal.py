@@ -63,8 +63,8 @@ def drive(speed: float) -> float:
 
 def draw_links(names: tuple[str, ...], rng: np.random.Generator) -> Links:
     """Thermal parameters for the ROIs ``names``: slow surfaces (~5–7 h), faster motors
-    (~40 min), each link's steady rise at 30 % speed drawn between 3 and 7 K (the first ROI
-    after the first two, e.g. a base, 0.5–1.5 K)."""
+    (~40 min), the first two ROIs' steady rise at 30 % speed drawn between 3 and 7 K, any
+    further ROI's (e.g. a base) between 0.5 and 1.5 K."""
     n = len(names)
     k_ms = 1.0 / rng.uniform(30.0, 60.0, n)
     k_ma = 1.0 / rng.uniform(150.0, 300.0, n)

@@ -87,7 +87,11 @@ class Truth:
         if self.name == "unmodelled_length":
             return {"name": self.name, "length": d["length"], "temperature": d["temperature"]}
         if self.name == "fixture_drift":
-            return {"name": self.name, "camera": d["camera"], "um_per_k": list(a * d["dir"])}
+            return {
+                "name": self.name,
+                "camera": d["camera"],
+                "um_per_k": [float(x) for x in a * d["dir"]],
+            }
         if self.name == "laser_tilt":
             return {"name": self.name, "tilt_deg": a}
         if self.name == "joint_offset":
@@ -103,7 +107,7 @@ class Truth:
             "name": self.name,
             "camera": d["camera"],
             "tau_min": d["tau_min"],
-            "um": list(a * d["dir"]),
+            "um": [float(x) for x in a * d["dir"]],
         }
 
 

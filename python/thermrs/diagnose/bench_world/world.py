@@ -252,6 +252,25 @@ def _pose_errors(scene: Scene, rng: np.random.Generator) -> dict[tuple[int, int]
     return out
 
 
+def _chip_shift(
+    effects: tuple[Truth, ...], camera: str, t: FloatArray, dd: Day, reference_c: float
+) -> FloatArray:
+    """(n, 2) µm the chip effects move ``camera``'s spot at visit times ``t``: a mount following
+    the room through its own first-order inertia; self-heating from power-on at the day's first
+    run, carried on through a run that follows straight after."""
+    out = np.zeros((t.size, 2))
+    for e in effects:
+        if e.name not in ("fixture_drift", "sensor_drift") or e.drawn["camera"] != camera:
+            continue
+        if e.name == "fixture_drift":
+            mount = _first_order(dd.t_s, dd.room, e.drawn["mount_tau_min"] * 60.0)
+            shift = np.interp(t, dd.t_s, mount) - reference_c
+        else:
+            shift = 1.0 - np.exp(-t / (e.drawn["tau_min"] * 60.0))
+        out += e.amplitude * shift[:, None] * e.drawn["dir"][None, :]
+    return out
+
+
 def render(
     scene: Scene,
     effects: tuple[Truth, ...] = (),
@@ -283,7 +302,6 @@ def render(
     days = _days(scene, effects)
     pose = _pose_errors(scene, rng)
     c = scene.campaign
-    by = {e.name: e for e in effects}
     white = np.sqrt(
         max(
             c.sigma_um**2 - CENTROID_UM**2 - (AR_SHARE * c.sigma_um) ** 2 * (scene.world == "ar1"),
@@ -301,17 +319,9 @@ def render(
             temps["ambient"] = room
             a, d, laser, dq = _geometry_at(scene, rig, alpha, temps, effects, t.size)
             q = rig.taught_rad(chip.name)[None, :] + dq + (pose[(ri, ci)] if noise else 0.0)
-            uv = laser_spots(rig, chip.name, q, a, d, laser)
-            for name in ("fixture_drift", "sensor_drift"):
-                e = by.get(name)
-                if e is None or e.drawn["camera"] != chip.name:
-                    continue
-                if name == "fixture_drift":
-                    mount = _first_order(dd.t_s, dd.room, e.drawn["mount_tau_min"] * 60.0)
-                    shift = np.interp(t, dd.t_s, mount) - rig.reference_c
-                else:  # self-heating from power-on at the day's first run, carried on after
-                    shift = 1.0 - np.exp(-t / (e.drawn["tau_min"] * 60.0))
-                uv = uv + e.amplitude * shift[:, None] * e.drawn["dir"][None, :]
+            uv = laser_spots(rig, chip.name, q, a, d, laser) + _chip_shift(
+                effects, chip.name, t, dd, rig.reference_c
+            )
             if noise:
                 uv = uv + rng.normal(0, white, uv.shape) + rng.normal(0, CENTROID_UM, uv.shape)
             obs = _instruments(scene, dd, run, t, rng, noise)
