@@ -401,12 +401,15 @@ def render_bench(doc: dict[str, Any]) -> None:
                 if n["cases"]:
                     t.add_row(world, b, str(n["cases"]), *[str(n.get(c, 0)) for c in cols])
         out.print(t)
-    t = Table(title="No effect")
-    for c in ("world", "cases", "none", "false attribution", "false gap"):
-        t.add_column(c, justify="left" if c == "world" else "right")
+    t = Table(title="No effect (rows: nuisance world, the gap its own nuisances leave ÷ σ)")
+    for c in ("world", "nuisance", "cases", "none", "false attribution", "false gap"):
+        t.add_column(c, justify="left" if c in ("world", "nuisance") else "right")
     for world, n in doc["none"].items():
-        t.add_row(world, str(n["cases"]), str(n.get("right", 0)),
-                  str(n.get("false attribution", 0)), str(n.get("false gap", 0)))  # fmt: skip
+        parts = (doc.get("none_by_nuisance") or {}).get(world) or {"all": n}
+        for label, m in parts.items():
+            if m["cases"]:
+                counts = [m["cases"], m.get("right", 0), m.get("false attribution", 0)]
+                t.add_row(world, label, *map(str, counts), str(m.get("false gap", 0)))
     out.print(t)
     for s in doc["skipped"]:
         out.print(f"not run: {s}")

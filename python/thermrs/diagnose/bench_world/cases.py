@@ -204,6 +204,8 @@ def run_case(case: Case) -> dict[str, Any]:
     }
     if sizer is not None and len(truths) > 1:
         row["snr_together"] = sizer.snr(tuple(truths))
+    # What the world's own nuisances (instruments, rig, α) leave over the nominal model.
+    row["nuisance_snr"] = (sizer if sizer is not None else Sizer(scene)).nuisance_snr()
     if any(s < REACH * case.lowest_snr for s in snrs):
         row["skipped"] = "the effect cannot reach the lowest SNR within its amplitude cap"
         row["seconds"] = time.perf_counter() - t0

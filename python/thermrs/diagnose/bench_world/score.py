@@ -87,6 +87,13 @@ def score(
     for w in worlds:
         here = [r for r in done if r["world"] == w]
         doc["none"][w] = _count([r for r in here if r["kind"] == "none"], "outcome")
+        doc.setdefault("none_by_nuisance", {})[w] = {
+            label: _count(
+                [r for r in here if r["kind"] == "none" and lo <= r.get("nuisance_snr", 0.0) < hi],
+                "outcome",
+            )
+            for label, lo, hi in NUISANCE_BINS
+        }
         for kind in ("single", "pair"):
             doc[kind][w] = {
                 b: _count([r for r in here if r["kind"] == kind and r["bin"] == b], "outcome")
@@ -123,6 +130,11 @@ def _rate(rows: list[dict[str, Any]], key: str, values: tuple[str, ...]) -> dict
     return {"k": k, "n": n, "rate": k / n if n else None}
 
 
+#: Bins of a ``none`` case's nuisance SNR (what the world's instruments and rig leave over the
+#: nominal model ÷ σ): below a quarter of the noise a gap is not there to attribute.
+NUISANCE_BINS = (("< 0.25", 0.0, 0.25), ("0.25–0.5", 0.25, 0.5), ("≥ 0.5", 0.5, np.inf))
+
+
 def _must_reach(done: list[dict[str, Any]]) -> dict[str, Any]:
     """Issue 16's targets per world: right and false ``none`` where SNR ≥ 1, false attribution
     on ``none``, withheld honest where SNR ≥ 1 (and ``none`` there, which must be 0)."""
@@ -136,6 +148,11 @@ def _must_reach(done: list[dict[str, Any]]) -> dict[str, Any]:
             "false_none_snr_ge_1": _rate(strong, "outcome", ("false none",)),
             "false_attribution_on_none": _rate(
                 [r for r in here if r["kind"] == "none"], "outcome", ("false attribution",)
+            ),
+            "false_attribution_on_none_nuisance_lt_0.25": _rate(
+                [r for r in here if r["kind"] == "none" and r.get("nuisance_snr", 0.0) < 0.25],
+                "outcome",
+                ("false attribution",),
             ),
             "withheld_honest_snr_ge_1": _rate(held, "excluded_outcome", ("honest",)),
             "withheld_none_snr_ge_1": _rate(held, "excluded_outcome", ("none",)),

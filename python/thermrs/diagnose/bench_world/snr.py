@@ -20,7 +20,7 @@ import numpy.typing as npt
 import polars as pl
 
 from thermrs.diagnose.bench_world.truth import Truth
-from thermrs.diagnose.bench_world.world import Scene, render
+from thermrs.diagnose.bench_world.world import Scene, nominal_prediction, render
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -70,7 +70,20 @@ class Sizer:
     def residual(self, effects: tuple[Truth, ...]) -> FloatArray:
         """What ``effects`` leave on every row after the nominal refit (held-out rows: their
         offsets only; training rows: α and offsets)."""
-        e = stack(render(self.scene, effects, noise=False))[0] - self._base
+        return self._refit(stack(render(self.scene, effects, noise=False))[0] - self._base)
+
+    def nuisance_snr(self) -> float:
+        """What the world's own nuisances leave over the nominal model, ÷ σ: the true spots
+        without visit errors against the nominal model fed the instruments' readings (their
+        gain, offset, drift, noise and clock; the true rig against the file; the true α),
+        refitted as :meth:`residual` does. A ``none`` case whose nuisances leave a gap of a
+        visible size is not free of gaps."""
+        readings = render(self.scene)  # instruments as recorded (their spots are not used)
+        pred = np.concatenate(nominal_prediction(self.scene, readings))
+        r = self._refit(self._base - pred)
+        return float(np.sqrt(np.mean(r[self._held] ** 2))) / self.scene.campaign.sigma_um
+
+    def _refit(self, e: FloatArray) -> FloatArray:
         tr = ~self._held
         train_series = np.unique(self._series[tr])
         onehot = (self._series[tr][:, None] == train_series[None, :]).astype(np.float64)

@@ -41,7 +41,7 @@ AMPLITUDE: dict[str, tuple[float, float]] = {
     "fixture_drift": (5.0, 200.0),
     "laser_tilt": (0.5, 5.0),
     "joint_offset": (5.0, 300.0),
-    "nonlinear_alpha": (0.02, 0.5),
+    "nonlinear_alpha": (0.02, 0.1),  # the SPEC's physical bound, |κ| ≤ 0.1/K
     "sensor_drift": (5.0, 200.0),
 }
 

@@ -370,3 +370,27 @@ def _instruments(
 def with_campaign(scene: Scene, **changes: Any) -> Scene:
     """``scene`` with its campaign changed (for tests)."""
     return replace(scene, campaign=replace(scene.campaign, **changes))
+
+
+def nominal_prediction(scene: Scene, tables: list[pl.DataFrame]) -> list[FloatArray]:
+    """The nominal model's spots (rig file geometry, the file's α) fed the temperatures the
+    instruments of ``tables`` report, per run in the rows' order (u then v per camera, as
+    :func:`.snr.stack` stacks them): what an analysis that trusts its thermometers predicts."""
+    rig = scene.nominal
+    out = []
+    for t in tables:
+        parts = []
+        for cam in t["camera"].unique(maintain_order=True).to_list():
+            part = t.filter(pl.col("camera") == cam)
+            n = part.height
+            temps = {
+                c[:-2]: part[c].to_numpy().astype(np.float64)
+                for c in part.columns
+                if c.endswith("_c")
+            }
+            a, d, laser, dq = _geometry_at(scene, rig, rig.alpha_per_k, temps, (), n)
+            q = rig.taught_rad(cam)[None, :] + dq
+            uv = laser_spots(rig, cam, q, a, d, laser)
+            parts += [uv[:, 0], uv[:, 1]]
+        out.append(np.concatenate(parts))
+    return out
