@@ -89,6 +89,8 @@ class Step:
     rivals: list[str] = field(default_factory=list)
     rival_p: dict[str, float] = field(default_factory=dict)
     null_hold_ms: FloatArray = field(default_factory=lambda: np.zeros(0))
+    low: float = 0.0
+    null_low: FloatArray = field(default_factory=lambda: np.zeros(0))
 
 
 def build_grids(families: list[Family], visits: VisitSet, design: Design) -> list[FamilyGrid]:
@@ -217,6 +219,8 @@ def run_step(
         best_index=best_idx,
         threshold=threshold,
         null_hold_ms=cur.hold_ms[1:],
+        low=float(low[0]),
+        null_low=low[1:],
     )
     sig = [k for k, v in gains.items() if v[0] > threshold]
     sig.sort(key=lambda k: float(hold[k][0]))

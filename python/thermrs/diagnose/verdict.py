@@ -7,7 +7,8 @@
     the null's best does (a candidate clearly below the floor proves the floor wrong).
 ``identified``
     one or more effects selected, none with a rival the data cannot reject, and what is left
-    at the floor and white at the thermal time scales.
+    at the floor and white at the thermal time scales — judged against the gap-free world of
+    the nominal model (the selected effects' own estimation error counts as gap, not noise).
 ``ambiguous``
     as identified, but a selected effect has rivals (named) the data cannot reject.
 ``partially explained``
@@ -26,6 +27,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from thermrs.diagnose.null import quantile_above
 from thermrs.diagnose.selection import Step
 
 __all__ = ["decide", "english_list", "format_params", "summary"]
@@ -63,8 +65,12 @@ def decide(
     lvl = level / 3.0
     first, last = steps[0], steps[-1]
     chosen = [s.chosen for s in steps if s.chosen is not None]
-    at_floor = last.p_at_floor >= lvl
-    white = last.p_low >= lvl
+    # What is left is judged against the gap-free world of the first step (the nominal model
+    # and noise): the selected effects' own estimation error is not noise to hide behind.
+    p_floor = quantile_above(first.null_hold_ms, last.hold_ms)
+    p_low = quantile_above(first.null_low, last.low)
+    at_floor = p_floor >= lvl
+    white = p_low >= lvl
     if not chosen:
         contradicted = first.p_floor_contradicted < lvl
         if first.p_at_floor >= lvl and first.p_low >= lvl and not contradicted:
@@ -97,9 +103,9 @@ def decide(
     if not (at_floor and white):
         left = []
         if not at_floor:
-            left.append(f"above the floor (p = {last.p_at_floor:.3f})")
+            left.append(f"above the floor (p = {p_floor:.3f})")
         if not white:
-            left.append(f"slow at the thermal time scales (p = {last.p_low:.3f})")
+            left.append(f"slow at the thermal time scales (p = {p_low:.3f})")
         return (
             "partially explained",
             f"{english_list(names)} explain{'s' if len(names) == 1 else ''} part of the gap; "
@@ -118,8 +124,8 @@ def decide(
     return (
         "identified",
         f"{english_list(names)} take{'s' if len(names) == 1 else ''} the held-out residual to "
-        f"the noise floor (p = {last.p_at_floor:.2f}), white at the thermal time scales "
-        f"(p = {last.p_low:.2f}); every rival is rejected",
+        f"the noise floor (p = {p_floor:.2f}), white at the thermal time scales "
+        f"(p = {p_low:.2f}); every rival is rejected",
         [],
     )
 
