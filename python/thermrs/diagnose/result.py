@@ -208,7 +208,11 @@ def assemble(
     first = selected[0] if selected else None
     verdict_doc = {
         "status": status,
-        "effect": None if first is None or status == "unexplained" else first["effect"],
+        # The effect that explains the gap: none does where what is left is still a gap
+        # ("partially explained": the effects that explain a part are in `effects`).
+        "effect": None
+        if first is None or status in ("unexplained", "partially explained")
+        else first["effect"],
         "effects": [s["effect"] for s in selected],
         "params": {} if first is None else first["params"],
         "params_ci95": {} if first is None else first["params_ci95"],
