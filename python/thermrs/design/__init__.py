@@ -42,7 +42,7 @@ from thermrs.design.separation import Rival, rivals_from
 from thermrs.errors import InputError
 from thermrs.rig import Rig
 
-__all__ = ["DesignResult", "design"]
+__all__ = ["DesignResult", "design", "rival_drift"]
 
 #: Candidates proved at most (best first) before the design gives up.
 PROOF_TRIES = 3
@@ -313,9 +313,7 @@ def _prove(
         result.proofs.append(p)
         if p["all_right"]:
             result.best = cand
-            rank = next(
-                (i for i, c in enumerate(result.ranked) if c["label"] == cand.label), None
-            )
+            rank = next((i for i, c in enumerate(result.ranked) if c["label"] == cand.label), None)
             result.recommended = {
                 **cand.to_json(),
                 "rank": rank,
@@ -331,4 +329,49 @@ def _prove(
     result.why_not = (
         f"none of the {len(result.proofs)} best candidates within {result.budget_h:g} h passed "
         f"its proof (the best: {'; '.join(wrong)})"
+    )
+
+
+def rival_drift(result: DesignResult, *, workdir: str | Path | None = None) -> pl.DataFrame:
+    """Each rival's predicted drift on the recommended (or best) candidate's new measurement:
+    per run of the scenario, per camera it adds (or every camera, for runs only), per visit
+    forecast by the simulator's thermal model: ``effect``, ``run``, ``camera``, ``t_h`` (hours
+    since the scenario began), ``drift_u_um``, ``drift_v_um`` (from the run's first visit).
+
+    Empty when there is no candidate.
+    """
+    from thermrs.design.forecast import forecast_tables, protocol_samples
+    from thermrs.signatures import VisitSet
+
+    cand = result.best
+    if cand is None or not result.rivals:
+        return pl.DataFrame()
+    with tempfile.TemporaryDirectory(prefix="thermrs-design-") as tmp:
+        wd = Path(workdir) if workdir is not None else Path(tmp)
+        vis, samp = protocol_samples(result.rig, cand.protocol, cycle_s=result.cycle_s,
+                                     workdir=wd)  # fmt: skip
+    _, new = rig_toml(result.rig, cand)
+    like = cand.detail.get("from_pose")
+    cam = cand.camera["name"] if cand.camera is not None else None
+    tables = forecast_tables(new, vis, samp, new_camera=cam, like_camera=like)
+    if cam is not None:
+        tables = [t.filter(pl.col("camera") == cam) for t in tables]
+    vs = VisitSet(tables, new)
+    t0 = int(vs.table["t_ns"].min())  # type: ignore[arg-type]
+    frames = []
+    for r in result.rivals:
+        p = vs.positions(effects=[r.truth], alpha_per_k=r.alpha_per_k)
+        df = vs.table.select("run", "camera", "t_ns").with_columns(
+            effect=pl.lit(r.effect), u=pl.Series(p[: vs.n]), v=pl.Series(p[vs.n :])
+        )
+        frames.append(df)
+    out = pl.concat(frames).sort("effect", "run", "camera", "t_ns")
+    key = ["effect", "run", "camera"]
+    return out.select(
+        "effect",
+        "run",
+        "camera",
+        t_h=(pl.col("t_ns") - t0) / 3.6e12,
+        drift_u_um=pl.col("u") - pl.col("u").first().over(key),
+        drift_v_um=pl.col("v") - pl.col("v").first().over(key),
     )

@@ -35,7 +35,7 @@ def rig_dict(
 ) -> dict[str, Any]:
     """The rig's file keys with the candidate's pose and chip added (and α replaced, for a
     simulated truth)."""
-    d = _clean(copy.deepcopy(rig.to_dict()))
+    d: dict[str, Any] = _clean(copy.deepcopy(rig.to_dict()))
     if candidate is not None and candidate.camera is not None and candidate.pose is not None:
         d["camera"] = [*d["camera"], dict(candidate.camera)]
         d["pose"] = [*d["pose"], dict(candidate.pose)]

@@ -2,8 +2,10 @@
 
 Run protocols alone (on the user's rig) and new poses with a chip (each recorded with one
 protocol; the best poses then with every protocol). Scores are the least ``z`` over ordered
-pairs of rivals (:mod:`thermrs.design.separation`). The proof order prefers the cheapest
-candidate whose score reaches :data:`Z_TARGET`, then the best scores.
+pairs of rivals (:mod:`thermrs.design.separation`). The proof order takes the candidates
+whose score reaches :data:`Z_TARGET` first, those that leave the least canonical correlation
+between the rivals' signatures over all runs (the diagnoser calls a pair confounded above 0.9
+of it, whatever the held-out gain) before the others; then the rest by score.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import polars as pl
 from thermrs.design.candidates import Candidate, Protocol, candidates, protocols
 from thermrs.design.files import rig_toml
 from thermrs.design.forecast import forecast_tables, protocol_samples
-from thermrs.design.separation import Block, Rival, pair_z, rival_families
+from thermrs.design.separation import Block, Rival, pair_cos, pair_z, rival_families
 from thermrs.rig import Rig
 from thermrs.signatures import VisitSet
 
@@ -98,12 +100,14 @@ def search(
     progress("forecasting the protocols")
     fc: dict[str, tuple[pl.DataFrame, pl.DataFrame, Block]] = {}
     scored: list[tuple[float, Candidate, dict[tuple[str, str], float]]] = []
+    cosines: dict[int, dict[tuple[str, str], float]] = {}
     for p in protos:
         vis, samp = protocol_samples(rig, p, cycle_s=cycle_s, workdir=workdir)
         blk = Block(VisitSet(forecast_tables(rig, vis, samp), rig_c), rivals)
         fc[p.label] = (vis, samp, blk)
         z = pair_z([old, blk], rivals, fams, sigma_um)
         cand = Candidate(label=f"runs only: {p.label}", kind="protocol", protocol=p)
+        cosines[id(cand)] = pair_cos([old, blk], rivals, fams)
         scored.append((min(z.values()), cand, z))
 
     def score_pose(c: Candidate) -> None:
@@ -118,6 +122,7 @@ def search(
         tabs = [t.filter(pl.col("camera") == c.camera["name"]) for t in tabs]
         nb = Block(VisitSet(tabs, new), rivals)
         z = pair_z([old, blk, nb], rivals, fams, sigma_um)
+        cosines[id(c)] = pair_cos([old, blk, nb], rivals, fams)
         scored.append((min(z.values()), c, z))
 
     progress(f"scoring {len(poses)} new poses")
@@ -127,12 +132,24 @@ def search(
     for _, c, _ in best_poses[:TOP_POSES]:
         for p in protos:
             if p.label != base_p.label:
-                score_pose(replace(c, protocol=p, label=c.label.rsplit("; ", 1)[0] + "; " + p.label))
+                score_pose(
+                    replace(c, protocol=p, label=c.label.rsplit("; ", 1)[0] + "; " + p.label)
+                )
     scored.sort(key=lambda s: -s[0])
     ranked = []
+
+    def worst_cos(c: Candidate) -> float:
+        return max(cosines[id(c)].values(), default=0.0)
+
     for i, (m, c, z) in enumerate(scored):
-        ranked.append(({**c.to_json(), "rank": i, "min_z": m, "separation": _pairs(z)}, c))
-    good = sorted((s for s in scored if s[0] >= Z_TARGET), key=lambda s: (s[1].hours, -s[0]))
+        cos = [{"effects": [a, b], "cos": v} for (a, b), v in cosines[id(c)].items()]
+        ranked.append(
+            (
+                {**c.to_json(), "rank": i, "min_z": m, "separation": _pairs(z), "cos": cos},
+                c,
+            )
+        )
+    good = sorted((s for s in scored if s[0] >= Z_TARGET), key=lambda s: worst_cos(s[1]))
     rest = [s for s in scored if s[0] < Z_TARGET]
     order = [c for _, c, _ in good + rest]
     why = None

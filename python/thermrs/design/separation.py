@@ -89,7 +89,9 @@ def rivals_from(diagnosis: Mapping[str, Any], names: Sequence[str], rig: Rig) ->
         try:
             truth = from_dict({"name": name, **params}, rig=rig)
         except InputError as e:
-            raise InputError(f"effect {name}: its fitted parameters do not simulate ({e})") from None
+            raise InputError(
+                f"effect {name}: its fitted parameters do not simulate ({e})"
+            ) from None
         out.append(Rival(name, dict(row["params"]), alpha, truth))
     return out
 
@@ -146,7 +148,10 @@ def _grid(fam: Family) -> list[dict[str, float]]:
 
 
 def _stack(blocks: Sequence[Block], parts: Sequence[FloatArray | None], k: int) -> FloatArray:
-    rows = [p if p is not None else np.zeros((2 * b.vs.n, k)) for b, p in zip(blocks, parts)]
+    rows = [
+        p if p is not None else np.zeros((2 * b.vs.n, k))
+        for b, p in zip(blocks, parts, strict=True)
+    ]
     return np.concatenate(rows, axis=0)
 
 
