@@ -22,7 +22,7 @@ import numpy as np
 import polars as pl
 import pytest
 import thermrs
-from thermrs.design import design
+from thermrs.design import DesignResult, design, rival_drift
 from thermrs.design.candidates import candidates, protocols
 from thermrs.design.files import rig_toml, scenario_toml
 from thermrs.design.separation import Block, Rival, pair_z, rival_families
@@ -169,30 +169,44 @@ def test_files_are_valid_and_the_laser_meets_the_new_chip(
     assert set(per["camera"].to_list()) == {cam.name for cam in new.cameras}
 
 
-def test_designed_experiment_identifies_the_truth(
-    paper_rig: thermrs.Rig, short_runs: dict[str, pl.DataFrame], tmp_path: Path
-) -> None:
-    """An independent performance of the design: its rig and scenario simulated with the true
-    effect added here, the runs in their roles diagnosed with the user's runs."""
-    from thermrs.diagnose import diagnose
-
+@pytest.fixture(scope="module")
+def designed(
+    paper_rig: thermrs.Rig,
+    short_runs: dict[str, pl.DataFrame],
+    tmp_path_factory: pytest.TempPathFactory,
+) -> tuple[DesignResult, Path]:
+    tmp = tmp_path_factory.mktemp("design")
     res = design(
         [short_runs["r1"]],
         [short_runs["r2"]],
         paper_rig,
         between=["joint_offset", "unmodelled_length"],
         budget_h=24.0,
-        workdir=tmp_path / "work",
+        workdir=tmp / "work",
     )
-    res.write(tmp_path / "out")
+    res.write(tmp / "out")
+    return res, tmp
+
+
+def test_designed_experiment_identifies_the_truth(
+    paper_rig: thermrs.Rig,
+    short_runs: dict[str, pl.DataFrame],
+    designed: tuple[DesignResult, Path],
+) -> None:
+    """An independent performance of the design: its rig and scenario simulated with the true
+    effect added here, the runs in their roles diagnosed with the user's runs."""
+    from thermrs.diagnose import diagnose
+
+    _, tmp_path = designed
     doc = json.loads((tmp_path / "out" / "design.json").read_text())
     assert doc["confounded"] == ["joint_offset", "unmodelled_length"]
     assert doc["candidates"] and doc["roles"]
-    hours = sum((r["duration_min"] + r["idle_before_min"]) / 60 for r in tomllib.loads(
-        (tmp_path / "out" / "scenario.toml").read_text())["run"])  # fmt: skip
+    runs = tomllib.loads((tmp_path / "out" / "scenario.toml").read_text())["run"]
+    hours = sum((r["duration_min"] + r.get("idle_before_min", 0.0)) / 60 for r in runs)
+    assert set(doc["roles"]) == {r["name"] for r in runs}
     assert hours <= 24.0
-    if doc["recommended"] is not None:
-        assert all(r["right"] for r in doc["proof"]["matrix"])
+    assert doc["recommended"] is not None, doc["why_not"]
+    assert all(r["right"] for r in doc["proof"]["matrix"])
     rig_text = (tmp_path / "out" / "rig.toml").read_text()
     new = thermrs.Rig.from_toml(rig_text)
     sc = (tmp_path / "out" / "scenario.toml").read_text()
@@ -203,3 +217,50 @@ def test_designed_experiment_identifies_the_truth(
     assert (v["status"], v["effect"]) == ("identified", "joint_offset")
     assert v["params"]["joint"] == "joint_a3"
     assert v["params"]["urad_per_k"] == pytest.approx(12.8, rel=0.2)
+
+
+def test_report_subsection_shows_the_experiment(designed: tuple[DesignResult, Path]) -> None:
+    """The report's subsection: the recommendation (or why none), the rivals' predicted drift
+    on the new chip (they must differ there: that is what the experiment reads) and the proof
+    matrix, rendered to HTML."""
+    from thermrs.report.design_section import design_section
+    from thermrs.report.render import to_html
+
+    res, _ = designed
+    doc = res.to_json()
+    drift = rival_drift(res)
+    assert set(drift["effect"].unique()) == {"joint_offset", "unmodelled_length"}
+    if res.best is not None and res.best.camera is not None:
+        assert set(drift["camera"].unique()) == {res.best.camera["name"]}
+        end = drift.group_by("effect").agg(
+            pl.col("drift_v_um").abs().max(), pl.col("drift_u_um").abs().max()
+        )
+        assert end.height == 2
+    sec = design_section(doc, drift)
+    html = to_html([sec], title="t", meta="m")
+    assert "The experiment that settles it" in html
+    assert "<svg" in html
+    if doc["proof"] is not None:
+        for row in doc["proof"]["matrix"]:
+            assert row["truth"] in html
+    if doc["recommended"] is not None:
+        assert doc["recommended"]["camera"]["name"] in html
+
+
+def test_old_recording_reads_with_the_larger_rig(
+    paper_rig: thermrs.Rig,
+    designed: tuple[DesignResult, Path],
+    tmp_path_factory: pytest.TempPathFactory,
+) -> None:
+    """A recording made before the new chip, extracted with the design's rig, gives the same
+    visits as with the rig it was made on (it simply lacks the new camera)."""
+    from thermrs.ingest import extract
+
+    _, tmp = designed
+    new = thermrs.load_rig(tmp / "out" / "rig.toml")
+    rec = next(tmp_path_factory.getbasetemp().glob("design-runs*/user.mcap"))
+    old_v = extract(rec, paper_rig).visits.sort("camera", "t_ns")
+    new_v = extract(rec, new).visits.sort("camera", "t_ns")
+    assert old_v.select("camera", "t_ns", "u_um", "v_um").equals(
+        new_v.select("camera", "t_ns", "u_um", "v_um")
+    )

@@ -166,6 +166,11 @@ def prove(
                     for c in d.get("confounded", [])
                 ],
                 "right": bool(v["status"] == "identified" and v["effect"] == truth.effect),
+                "choices_match": all(
+                    v["params"].get(k) == val
+                    for k, val in truth.truth.to_dict().items()
+                    if k != "name" and isinstance(val, str)
+                ),
             }
         )
     return {
