@@ -17,17 +17,23 @@ equally well), :func:`design`:
 5. writes ``rig.toml``, ``scenario.toml`` and ``design.json`` (:meth:`DesignResult.write`;
    ``docs/outputs.md``, "SPEC §7 extensions: design.json").
 
+The package is callable: ``thermrs.design(...)`` is :func:`design`.
+
 Example
 -------
 >>> import thermrs
+>>> callable(thermrs.design)
+True
 >>> # r = thermrs.design([train], [holdout], thermrs.load_rig(), budget_h=24)
 >>> # r.write("design-out"); r.recommended["label"]
 """
 
 from __future__ import annotations
 
+import sys
 import tempfile
 import time
+import types
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -203,11 +209,23 @@ def design(
     progress
         Called with a short message at each stage.
 
+    Returns
+    -------
+    DesignResult
+        The ranking, the recommendation (or why none), the roles and the proof;
+        :meth:`DesignResult.write` writes ``rig.toml``, ``scenario.toml`` and ``design.json``.
+
     Raises
     ------
     InputError
         Bad runs (as :func:`~thermrs.diagnose.diagnose`), ``--between`` effects that are not
         effects or were not fitted, a budget below one hour.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> # r = thermrs.design([run1], [run2, run3], thermrs.load_rig(), budget_h=24)
+    >>> # r.write("design-out"); r.to_json()["proof"]["matrix"]
     """
     from threadpoolctl import threadpool_limits  # type: ignore[import-untyped]
 
@@ -338,7 +356,21 @@ def rival_drift(result: DesignResult, *, workdir: str | Path | None = None) -> p
     forecast by the simulator's thermal model: ``effect``, ``run``, ``camera``, ``t_h`` (hours
     since the scenario began), ``drift_u_um``, ``drift_v_um`` (from the run's first visit).
 
-    Empty when there is no candidate.
+    Parameters
+    ----------
+    result
+        A design (:func:`design`).
+    workdir
+        Where the forecast is simulated (default: a temporary folder).
+
+    Returns
+    -------
+    polars.DataFrame
+        Empty when there is no candidate.
+
+    Examples
+    --------
+    >>> # rival_drift(thermrs.design(train, holdout, rig)).group_by("effect").len()
     """
     from thermrs.design.forecast import forecast_tables, protocol_samples
     from thermrs.signatures import VisitSet
@@ -375,3 +407,13 @@ def rival_drift(result: DesignResult, *, workdir: str | Path | None = None) -> p
         drift_u_um=pl.col("u") - pl.col("u").first().over(key),
         drift_v_um=pl.col("v") - pl.col("v").first().over(key),
     )
+
+
+class _CallableModule(types.ModuleType):
+    """This package, callable as :func:`design` (``thermrs.design(...)``)."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> DesignResult:
+        return design(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule
