@@ -264,3 +264,20 @@ def test_old_recording_reads_with_the_larger_rig(
     assert old_v.select("camera", "t_ns", "u_um", "v_um").equals(
         new_v.select("camera", "t_ns", "u_um", "v_um")
     )
+
+
+def test_cli_bad_between_is_one_line_exit_2(
+    designed: tuple[DesignResult, Path], tmp_path_factory: pytest.TempPathFactory, tmp_path: Path
+) -> None:
+    import subprocess
+    import sys
+
+    rec = next(tmp_path_factory.getbasetemp().glob("design-runs*/user.mcap"))
+    rig = str(thermrs.default_rig_path())
+    cmd = [sys.executable, "-m", "thermrs", "design", "--rig", rig, "--train", f"{rec}#r1",
+           "--holdout", f"{rec}#r2", "--between", "joint_offset", "--between", "no_such_effect",
+           "-o", str(tmp_path / "out")]  # fmt: skip
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 2, p.stderr
+    err = [ln for ln in p.stderr.splitlines() if "error" in ln]
+    assert len(err) == 1 and "no_such_effect" in err[0] and "Traceback" not in p.stderr

@@ -8,8 +8,8 @@ this module decides nothing about effects, it only records what the diagnoser sa
 
 The user's runs are those of the world the diagnosis found most likely (the verdict's
 effect): a proof with another rival as the truth diagnoses them *as that truth would have
-made them* (:func:`counterfactual`): their measured spots with the drift the verdict's effect
-predicts replaced by the drift the rival predicts, each at its fitted α and parameters. The
+made them* (:func:`counterfactual`): their measured spots with the drift the best-fitting rival (the
+verdict's effect) predicts replaced by the drift the rival predicts, each at its fitted α and parameters. The
 noise and whatever both leave unexplained are kept; without this, runs made by one effect
 would argue against every other truth and the proof would test the user's runs, not the
 design.
@@ -25,6 +25,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import polars as pl
 
 from thermrs.design.candidates import Candidate
@@ -122,12 +123,14 @@ def prove(
     progress: Callable[[str], object] | None = None,
 ) -> dict[str, Any]:
     """The proof matrix of ``cand``: per rival as the truth, the diagnoser's verdict on the
-    user's runs (as that truth would have made them; ``rivals[0]`` is the verdict's effect)
+    user's runs (as that truth would have made them, from the rival that fits them best)
     with the design's runs simulated under that truth."""
     from thermrs.diagnose import diagnose
 
     say = progress or (lambda _m: None)
     _, new = rig_toml(rig, cand)
+    # The world the user's runs come from: the rival that fits their held-out runs best.
+    actual = min(rivals, key=lambda r: (not r.holdout_rms_um <= np.inf, r.holdout_rms_um))
     rows = []
     for k, truth in enumerate(rivals):
         say(f"proof: {truth.effect} as the truth")
@@ -143,8 +146,8 @@ def prove(
             new, sim_text, sc, workdir=workdir, stem=f"proof-{k}", seed=seed + 1 + k
         )
         tr, ho = _split(cand, tables)
-        u_tr = counterfactual(train, rig, rivals[0], truth)
-        u_ho = counterfactual(holdout, rig, rivals[0], truth)
+        u_tr = counterfactual(train, rig, actual, truth)
+        u_ho = counterfactual(holdout, rig, actual, truth)
         d = diagnose([*u_tr, *tr], [*u_ho, *ho], new, exclude=list(exclude)).to_json()
         v = d["verdict"]
         rows.append(

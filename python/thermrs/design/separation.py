@@ -50,6 +50,7 @@ class Rival:
     params: dict[str, Any]
     alpha_per_k: float
     truth: Effect  # the effect as a simulator or forward model takes it
+    holdout_rms_um: float = float("nan")
 
     def to_json(self) -> dict[str, Any]:
         """As ``design.json`` lists it."""
@@ -58,6 +59,7 @@ class Rival:
             "params": self.params,
             "alpha_per_k": self.alpha_per_k,
             "simulated_as": self.truth.to_dict(),
+            "holdout_rms_um": self.holdout_rms_um,
         }
 
 
@@ -92,7 +94,8 @@ def rivals_from(diagnosis: Mapping[str, Any], names: Sequence[str], rig: Rig) ->
             raise InputError(
                 f"effect {name}: its fitted parameters do not simulate ({e})"
             ) from None
-        out.append(Rival(name, dict(row["params"]), alpha, truth))
+        rms = float(row.get("holdout_rms_um", float("nan")))
+        out.append(Rival(name, dict(row["params"]), alpha, truth, rms))
     return out
 
 
