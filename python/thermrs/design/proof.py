@@ -6,13 +6,13 @@ run on the user's runs together with the simulated ones name that effect, ``iden
 The verdicts are the diagnoser's own (:func:`thermrs.diagnose.diagnose`, its public result):
 this module decides nothing about effects, it only records what the diagnoser says.
 
-The user's runs are those of the world the diagnosis found most likely (the verdict's
-effect): a proof with another rival as the truth diagnoses them *as that truth would have
-made them* (:func:`counterfactual`): their measured spots with the drift the best-fitting rival (the
-verdict's effect) predicts replaced by the drift the rival predicts, each at its fitted α and parameters. The
-noise and whatever both leave unexplained are kept; without this, runs made by one effect
-would argue against every other truth and the proof would test the user's runs, not the
-design.
+The user's runs are those of the world the diagnosis found most likely (the rival that fits
+their held-out runs best): a proof with another rival as the truth diagnoses them *as that
+truth would have made them* (:func:`counterfactual`): their measured spots with the drift the
+best-fitting rival predicts replaced by the drift the truth predicts, each at its fitted α and
+parameters. The noise and whatever both leave unexplained are kept; without this, runs made
+by one effect would argue against every other truth and the proof would test the user's runs,
+not the design.
 
 Noise: the simulator's camera and motion noise is scaled so that the noise floor the diagnoser
 measures on an effect-free simulation of the design equals the floor it measured on the user's
