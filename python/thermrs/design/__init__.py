@@ -70,18 +70,18 @@ class DesignResult:
 
     diagnosis: dict[str, Any]
     confounded: list[str]
-    rivals: list[Rival]
-    ranked: list[dict[str, Any]]
-    best: Candidate | None
-    recommended: dict[str, Any] | None
-    why_not: str | None
-    proofs: list[dict[str, Any]]
     budget_h: float
     limits_deg: tuple[tuple[float, float], ...]
     limits_source: str
-    now: list[dict[str, Any]]
     rig: Rig
     cycle_s: float
+    rivals: list[Rival] = field(default_factory=list)
+    ranked: list[dict[str, Any]] = field(default_factory=list)
+    best: Candidate | None = None
+    recommended: dict[str, Any] | None = None
+    why_not: str | None = None
+    proofs: list[dict[str, Any]] = field(default_factory=list)
+    now: list[dict[str, Any]] = field(default_factory=list)
     noise: dict[str, float] = field(default_factory=dict)
     seconds: float = 0.0
 
@@ -227,8 +227,6 @@ def design(
     >>> # r = thermrs.design([run1], [run2, run3], thermrs.load_rig(), budget_h=24)
     >>> # r.write("design-out"); r.to_json()["proof"]["matrix"]
     """
-    from threadpoolctl import threadpool_limits  # type: ignore[import-untyped]
-
     from thermrs.diagnose import diagnose as run_diagnosis
 
     if not budget_h >= 1.0:
@@ -244,16 +242,9 @@ def design(
     result = DesignResult(
         diagnosis=doc,
         confounded=names,
-        rivals=[],
-        ranked=[],
-        best=None,
-        recommended=None,
-        why_not=None,
-        proofs=[],
         budget_h=budget_h,
         limits_deg=lim,
         limits_source="given" if limits_deg is not None else "default (KUKA KR 15/2 axis ranges)",
-        now=[],
         rig=rig,
         cycle_s=cycle_s,
     )
@@ -262,39 +253,52 @@ def design(
             f"the diagnosis is {doc['verdict']['status']}, not ambiguous: there are no "
             "confounded effects to separate (give --between to separate chosen effects)"
         )
-        result.seconds = time.perf_counter() - t0
-        return result
-    rivals = rivals_from(doc, names, rig)
-    result.rivals = rivals
-    user_runs = {str(n) for t in [*train, *holdout] for n in t["run"].unique().to_list()}
-    with tempfile.TemporaryDirectory(prefix="thermrs-design-") as tmp:
-        wd = Path(workdir) if workdir is not None else Path(tmp)
-        wd.mkdir(parents=True, exist_ok=True)
-        with threadpool_limits(limits=1, user_api="blas"):
-            found = search(
-                [*train, *holdout],
-                rig,
-                rivals,
-                float(doc["noise_floor_um"]),
-                budget_h=budget_h,
-                cycle_s=cycle_s,
-                limits_deg=lim,
-                workdir=wd,
-                taken=user_runs,
-                progress=say,
-            )
-        result.now = found.now
-        result.ranked = [c for c, _ in found.ranked]
-        order = found.proof_order
-        result.best = order[0] if order else None
-        if not order or found.why_not:
-            result.why_not = found.why_not or "no candidate fits the budget and joint limits"
-        elif not prove_it:
-            result.why_not = "not proved (the proof was not asked for): nothing recommended"
-        else:
-            _prove(result, order, train, holdout, exclude, wd, seed, say)
+    else:
+        result.rivals = rivals_from(doc, names, rig)
+        with tempfile.TemporaryDirectory(prefix="thermrs-design-") as tmp:
+            wd = Path(workdir) if workdir is not None else Path(tmp)
+            wd.mkdir(parents=True, exist_ok=True)
+            _search_and_prove(result, train, holdout, exclude, wd, seed, prove_it, say)
     result.seconds = time.perf_counter() - t0
     return result
+
+
+def _search_and_prove(
+    result: DesignResult,
+    train: Sequence[pl.DataFrame],
+    holdout: Sequence[pl.DataFrame],
+    exclude: Sequence[str],
+    wd: Path,
+    seed: int,
+    prove_it: bool,
+    say: Callable[[str], object],
+) -> None:
+    from threadpoolctl import threadpool_limits  # type: ignore[import-untyped]
+
+    user_runs = {str(n) for t in [*train, *holdout] for n in t["run"].unique().to_list()}
+    with threadpool_limits(limits=1, user_api="blas"):
+        found = search(
+            [*train, *holdout],
+            result.rig,
+            result.rivals,
+            float(result.diagnosis["noise_floor_um"]),
+            budget_h=result.budget_h,
+            cycle_s=result.cycle_s,
+            limits_deg=result.limits_deg,
+            workdir=wd,
+            taken=user_runs,
+            progress=say,
+        )
+    result.now = found.now
+    result.ranked = [c for c, _ in found.ranked]
+    order = found.proof_order
+    result.best = order[0] if order else None
+    if not order or found.why_not:
+        result.why_not = found.why_not or "no candidate fits the budget and joint limits"
+    elif not prove_it:
+        result.why_not = "not proved (the proof was not asked for): nothing recommended"
+    else:
+        _prove(result, order, train, holdout, exclude, wd, seed, say)
 
 
 def _prove(

@@ -48,6 +48,10 @@ NOT_SEARCHED = [
 ]
 
 
+#: Candidates with their least z and their z per ordered pair.
+Scored = list[tuple[float, Candidate, dict[tuple[str, str], float]]]
+
+
 @dataclass
 class Found:
     """The search's outcome."""
@@ -99,7 +103,7 @@ def search(
     now = _pairs(pair_z([old], rivals, fams, sigma_um))
     progress("forecasting the protocols")
     fc: dict[str, tuple[pl.DataFrame, pl.DataFrame, Block]] = {}
-    scored: list[tuple[float, Candidate, dict[tuple[str, str], float]]] = []
+    scored: Scored = []
     cosines: dict[int, dict[tuple[str, str], float]] = {}
     for p in protos:
         vis, samp = protocol_samples(rig, p, cycle_s=cycle_s, workdir=workdir)
@@ -135,6 +139,16 @@ def search(
                 score_pose(
                     replace(c, protocol=p, label=c.label.rsplit("; ", 1)[0] + "; " + p.label)
                 )
+    return _conclude(now, scored, cosines, rivals)
+
+
+def _conclude(
+    now: list[dict[str, Any]],
+    scored: Scored,
+    cosines: dict[int, dict[tuple[str, str], float]],
+    rivals: Sequence[Rival],
+) -> Found:
+    """The ranking, the proof order and, if a pair is inseparable everywhere, why."""
     scored.sort(key=lambda s: -s[0])
     ranked = []
 
