@@ -29,7 +29,18 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
-    from thermrs import fit, heating, ingest, iso9283, model, paper, predict, rig, simulate
+    from thermrs import (
+        design,
+        fit,
+        heating,
+        ingest,
+        iso9283,
+        model,
+        paper,
+        predict,
+        rig,
+        simulate,
+    )
     from thermrs.errors import (
         InputError,
         RecordingError,
@@ -45,6 +56,7 @@ __version__: str  # read from the installed package's metadata on first use
 
 #: Submodules imported on first attribute access.
 _SUBMODULES = (
+    "design",
     "errors",
     "fit",
     "heating",
@@ -86,6 +98,7 @@ __all__ = [
     "ThermrsError",
     "__version__",
     "default_rig_path",
+    "design",
     "extract",
     "fit",
     "heating",

@@ -1038,6 +1038,7 @@ def _register() -> None:
 
     cli.add_command(diagnose)
     cli.add_command(diagnose_bench)
+    cli.add_command(__import__("thermrs.cli_design", fromlist=["design"]).design)
 
 
 _register()

@@ -1,0 +1,185 @@
+"""The proof before the robot: a design is recommended only if, for every confounded effect
+taken as the truth with the parameters fitted to the user's runs, the simulator performing the
+design (the new rig and scenario, that effect switched on, the rig's noise) and the diagnoser
+run on the user's runs together with the simulated ones name that effect, ``identified``.
+
+The verdicts are the diagnoser's own (:func:`thermrs.diagnose.diagnose`, its public result):
+this module decides nothing about effects, it only records what the diagnoser says.
+
+The user's runs are those of the world the diagnosis found most likely (the rival that fits
+their held-out runs best): a proof with another rival as the truth diagnoses them *as that
+truth would have made them* (:func:`counterfactual`): their measured spots with the drift the
+best-fitting rival predicts replaced by the drift the truth predicts, each at its fitted α and
+parameters. The noise and whatever both leave unexplained are kept; without this, runs made
+by one effect would argue against every other truth and the proof would test the user's runs,
+not the design.
+
+Noise: the simulator's camera and motion noise is scaled so that the noise floor the diagnoser
+measures on an effect-free simulation of the design equals the floor it measured on the user's
+runs (joint repeatability, the dominant term, is scaled by their ratio).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from thermrs.design.candidates import Candidate
+from thermrs.design.files import rig_toml, scenario_toml
+from thermrs.design.forecast import simulated_runs
+from thermrs.design.separation import Rival
+from thermrs.rig import Rig
+
+__all__ = ["calibrate_noise", "prove"]
+
+#: The simulator's default joint repeatability (µrad rms, docs/scenarios.md).
+DEFAULT_REPEATABILITY_URAD = 2.0
+#: Simulation settings of the proof: one CCD frame per visit, fast chunks.
+SIM_EXTRA: dict[str, dict[str, Any]] = {
+    "camera": {"frames_per_visit": 1},
+    "output": {"compression": "lz4"},
+}
+
+
+def _split(cand: Candidate, tables: Sequence[pl.DataFrame]) -> tuple[list[pl.DataFrame], ...]:
+    role = {r.name: r.role for r in cand.protocol.runs}
+    tr = [t for t in tables if t.height and role.get(str(t["run"][0])) == "train"]
+    ho = [t for t in tables if t.height and role.get(str(t["run"][0])) == "holdout"]
+    return tr, ho
+
+
+def counterfactual(
+    tables: Sequence[pl.DataFrame], rig: Rig, actual: Rival, truth: Rival
+) -> list[pl.DataFrame]:
+    """The run tables as ``truth`` would have made them (see the module docstring)."""
+    from thermrs.signatures import VisitSet
+
+    if truth.effect == actual.effect:
+        return list(tables)
+    out = []
+    for t in tables:
+        vs = VisitSet([t], rig)
+        d = vs.positions(effects=[truth.truth], alpha_per_k=truth.alpha_per_k) - vs.positions(
+            effects=[actual.truth], alpha_per_k=actual.alpha_per_k
+        )
+        out.append(
+            vs.table.with_columns(
+                u_um=pl.Series(vs.table["u_um"].to_numpy() + d[: vs.n]),
+                v_um=pl.Series(vs.table["v_um"].to_numpy() + d[vs.n :]),
+            )
+        )
+    return out
+
+
+def calibrate_noise(
+    rig: Rig,
+    cand: Candidate,
+    floor_um: float,
+    *,
+    cycle_s: float,
+    workdir: Path,
+    seed: int,
+) -> dict[str, float]:
+    """The joint repeatability (µrad) that gives the design's simulated runs the user's noise
+    floor: one effect-free simulation at the default repeatability, its floor measured by the
+    diagnoser, the repeatability scaled by the ratio."""
+    from thermrs.diagnose import diagnose
+
+    text, new = rig_toml(rig, cand)
+    sc = scenario_toml(
+        cand,
+        cycle_s=cycle_s,
+        name="design noise calibration",
+        extra={**SIM_EXTRA, "motion": {"repeatability_urad": DEFAULT_REPEATABILITY_URAD}},
+    )
+    tables = simulated_runs(new, text, sc, workdir=workdir, stem="calibration", seed=seed)
+    tr, ho = _split(cand, tables)
+    d = diagnose(tr, ho, new, bootstrap=0).to_json()
+    sim_floor = float(d["noise_floor_um"])
+    rep = DEFAULT_REPEATABILITY_URAD * floor_um / sim_floor if sim_floor > 0 else 2.0
+    return {
+        "user_floor_um": floor_um,
+        "simulated_floor_um_at_default": sim_floor,
+        "repeatability_urad": float(rep),
+    }
+
+
+def prove(
+    rig: Rig,
+    cand: Candidate,
+    rivals: Sequence[Rival],
+    train: Sequence[pl.DataFrame],
+    holdout: Sequence[pl.DataFrame],
+    *,
+    repeatability_urad: float,
+    exclude: Sequence[str],
+    cycle_s: float,
+    workdir: Path,
+    seed: int,
+    progress: Callable[[str], object] | None = None,
+) -> dict[str, Any]:
+    """The proof matrix of ``cand``: per rival as the truth, the diagnoser's verdict on the
+    user's runs (as that truth would have made them, from the rival that fits them best)
+    with the design's runs simulated under that truth."""
+    from thermrs.diagnose import diagnose
+
+    say = progress or (lambda _m: None)
+    _, new = rig_toml(rig, cand)
+    # The world the user's runs come from: the rival that fits their held-out runs best.
+    actual = min(rivals, key=lambda r: (not r.holdout_rms_um <= np.inf, r.holdout_rms_um))
+    rows = []
+    for k, truth in enumerate(rivals):
+        say(f"proof: {truth.effect} as the truth")
+        sim_text, _ = rig_toml(rig, cand, alpha_per_k=truth.alpha_per_k)
+        sc = scenario_toml(
+            cand,
+            cycle_s=cycle_s,
+            name=f"design proof, truth {truth.effect}",
+            effects=[truth.truth.to_dict()],
+            extra={**SIM_EXTRA, "motion": {"repeatability_urad": repeatability_urad}},
+        )
+        tables = simulated_runs(
+            new, sim_text, sc, workdir=workdir, stem=f"proof-{k}", seed=seed + 1 + k
+        )
+        tr, ho = _split(cand, tables)
+        u_tr = counterfactual(train, rig, actual, truth)
+        u_ho = counterfactual(holdout, rig, actual, truth)
+        d = diagnose([*u_tr, *tr], [*u_ho, *ho], new, exclude=list(exclude)).to_json()
+        v = d["verdict"]
+        rows.append(
+            {
+                "truth": truth.effect,
+                "truth_params": truth.truth.to_dict(),
+                "truth_alpha_per_k": truth.alpha_per_k,
+                "status": v["status"],
+                "effect": v["effect"],
+                "params": v["params"],
+                "confounded_with": v.get("confounded_with", []),
+                "reason": v.get("reason"),
+                "ranking": [
+                    {"effect": r["effect"], "holdout_rms_um": r["holdout_rms_um"]}
+                    for r in d.get("ranking", [])[:4]
+                ],
+                "pairs_cos": [
+                    {"effects": c.get("effects"), "cos": c.get("cos")}
+                    for c in d.get("confounded", [])
+                ],
+                "right": bool(v["status"] == "identified" and v["effect"] == truth.effect),
+                "choices_match": all(
+                    v["params"].get(k) == val
+                    for k, val in truth.truth.to_dict().items()
+                    if k != "name" and isinstance(val, str)
+                ),
+            }
+        )
+    return {
+        "candidate": cand.label,
+        "matrix": rows,
+        "all_right": all(r["right"] for r in rows),
+        "repeatability_urad": repeatability_urad,
+        "seed": seed,
+    }
