@@ -29,7 +29,8 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
-    from thermrs import fit, heating, ingest, iso9283, model, paper, predict, rig, simulate
+    from thermrs import campaigns, fit, heating, ingest, iso9283, model, paper, predict, rig, simulate
+    from thermrs.campaigns import campaign
     from thermrs.errors import (
         InputError,
         RecordingError,
@@ -45,6 +46,7 @@ __version__: str  # read from the installed package's metadata on first use
 
 #: Submodules imported on first attribute access.
 _SUBMODULES = (
+    "campaigns",
     "errors",
     "fit",
     "heating",
@@ -60,6 +62,7 @@ _SUBMODULES = (
 
 #: Names re-exported at the top level: name → module that defines it.
 _NAMES = {
+    "campaign": "thermrs.campaigns",
     "Extraction": "thermrs.ingest",
     "extract": "thermrs.ingest",
     "ForwardModel": "thermrs.model",
@@ -85,6 +88,8 @@ __all__ = [
     "Spots",
     "ThermrsError",
     "__version__",
+    "campaign",
+    "campaigns",
     "default_rig_path",
     "extract",
     "fit",
