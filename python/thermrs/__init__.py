@@ -29,7 +29,18 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
-    from thermrs import campaigns, fit, heating, ingest, iso9283, model, paper, predict, rig, simulate
+    from thermrs import (
+        campaigns,
+        fit,
+        heating,
+        ingest,
+        iso9283,
+        model,
+        paper,
+        predict,
+        rig,
+        simulate,
+    )
     from thermrs.campaigns import campaign
     from thermrs.errors import (
         InputError,

@@ -35,6 +35,7 @@ def campaign(
     client: Any = None,
     scheduler: str | None = None,
     workers: int | None = None,
+    visit_tolerance_deg: float | None = None,
     progress: Progress | None = None,
     on_cluster: Callable[[str | None], object] | None = None,
 ) -> CampaignResult:
@@ -58,6 +59,9 @@ def campaign(
     workers
         Else the number of worker processes of the ``LocalCluster`` started when more than
         one recording needs work (default: the cores, at most one per recording).
+    visit_tolerance_deg
+        The joint tolerance of a visit (see :func:`thermrs.extract`); part of what makes a
+        recording's extraction current.
     progress
         Called as ``progress(done, total, path)`` as recordings finish.
     on_cluster
@@ -80,6 +84,7 @@ def campaign(
         client=client,
         scheduler=scheduler,
         workers=workers,
+        visit_tolerance_deg=visit_tolerance_deg,
         progress=progress,
         on_cluster=on_cluster,
     )

@@ -27,13 +27,12 @@ from pathlib import Path
 from typing import Any
 
 import polars as pl
-import pyarrow as pa
 
 from thermrs.campaigns.task import TABLES
 from thermrs.errors import InputError
 from thermrs.ingest import LOSS_KEY, write_parquet_atomic
 
-__all__ = ["CATALOG_SCHEMA", "Dataset", "NULL_PARTITION"]
+__all__ = ["CATALOG_SCHEMA", "NULL_PARTITION", "Dataset"]
 
 #: Hive's name of the partition of null values (polars reads it back as null).
 NULL_PARTITION = "__HIVE_DEFAULT_PARTITION__"
@@ -58,6 +57,7 @@ CATALOG_SCHEMA: dict[str, Any] = {
     "loss_detail": pl.String,
     "crc_failures": pl.Int64,
     "thermrs_version": pl.String,
+    "options": pl.String,
     "extracted_at": pl.String,
 }
 
@@ -102,8 +102,10 @@ class Dataset:
             return pl.DataFrame(schema=CATALOG_SCHEMA)
         df = pl.concat([pl.read_parquet(p) for p in parts], how="diagonal_relaxed")
         return df.select(
-            [pl.col(k).cast(v) if k in df.columns else pl.lit(None, v).alias(k)
-             for k, v in CATALOG_SCHEMA.items()]
+            [
+                pl.col(k).cast(v) if k in df.columns else pl.lit(None, v).alias(k)
+                for k, v in CATALOG_SCHEMA.items()
+            ]
         ).sort("recording")
 
     def scan(self, table: str) -> pl.LazyFrame:
@@ -152,7 +154,7 @@ class Dataset:
         for table in TABLES:
             shutil.rmtree(self.root / table / f"recording={_enc(rid)}", ignore_errors=True)
 
-    def commit(self, row: dict[str, Any], tables: dict[str, pa.Table]) -> None:
+    def commit(self, row: dict[str, Any], tables: dict[str, Any]) -> None:
         """Write one recording's tables and catalog row (see the module docs for the steps).
 
         Parameters
@@ -178,7 +180,9 @@ class Dataset:
             )
             write_parquet_atomic(cat, self.root / "_catalog" / f"{rid}.parquet")
         except OSError as e:
-            raise InputError(f"dataset {self.root}: cannot write {rid}: {e.strerror or e}") from None
+            raise InputError(
+                f"dataset {self.root}: cannot write {rid}: {e.strerror or e}"
+            ) from None
         finally:
             shutil.rmtree(stage, ignore_errors=True)
 
@@ -206,6 +210,6 @@ class Dataset:
         else:
             groups = [(k[0], g) for k, g in df.group_by("run", maintain_order=True)]
         for run, g in groups:
-            d = folder / f"run={_enc(run)}"  # type: ignore[arg-type]
+            d = folder / f"run={_enc(run)}"
             d.mkdir(parents=True)
             g.drop("run").write_parquet(d / "part-0.parquet", metadata=meta)

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,7 +32,7 @@ from thermrs.campaigns.sources import Source, expand
 from thermrs.campaigns.task import Job, run_job
 from thermrs.rig import Rig, as_rig, load_rig
 
-__all__ = ["CampaignResult", "Progress", "run_campaign", "rig_identity"]
+__all__ = ["CampaignResult", "Progress", "rig_identity", "run_campaign"]
 
 #: ``progress(done, total, recording_path)`` after each recording (skipped ones included).
 Progress = Callable[[int, int, str], object]
@@ -106,18 +106,30 @@ def run_campaign(
     client: Any = None,
     scheduler: str | None = None,
     workers: int | None = None,
+    visit_tolerance_deg: float | None = None,
     progress: Progress | None = None,
     on_cluster: Callable[[str | None], object] | None = None,
 ) -> CampaignResult:
-    """Extract many recordings into one dataset (see :mod:`thermrs.campaigns`)."""
+    """Extract many recordings into one dataset (see :func:`thermrs.campaigns.campaign`)."""
+    import json
+
+    from thermrs.visits import DEFAULT_TOLERANCE_DEG
+
     t0 = time.perf_counter()
     sources = expand([str(r) for r in recordings])
     r, text, rig_hash = rig_identity(rig)
     version = _version()
-    ds = Dataset(out)
+    ds = Dataset(Path(out))
     ds.clean()
     cat = ds.catalog()
-    same = cat.filter((pl.col("rig_hash") == rig_hash) & (pl.col("thermrs_version") == version))
+    options = json.dumps(
+        {"visit_tolerance_deg": visit_tolerance_deg or DEFAULT_TOLERANCE_DEG}, sort_keys=True
+    )
+    same = cat.filter(
+        (pl.col("rig_hash") == rig_hash)
+        & (pl.col("thermrs_version") == version)
+        & (pl.col("options") == options)
+    )
     by_stat = {
         (row["path"], row["size_bytes"], row["mtime_ns"]): row["recording"]
         for row in same.iter_rows(named=True)
@@ -134,7 +146,10 @@ def run_campaign(
     total = len(sources)
     if progress is not None:
         progress(done, total, "")
-    jobs = [Job(str(s.path), text, r.source, rig_hash, version, frozenset(by_hash)) for s in todo]
+    jobs = [
+        Job(str(s.path), text, r.source, rig_hash, version, options, frozenset(by_hash))
+        for s in todo
+    ]
     stat = {str(s.path): s for s in todo}
     with _engine(jobs, client, scheduler, workers) as (results, dashboard):
         if on_cluster is not None:
@@ -189,17 +204,17 @@ def _engine(
     own = client is None
     if own:
         if scheduler is not None:
-            client = Client(scheduler)
+            client = Client(scheduler)  # type: ignore[no-untyped-call]
         else:
             n = workers or max(1, min(len(jobs), os.cpu_count() or 1))
-            cluster = LocalCluster(
+            cluster = LocalCluster(  # type: ignore[no-untyped-call]
                 n_workers=n,
                 threads_per_worker=1,
                 processes=True,
                 dashboard_address=":0",
                 env={"RAYON_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"},
             )
-            client = Client(cluster)
+            client = Client(cluster)  # type: ignore[no-untyped-call]
     results = _as_completed(client, jobs)
     try:
         yield results, client.dashboard_link
@@ -211,14 +226,14 @@ def _engine(
                 cluster.close()
 
 
-def _as_completed(client: Any, jobs: list[Job]) -> Iterator[dict[str, Any]]:
+def _as_completed(client: Any, jobs: list[Job]) -> Generator[dict[str, Any], None, None]:
     """Map the jobs on the cluster and yield each result as it arrives (its future released
     right after, so that the cluster holds no finished result)."""
     from distributed import as_completed
 
     futures = client.map(run_job, jobs, key=[f"thermrs-extract-{j.path}" for j in jobs], pure=False)
     try:
-        for fut in as_completed(futures):
+        for fut in as_completed(futures):  # type: ignore[no-untyped-call]
             res = fut.result()
             fut.release()
             yield res

@@ -39,9 +39,12 @@ class Job:
         The rig file's text and where it came from (a worker may not see the client's files).
     rig_hash, thermrs_version
         Written into the catalog row.
+    options
+        Extraction options as JSON (``{"visit_tolerance_deg": …}``), also written into the
+        catalog: a recording extracted with other options is extracted again.
     known
-        Content hashes already extracted with this rig and version: a file holding one of them
-        is not extracted again.
+        Content hashes already extracted with this rig, version and options: a file holding
+        one of them is not extracted again.
     """
 
     path: str
@@ -49,6 +52,7 @@ class Job:
     rig_source: str
     rig_hash: str
     thermrs_version: str
+    options: str = "{}"
     known: frozenset[str] = frozenset()
 
 
@@ -70,9 +74,14 @@ def run_job(job: Job) -> dict[str, Any]:
         digest = content_hash(job.path)
         rid = recording_id(job.path, digest)
         if digest in job.known:
-            return {"status": "unchanged", "path": job.path, "content_hash": digest, "recording": rid}
+            return {
+                "status": "unchanged",
+                "path": job.path,
+                "content_hash": digest,
+                "recording": rid,
+            }
         rig = Rig.from_toml(job.rig_text, source_name=job.rig_source)
-        ex = extract(job.path, rig)
+        ex = extract(job.path, rig, **json.loads(job.options))
     except ThermrsError as e:
         return {"status": "failed", "path": job.path, "error": str(e)}
     from thermrs.runs import label_runs
@@ -83,9 +92,7 @@ def run_job(job: Job) -> dict[str, Any]:
         "visits": ex.visits
         if "run" in ex.visits.columns
         else ex.visits.with_columns(run=pl.lit(None, pl.String)),
-        "temperatures": ex.temperatures.with_columns(
-            run=label_runs(ex.temperatures["t_ns"], runs)
-        ),
+        "temperatures": ex.temperatures.with_columns(run=label_runs(ex.temperatures["t_ns"], runs)),
         "joints": ex.joints.with_columns(run=label_runs(ex.joints["t_ns"], runs)),
         "runs": run_stats(runs, ex.frames, ex.visits, ex.joints),
     }
@@ -112,6 +119,7 @@ def run_job(job: Job) -> dict[str, Any]:
         "loss_detail": json.dumps(losses),
         "crc_failures": ex.report.crc_failures,
         "thermrs_version": job.thermrs_version,
+        "options": job.options,
         "extracted_at": datetime.now(UTC).isoformat(timespec="seconds"),
     }
     return {

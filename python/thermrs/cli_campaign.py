@@ -1,0 +1,100 @@
+"""``thermrs extract`` on many recordings: the campaign's rendering (parse and render only;
+the work is :func:`thermrs.campaign`)."""
+
+from __future__ import annotations
+
+import glob
+import sys
+from pathlib import Path
+
+import click
+
+__all__ = ["extract_campaign", "is_campaign"]
+
+
+def is_campaign(
+    recordings: tuple[str, ...], out: Path, scheduler: str | None, workers: int | None
+) -> bool:
+    """Whether the arguments ask for a campaign: several recordings, a glob pattern, a folder
+    of recordings with ``-o`` not a ``.parquet`` file, or a Dask option."""
+    if len(recordings) > 1 or scheduler is not None or workers is not None:
+        return True
+    r = recordings[0]
+    if not Path(r).exists() and glob.has_magic(r):
+        return True
+    return Path(r).is_dir() and not out.name.endswith(".parquet")
+
+
+def extract_campaign(
+    recordings: tuple[str, ...],
+    rig_path: Path,
+    out: Path,
+    *,
+    scheduler: str | None,
+    workers: int | None,
+    visit_tolerance_deg: float,
+    quiet: bool,
+) -> None:
+    """Run the campaign with one progress bar over its recordings, print the dashboard's
+    address and a summary; exit 3 if a recording lost data, 2 if one could not be read."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from thermrs.campaigns import campaign
+    from thermrs.cli import EXIT_BAD_INPUT, EXIT_DATA_LOSS, console, table
+
+    err = console(stderr=True)
+
+    def on_cluster(link: str | None) -> None:
+        if link and not quiet:
+            err.print(f"thermrs: Dask dashboard: {link}")
+
+    with Progress(
+        TextColumn("[bold]campaign[/bold]"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[last]}"),
+        TimeElapsedColumn(),
+        console=err,
+        disable=quiet or not err.is_terminal,
+        transient=True,
+    ) as bar:
+        task = bar.add_task("campaign", total=None, last="")
+
+        def on_progress(done: int, total: int, path: str) -> None:
+            bar.update(task, completed=done, total=total, last=Path(path).name if path else "")
+
+        res = campaign(
+            list(recordings),
+            out,
+            rig=rig_path,
+            scheduler=scheduler,
+            workers=workers,
+            visit_tolerance_deg=visit_tolerance_deg,
+            progress=on_progress,
+            on_cluster=on_cluster,
+        )
+    cat = res.catalog
+    if not quiet:
+        err.print(
+            f"{len(res.extracted)} recordings extracted, {len(res.unchanged)} unchanged "
+            f"(not extracted again), {len(res.failed)} failed, in {res.seconds:.1f} s"
+        )
+        t = table(
+            f"Catalog ({out / 'catalog.parquet'})",
+            [("recording", "left"), ("runs", "right"), ("frames", "right"), ("losses", "right")],
+        )
+        for row in cat.iter_rows(named=True):
+            t.add_row(row["recording"], str(row["runs"]), f"{row['frames']:,}", str(row["losses"]))
+        err.print(t)
+    for row in cat.filter(cat["losses"] > 0).iter_rows(named=True):
+        click.echo(
+            f"thermrs: data loss: {row['path']}: {row['losses']} damaged part(s), "
+            f"{row['lost_bytes']:,} bytes (see the catalog's loss_detail)",
+            err=True,
+        )
+    for path, why in res.failed:
+        click.echo(f"thermrs: {path}: {why}", err=True)
+    if res.failed:
+        sys.exit(EXIT_BAD_INPUT)
+    if res.data_loss:
+        sys.exit(EXIT_DATA_LOSS)
