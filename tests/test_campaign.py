@@ -189,3 +189,62 @@ def test_cli_campaign_on_a_scheduler(recordings: list[Path], client: Any, tmp_pa
     p = subprocess.run(args, capture_output=True, text=True, timeout=120)
     assert p.returncode == 2 and "matches no file" in p.stderr
     assert "Traceback" not in p.stderr
+
+
+def test_runs_by_query_alpha_per_run_and_rules(
+    recordings: list[Path], client: Any, tmp_path: Path
+) -> None:
+    from datetime import date
+
+    from thermrs.campaigns.select import campaign_runs, folds, parse_query, run_tables
+    from thermrs.campaigns.summary import alpha_by_run, holdout_by_rule
+    from thermrs.errors import InputError
+    from thermrs.fit import fit_alpha
+    from thermrs.runs import load_runs
+
+    rig = thermrs.load_rig()
+    res = thermrs.campaign(recordings[:3], tmp_path / "ds", client=client)
+    ds = res.dataset
+    every = campaign_runs(ds)
+    assert every.height == 6
+    # The simulator moved 2.5 times faster in run2 (75 % against 30 % speed).
+    fast = campaign_runs(ds, "speed > 150")
+    assert set(fast["run"]) == {"run2"} and fast.height == 3
+    ratio = fast["speed_deg_s"].mean() / campaign_runs(ds, "run=run1")["speed_deg_s"].mean()
+    assert ratio == pytest.approx(75 / 30, rel=0.02)
+    assert campaign_runs(ds, f"robot={rig.model}, date=2025-06-15").height == 6
+    with pytest.raises(InputError, match="no run matches"):
+        campaign_runs(ds, "date>=2030-01-01")
+    with pytest.raises(InputError, match="unknown key 'colour'"):
+        parse_query("colour=red")
+    with pytest.raises(InputError, match="is not a float"):
+        parse_query("speed>fast")
+
+    # α per run from the dataset is α fitted on that run of the file itself.
+    per_run = alpha_by_run(ds, rig)
+    for row in per_run.iter_rows(named=True):
+        path = res.catalog.filter(pl.col("recording") == row["recording"])["path"].item()
+        own = fit_alpha(load_runs(f"{path}#{row['run']}", rig).tables, rig)
+        assert row["alpha_per_k"] == pytest.approx(own.alpha_per_k, rel=1e-9)
+    # ... and close to the simulated truth (the rig's α) on the whole.
+    assert per_run["alpha_per_k"].median() == pytest.approx(rig.alpha_per_k, rel=0.15)
+    assert (per_run["drift_um"] > 1).all()
+
+    tables = run_tables(ds, every, rig)
+    assert [t["run"][0] for t in tables] == [
+        f"{a}#{b}" for a, b in every.select("recording", "run").rows()
+    ]
+    loro = holdout_by_rule(ds, rig, rule="leave-one-run-out")
+    assert loro.height == 6 and (loro["train_runs"] == 5).all()
+    assert (loro["holdout_rms_um"] < 10).all()
+
+    # Train on one day, hold out the next (dates made up: the simulator starts every file on
+    # the same day).
+    days = every.with_columns(
+        date=pl.Series([date(2026, 1, 1 + i // 2) for i in range(every.height)])
+    )
+    f = folds(days, "by-day")
+    assert [(len(x.train), len(x.holdout)) for x in f] == [(2, 2), (2, 2)]
+    assert f[0].holdout == f[1].train
+    with pytest.raises(InputError, match="at least two days"):
+        folds(every, "by-day")

@@ -137,9 +137,9 @@ def run_stats(
 
     Columns: ``run``, ``start_ns``, ``end_ns``, ``source`` (as :func:`thermrs.runs.find_runs`),
     ``date`` (UTC day of the start), ``duration_s``, ``frames``, ``visits`` and
-    ``speed_deg_s``: how fast the robot moved in the run, the 95th percentile over joint
-    states of the fastest joint's speed (°/s, from consecutive joint states; null with fewer
-    than two).
+    ``speed_deg_s``: how fast the robot moved in the run, the 95th percentile of the fastest
+    joint's speed (°/s, from consecutive joint states) over the intervals in which it moved
+    (faster than 0.1 °/s; null where it never did).
     """
     rows = []
     jt = joints["t_ns"].to_numpy() if joints.height else np.zeros(0, np.int64)
@@ -156,8 +156,10 @@ def run_stats(
             dt = np.diff(jt[inside]) / 1e9
             dq = np.abs(np.diff(jq[inside], axis=0)).max(axis=1)
             ok = dt > 0
-            if ok.any():
-                speed = float(np.degrees(np.percentile(dq[ok] / dt[ok], 95)))
+            v = np.degrees(dq[ok] / dt[ok])
+            moving = v[v > 0.1]
+            if moving.size:
+                speed = float(np.percentile(moving, 95))
         rows.append(
             {
                 **r,
