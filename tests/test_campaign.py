@@ -184,6 +184,22 @@ def test_cli_campaign_on_a_scheduler(recordings: list[Path], client: Any, tmp_pa
     assert "3 recordings extracted" in p.stderr
     cat = pl.read_parquet(out / "catalog.parquet")
     assert sorted(Path(x).name for x in cat["path"]) == ["r1.mcap", "r2.mcap", "r3.mcap"]
+    # The campaign page: α and drift per run, and the held-out folds.
+    page = tmp_path / "page.md"
+    rig = str(thermrs.default_rig_path())
+    cmd = [sys.executable, "-m", "thermrs", "campaign", str(out), "--rig", rig]
+    p = subprocess.run(
+        [*cmd, "--rule", "leave-one-run-out", "-o", str(page)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert p.returncode == 0, p.stderr
+    text = page.read_text()
+    assert text.count("#run1 |") + text.count("| run1 |") >= 3 and "## Held out" in text
+    assert text.count("| without ") == 6
+    p = subprocess.run([*cmd, "--where", "colour=red"], capture_output=True, text=True)
+    assert p.returncode == 2 and "unknown key 'colour'" in p.stderr and "Traceback" not in p.stderr
     # A pattern that matches nothing is bad input, exit 2 with one line.
     args[4] = str(recordings[0].parent / "nothing*.mcap")
     p = subprocess.run(args, capture_output=True, text=True, timeout=120)

@@ -1069,10 +1069,12 @@ def main(argv: list[str] | None = None) -> None:
 def _register() -> None:
     """Commands that live in their own modules."""
     from thermrs import cli_report  # noqa: F401  (its @cli.command registers `thermrs report`)
+    from thermrs.cli_campaign import campaign_command
     from thermrs.cli_diagnose import diagnose, diagnose_bench
 
     cli.add_command(diagnose)
     cli.add_command(diagnose_bench)
+    cli.add_command(campaign_command)
 
 
 _register()

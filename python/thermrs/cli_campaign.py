@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-__all__ = ["extract_campaign", "is_campaign"]
+__all__ = ["campaign_command", "extract_campaign", "is_campaign"]
 
 
 def is_campaign(
@@ -98,3 +98,84 @@ def extract_campaign(
         sys.exit(EXIT_BAD_INPUT)
     if res.data_loss:
         sys.exit(EXIT_DATA_LOSS)
+
+
+@click.command("campaign")
+@click.argument("dataset", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option(
+    "--rig",
+    "rig_path",
+    required=True,
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="Rig file (TOML, SPEC §3).",
+)
+@click.option(
+    "--where",
+    "query",
+    default=None,
+    metavar="QUERY",
+    help="Runs to use: KEY OP VALUE terms, comma-separated (keys robot, rig, "
+    "recording, run, date, speed, duration), e.g. 'date>=2026-11-02, speed>20'.",
+)
+@click.option(
+    "--rule",
+    type=click.Choice(["leave-one-run-out", "by-day"]),
+    default=None,
+    help="Also fit on training runs and check on held-out runs by this rule.",
+)
+@click.option(
+    "-o",
+    "--out",
+    "out_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Write the campaign page (OUT.md or OUT.html).",
+)
+def campaign_command(
+    dataset: Path, rig_path: Path, query: str | None, rule: str | None, out_path: Path | None
+) -> None:
+    """α and drift per run across a campaign dataset (written by `thermrs extract` on many
+    recordings), runs chosen by query, with the held-out check of a rule."""
+    from thermrs.campaigns import Dataset
+    from thermrs.campaigns.page import write_page
+    from thermrs.campaigns.summary import alpha_by_run, holdout_by_rule
+    from thermrs.cli import console, table, writable
+    from thermrs.rig import load_rig
+
+    writable(out_path, "-o", suffixes=(".md", ".html"))
+    rig = load_rig(rig_path)
+    ds = Dataset(dataset)
+    per_run = alpha_by_run(ds, rig, query=query)
+    folds = holdout_by_rule(ds, rig, rule=rule, query=query) if rule else None
+    out = console()
+    t = table(
+        "α and drift per run",
+        [
+            ("recording", "left"),
+            ("run", "left"),
+            ("date", "left"),
+            ("α (10⁻⁶/K)", "right"),
+            ("95 %", "left"),
+            ("largest drift (µm)", "right"),
+        ],
+    )
+    for r in per_run.iter_rows(named=True):
+        t.add_row(
+            r["recording"],
+            r["run"],
+            str(r["date"]),
+            f"{r['alpha_per_k'] * 1e6:.2f}",
+            f"{r['ci95_low'] * 1e6:.2f} … {r['ci95_high'] * 1e6:.2f}",
+            f"{r['drift_um']:.2f}",
+        )
+    out.print(t)
+    if folds is not None:
+        f = table(
+            f"Held out ({rule})",
+            [("fold", "left"), ("α (10⁻⁶/K)", "right"), ("held-out RMS (µm)", "right")],
+        )
+        for r in folds.iter_rows(named=True):
+            f.add_row(r["fold"], f"{r['alpha_per_k'] * 1e6:.2f}", f"{r['holdout_rms_um']:.2f}")
+        out.print(f)
+    if out_path is not None:
+        click.echo(f"wrote {write_page(per_run, out_path, folds=folds)}", err=True)
