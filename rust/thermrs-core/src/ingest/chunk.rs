@@ -1,0 +1,140 @@
+//! Chunk bodies: decompression into a reused per-thread buffer (bounded by the header's
+//! size and the limit), the record walk inside a buffer, and a chunk cut short.
+
+use std::io::Read;
+
+use mcap::records::ChunkHeader;
+
+use super::recovery::MAX_CHUNK_BYTES;
+
+thread_local! {
+    pub(super) static CHUNK_BUF: std::cell::RefCell<Vec<u8>> = const { std::cell::RefCell::new(Vec::new()) };
+    pub(super) static INPUT_BUF: std::cell::RefCell<Vec<u8>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Decompress a chunk's records into `out` (uncompressed chunks are walked in place and never
+/// come here). For a cut chunk, decode as much as there is.
+pub(super) fn decompress(
+    header: &ChunkHeader,
+    data: &[u8],
+    partial: bool,
+    out: &mut Vec<u8>,
+) -> std::result::Result<(), String> {
+    out.clear();
+    // The header's size is checked before anything is reserved for it, and no decoder may
+    // write past it: memory follows what the data really holds, up to the limit.
+    if header.uncompressed_size > MAX_CHUNK_BYTES {
+        return Err(format!(
+            "the chunk header claims {} uncompressed bytes, more than the {} MiB limit",
+            header.uncompressed_size,
+            MAX_CHUNK_BYTES >> 20
+        ));
+    }
+    let want = header.uncompressed_size as usize;
+    match header.compression.as_str() {
+        "zstd" if !partial => {
+            out.reserve(want);
+            zstd::bulk::Decompressor::new()
+                .and_then(|mut d| d.decompress_to_buffer(data, out))
+                .map_err(|e| format!("zstd: {e}"))?;
+        }
+        "zstd" => {
+            let dec =
+                zstd::stream::read::Decoder::with_buffer(data).map_err(|e| format!("zstd: {e}"))?;
+            read_until_error(dec, out, want);
+        }
+        "lz4" => {
+            let dec = lz4::Decoder::new(data).map_err(|e| format!("lz4: {e}"))?;
+            if partial {
+                read_until_error(dec, out, want);
+            } else {
+                // One byte more than claimed tells a lying header from a true one.
+                out.reserve(want);
+                dec.take(want as u64 + 1)
+                    .read_to_end(out)
+                    .map_err(|e| format!("lz4: {e}"))?;
+            }
+        }
+        other => return Err(format!("unsupported chunk compression {other:?}")),
+    }
+    if !partial && out.len() as u64 != header.uncompressed_size {
+        return Err(format!(
+            "decompressed to {} bytes, header says {}",
+            out.len(),
+            header.uncompressed_size
+        ));
+    }
+    Ok(())
+}
+
+/// Read a stream until it ends or fails, keeping what came out.
+pub(super) fn read_until_error(mut r: impl Read, out: &mut Vec<u8>, limit: usize) {
+    let mut buf = vec![0u8; 1 << 16];
+    while out.len() < limit {
+        let room = (limit - out.len()).min(buf.len());
+        match r.read(&mut buf[..room]) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => out.extend_from_slice(&buf[..n]),
+        }
+    }
+}
+
+/// Walk the records of a buffer: `(offset, opcode, body)`; stops at the first incomplete one,
+/// returning its offset.
+pub(super) fn walk<'a>(
+    buf: &'a [u8],
+    mut f: impl FnMut(usize, u8, &'a [u8]) -> bool,
+) -> Option<usize> {
+    let mut pos = 0;
+    while pos < buf.len() {
+        if buf.len() - pos < 9 {
+            return Some(pos);
+        }
+        let opcode = buf[pos];
+        let len = u64::from_le_bytes(buf[pos + 1..pos + 9].try_into().expect("8 bytes"));
+        let Some(end) = usize::try_from(len)
+            .ok()
+            .and_then(|l| (pos + 9).checked_add(l))
+        else {
+            return Some(pos);
+        };
+        if end > buf.len() {
+            return Some(pos);
+        }
+        if !f(pos, opcode, &buf[pos + 9..end]) {
+            return None;
+        }
+        pos = end;
+    }
+    None
+}
+
+/// Parse the fixed part of a chunk record that was cut short: its header and whatever records
+/// bytes are present.
+pub(super) fn partial_chunk(body: &[u8]) -> Option<(ChunkHeader, &[u8])> {
+    let u64_at = |p: usize| {
+        body.get(p..p + 8)
+            .map(|b| u64::from_le_bytes(b.try_into().expect("8")))
+    };
+    let start = u64_at(0)?;
+    let end = u64_at(8)?;
+    let size = u64_at(16)?;
+    let crc = u32::from_le_bytes(body.get(24..28)?.try_into().ok()?);
+    let clen = u32::from_le_bytes(body.get(28..32)?.try_into().ok()?) as usize;
+    let comp = std::str::from_utf8(body.get(32..32 + clen)?)
+        .ok()?
+        .to_string();
+    let p = 32 + clen + 8; // skip records_length
+    let data = body.get(p..)?;
+    Some((
+        ChunkHeader {
+            message_start_time: start,
+            message_end_time: end,
+            uncompressed_size: size,
+            uncompressed_crc: crc,
+            compression: comp,
+            compressed_size: data.len() as u64,
+        },
+        data,
+    ))
+}
