@@ -6,7 +6,9 @@ machine load), file in the page cache:
 - ``read``: the file read once, start to end, into one reused 16 MiB buffer
   (``readinto``): the cost of touching every byte once, the floor any reader pays;
 - ``checked``: ``thermrs.extract(path, rig)`` (chunk CRC-32s verified, the default);
-- ``unchecked``: ``thermrs.extract(path, rig, verify_crc=False)``.
+- ``unchecked``: ``thermrs.extract(path, rig, verify_crc=False)``;
+- ``core checked`` / ``core unchecked``: the Rust core's extraction alone
+  (``thermrs._native.extract``: the tables as numpy columns, before polars, visits and runs).
 
 Prints the median of ``--repeats`` (≥ 5) times of each route and the speed ratios
 ``read time / extract time`` (≥ 1: extraction as fast as reading the file once), and the
@@ -40,6 +42,20 @@ def read_once(path: Path, buf: bytearray) -> int:
             n += k
 
 
+def core(path: Path, rig: thermrs.Rig, crc: bool) -> object:
+    """The Rust core's extraction alone (no polars tables, visits or runs)."""
+    from thermrs import _native
+
+    return _native.extract(
+        str(path),
+        rig._native,
+        progress=None,
+        min_sigma_px=None,
+        threshold_sigma=None,
+        verify_crc=crc,
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("recordings", nargs="+", type=Path)
@@ -50,16 +66,19 @@ def main() -> None:
     print(f"load average at start: {os.getloadavg()[0]:.2f}")
     for path in args.recordings:
         routes: dict[str, Callable[[], object]] = {
-            "read": lambda: read_once(path, buf),
-            "checked": lambda: thermrs.extract(path, rig),
-            "unchecked": lambda: thermrs.extract(path, rig, verify_crc=False),
+            "read": lambda p=path: read_once(p, buf),
+            "checked": lambda p=path: thermrs.extract(p, rig),
+            "unchecked": lambda p=path: thermrs.extract(p, rig, verify_crc=False),
+            "core checked": lambda p=path: core(p, rig, True),
+            "core unchecked": lambda p=path: core(p, rig, False),
         }
         names = list(routes)
         for name in names:  # warm: page cache, first-call costs
             routes[name]()
         times: dict[str, list[float]] = {k: [] for k in names}
         for i in range(args.repeats):
-            for name in names[i % 3 :] + names[: i % 3]:
+            k = i % len(names)
+            for name in names[k:] + names[:k]:
                 t0 = time.perf_counter()
                 routes[name]()
                 times[name].append(time.perf_counter() - t0)
@@ -67,10 +86,9 @@ def main() -> None:
         size = path.stat().st_size
         print(
             f"{path.name} ({size / 1e6:,.0f} MB): median read {med['read'] * 1e3:.0f} ms "
-            f"({size / med['read'] / 1e9:.1f} GB/s), checked {med['checked'] * 1e3:.0f} ms, "
-            f"unchecked {med['unchecked'] * 1e3:.0f} ms; speed vs one read: "
-            f"checked {med['read'] / med['checked']:.2f}×, "
-            f"unchecked {med['read'] / med['unchecked']:.2f}×"
+            f"({size / med['read'] / 1e9:.1f} GB/s); speed vs one read (median of "
+            f"{args.repeats}): "
+            + ", ".join(f"{k} {med['read'] / med[k]:.2f}×" for k in names if k != "read")
         )
     print(f"load average at end: {os.getloadavg()[0]:.2f}")
 

@@ -48,7 +48,7 @@ mod recovery;
 mod report;
 mod source;
 mod tables;
-use chunk::{decompress, partial_chunk, walk, CHUNK_BUF, INPUT_BUF};
+use chunk::{decompress, partial_chunk, walk, walk_read, CHUNK_BUF, INPUT_BUF};
 pub use png::decode_png;
 pub use recovery::MAX_CHUNK_BYTES;
 pub use report::{Loss, MetadataRecord, Report};

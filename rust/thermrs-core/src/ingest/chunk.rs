@@ -138,3 +138,77 @@ pub(super) fn partial_chunk(body: &[u8]) -> Option<(ChunkHeader, &[u8])> {
         data,
     ))
 }
+
+/// Bytes copied per `pread` when a chunk is read record by record ([`walk_read`]): small
+/// enough that the copy stays in the core's L2 cache for the checksum and the detector.
+pub(super) const READ_WINDOW: usize = 256 << 10;
+
+/// [`walk`] over the `len` record bytes of a chunk that start at byte `start` of `file`, read
+/// with `pread` into `buf` a window at a time rather than mapped: each record is copied once
+/// into a buffer that stays in cache, then handed to `f` as `(offset, opcode, body, record)`
+/// (`record`: its bytes with opcode and length, for the checksum). A record longer than the
+/// window grows the buffer to it; a record cut by the window's end is carried to the front of
+/// the buffer and completed by the next read. Returns what [`walk`] returns: the offset of an
+/// incomplete record at the end, if any.
+pub(super) fn walk_read(
+    file: &std::fs::File,
+    start: u64,
+    len: usize,
+    buf: &mut Vec<u8>,
+    mut f: impl FnMut(usize, u8, &[u8], &[u8]) -> bool,
+) -> std::io::Result<Option<usize>> {
+    use std::os::unix::fs::FileExt;
+    let mut base = 0usize; // chunk offset of buf[0]
+    let mut filled = 0usize;
+    loop {
+        // The record at the front of the buffer: how many bytes it needs.
+        let need = if filled >= 9 {
+            let rlen = u64::from_le_bytes(buf[1..9].try_into().expect("8 bytes"));
+            match usize::try_from(rlen).ok().and_then(|l| l.checked_add(9)) {
+                Some(n) if base + n <= len => n,
+                _ => return Ok(Some(base)),
+            }
+        } else {
+            9
+        };
+        if filled < need {
+            let want = need.max(READ_WINDOW).min(len - base);
+            if want < need {
+                return Ok(Some(base));
+            }
+            if buf.len() < want {
+                buf.resize(want, 0);
+            }
+            file.read_exact_at(&mut buf[filled..want], start + (base + filled) as u64)?;
+            filled = want;
+            continue;
+        }
+        // Every complete record in the buffer.
+        let mut q = 0usize;
+        while filled - q >= 9 {
+            let rlen = u64::from_le_bytes(buf[q + 1..q + 9].try_into().expect("8 bytes"));
+            let Some(end) = usize::try_from(rlen)
+                .ok()
+                .and_then(|l| (q + 9).checked_add(l))
+            else {
+                return Ok(Some(base + q));
+            };
+            if base + end > len {
+                return Ok(Some(base + q));
+            }
+            if end > filled {
+                break;
+            }
+            if !f(base + q, buf[q], &buf[q + 9..end], &buf[q..end]) {
+                return Ok(None);
+            }
+            q = end;
+        }
+        buf.copy_within(q..filled, 0);
+        base += q;
+        filled -= q;
+        if base == len {
+            return Ok(None);
+        }
+    }
+}

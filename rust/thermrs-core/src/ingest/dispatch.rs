@@ -240,32 +240,21 @@ impl<'r> Context<'r> {
                 CHUNK_BUF.with(|cell| INPUT_BUF.with(|icell| {
                     let mut scratch = cell.borrow_mut();
                     let mut input = icell.borrow_mut();
-                    let data: &[u8] = match self.source {
+                    // Read route: the chunk's records are copied window by window into a
+                    // buffer that stays in cache (`walk_read`), not mapped.
+                    let mut streamed = None;
+                    match self.source {
                         Some(src) if header.compression.is_empty() && !*partial => {
                             let route = self.routes.pick();
                             timed = Some(route);
                             match route {
-                                Route::Map => {
-                                    src.populate(data);
-                                    data
-                                }
-                                Route::Read => {
-                                    use std::os::unix::fs::FileExt;
-                                    input.resize(data.len(), 0);
-                                    let (at, _) = src.range(data);
-                                    match src.file.read_exact_at(&mut input, at as u64) {
-                                        Ok(()) => &input,
-                                        Err(_) => data,
-                                    }
-                                }
+                                Route::Map => src.populate(data),
+                                Route::Read => streamed = Some(src),
                             }
                         }
-                        Some(src) => {
-                            src.populate(data);
-                            data
-                        }
-                        None => data,
-                    };
+                        Some(src) => src.populate(data),
+                        None => {}
+                    }
                     // Uncompressed chunks are walked in place.
                     let buf: &[u8] = if header.compression.is_empty() {
                         data
@@ -290,11 +279,12 @@ impl<'r> Context<'r> {
                     let mut local = Registry::default();
                     let mut err: Option<String> = None;
                     let mut n = 0u64;
-                    let stop = walk(buf, |at, opcode, body| {
+                    let visited = std::cell::Cell::new(0usize);
+                    let mut visit = |at: usize, opcode: u8, body: &[u8], record: &[u8]| {
+                        visited.set(visited.get() + 1);
                         if check {
-                            let end = at + 9 + body.len();
-                            hasher.update(&buf[hashed..end]);
-                            hashed = end;
+                            hasher.update(record);
+                            hashed = at + record.len();
                         }
                         match opcode {
                         op::SCHEMA | op::CHANNEL => match mcap::read::parse_record(opcode, body) {
@@ -324,7 +314,25 @@ impl<'r> Context<'r> {
                             }
                         },
                         _ => true,
-                    }});
+                    }};
+                    let read = streamed.map(|src| {
+                        let (at, len) = src.range(data);
+                        walk_read(src.file, at as u64, len, &mut input, &mut visit)
+                    });
+                    let (stop, failed) = match read {
+                        Some(Ok(stop)) => (stop, None),
+                        Some(Err(e)) if visited.get() > 0 => (Some(0), Some(e)),
+                        // In place (or the read failed at once: the map has the same bytes).
+                        _ => (
+                            walk(buf, |at, opcode, body| {
+                                visit(at, opcode, body, &buf[at..at + 9 + body.len()])
+                            }),
+                            None,
+                        ),
+                    };
+                    if let Some(e) = failed {
+                        err = Some(format!("read failed: {e}"));
+                    }
                     if check && !part.retry {
                         hasher.update(&buf[hashed..]);
                         let crc = hasher.finalize();
