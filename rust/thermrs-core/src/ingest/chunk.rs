@@ -161,6 +161,9 @@ pub(super) fn walk_read(
     let mut base = 0usize; // chunk offset of buf[0]
     let mut filled = 0usize;
     loop {
+        if base == len {
+            return Ok(None);
+        }
         // The record at the front of the buffer: how many bytes it needs.
         let need = if filled >= 9 {
             let rlen = u64::from_le_bytes(buf[1..9].try_into().expect("8 bytes"));
@@ -207,8 +210,53 @@ pub(super) fn walk_read(
         buf.copy_within(q..filled, 0);
         base += q;
         filled -= q;
-        if base == len {
-            return Ok(None);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `walk_read` (windows through a file) sees exactly what `walk` (the bytes in memory)
+    /// sees: the same records at the same offsets, whole or cut anywhere.
+    #[test]
+    fn reading_by_windows_walks_the_same_records() {
+        let mut bytes = Vec::new();
+        let mut x = 12345u64;
+        for i in 0..40u64 {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            // Sizes from 0 to ~600 KB: records shorter, around and longer than a window.
+            let len = if i % 5 == 0 {
+                (x >> 40) % 16
+            } else {
+                (x >> 33) % 600_000
+            };
+            bytes.push((i % 7 + 2) as u8);
+            bytes.extend_from_slice(&len.to_le_bytes());
+            bytes.extend((0..len).map(|k| (k as u8).wrapping_mul(31).wrapping_add(i as u8)));
         }
+        let path = std::env::temp_dir().join(format!("thermrs-walk-{}.bin", std::process::id()));
+        std::fs::write(&path, &bytes).unwrap();
+        let file = std::fs::File::open(&path).unwrap();
+        let mut buf = Vec::new();
+        for cut in [bytes.len(), bytes.len() - 1, bytes.len() / 2, 5, 0] {
+            let mut want = Vec::new();
+            let w = walk(&bytes[..cut], |at, op, body| {
+                want.push((at, op, body.to_vec()));
+                true
+            });
+            let mut got = Vec::new();
+            let g = walk_read(&file, 0, cut, &mut buf, |at, op, body, rec| {
+                assert_eq!(rec, &bytes[at..at + 9 + body.len()]);
+                got.push((at, op, body.to_vec()));
+                true
+            })
+            .unwrap();
+            assert_eq!((g, got.len()), (w, want.len()), "cut at {cut}");
+            assert!(got == want, "cut at {cut}");
+        }
+        std::fs::remove_file(&path).unwrap();
     }
 }
