@@ -4,8 +4,9 @@
 //! are never copied. Uncompressed chunks reach the detector by the faster of two routes,
 //! chosen as the file is read (`RouteChooser`): in place from the mapping (the chunk's pages
 //! mapped in with one `MADV_POPULATE_READ` and dropped right after), or copied with `pread`
-//! into a per-thread buffer; which is faster depends on how the page cache holds the file
-//! (large folios: mapping; 4 KB folios: the copy). Compressed chunks (zstd or lz4) are read
+//! record by record through a cache-sized per-thread buffer, each record checksummed and
+//! interpreted right after its copy; which is faster depends on how the page cache holds the
+//! file (large folios: mapping; 4 KB folios: the copy). Compressed chunks (zstd or lz4) are read
 //! in place and decompressed into a per-thread buffer that is reused. Windows of chunks are
 //! processed in parallel on the rayon pool; loose (unchunked) messages are batched likewise.
 //! Record bodies are parsed with the `mcap` crate's `parse_record`; channels and schemas

@@ -44,8 +44,9 @@ pub(super) enum Route {
     /// Read in place from the mapping (pages mapped in, then dropped): no copy, but the
     /// kernel pays per page cache folio to map and unmap it.
     Map,
-    /// Copied with `pread` into a per-thread buffer: one copy, at a cost nearly independent
-    /// of how the page cache holds the file.
+    /// Copied with `pread` record by record through a per-thread buffer of a few hundred KiB
+    /// (`chunk::walk_read`): one copy, each record checksummed and read by the detector while
+    /// it is still in cache, at a cost nearly independent of how the page cache holds the file.
     Read,
 }
 
