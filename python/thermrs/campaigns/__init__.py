@@ -76,6 +76,13 @@ def campaign(
     ------
     InputError
         A recording name that matches nothing; the dataset folder cannot be made.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> res = thermrs.campaign(["day1/*.mcap", "day2/"], "campaign")  # doctest: +SKIP
+    >>> res.extracted, res.unchanged, res.dashboard  # doctest: +SKIP
+    >>> res.dataset.scan("visits").filter(run="run2").collect()  # doctest: +SKIP
     """
     return run_campaign(
         recordings,
