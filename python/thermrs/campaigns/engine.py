@@ -30,6 +30,7 @@ import polars as pl
 from thermrs.campaigns.dataset import Dataset
 from thermrs.campaigns.sources import Source, expand
 from thermrs.campaigns.task import Job, run_job
+from thermrs.errors import InputError
 from thermrs.rig import Rig, as_rig, load_rig
 
 __all__ = ["CampaignResult", "Progress", "rig_identity", "run_campaign"]
@@ -87,7 +88,7 @@ def rig_identity(rig: Rig | str | os.PathLike[str] | None) -> tuple[Rig, str, st
     path = Path(r.source)
     text = path.read_text(encoding="utf-8") if path.is_file() else None
     if text is None:
-        raise ValueError(f"rig {r.source}: campaigns need a rig read from a file")
+        raise InputError(f"rig {r.source}: a campaign needs a rig read from a file")
     digest = blake3(_native.Rig.from_toml(text, r.source).to_json().encode()).hexdigest()
     return r, text, digest
 
