@@ -1,39 +1,96 @@
-"""Cost of checking chunk CRCs on clean recordings, interleaved in one process.
+"""Extraction against reading the file once, with and without the chunk CRC check, in one process.
 
-Each recording is extracted 16 times with ``verify_crc=True`` and 16 times with ``False``,
-alternating (so that both see the same machine load), file in the page cache. Prints the
-median and best-of-16 ratios (time with the check / time without).
+For each recording, three routes run interleaved (rotating order, so that all see the same
+machine load), file in the page cache:
 
-Run:  RAYON_NUM_THREADS=1 python benchmarks/bench_crc.py REC.mcap [REC.mcap ...]
-(e.g. the recordings ``benchmarks/bench_extract.py`` writes into its ``--dir``).
+- ``read``: the file read once, start to end, into one reused 16 MiB buffer
+  (``readinto``): the cost of touching every byte once, the floor any reader pays;
+- ``checked``: ``thermrs.extract(path, rig)`` (chunk CRC-32s verified, the default);
+- ``unchecked``: ``thermrs.extract(path, rig, verify_crc=False)``;
+- ``core checked`` / ``core unchecked``: the Rust core's extraction alone
+  (``thermrs._native.extract``: the tables as numpy columns, before polars, visits and runs).
+
+Prints the median of ``--repeats`` (≥ 5) times of each route and the speed ratios
+``read time / extract time`` (≥ 1: extraction as fast as reading the file once), and the
+load average at the start and the end (the machine may be shared).
+
+Run:  RAYON_NUM_THREADS=1 python benchmarks/bench_crc.py [--repeats 9] REC.mcap [REC.mcap ...]
+(e.g. the uncompressed recordings ``benchmarks/bench_extract.py`` writes into its ``--dir``).
 """
 
 from __future__ import annotations
 
+import argparse
+import os
 import statistics
-import sys
 import time
+from collections.abc import Callable
+from pathlib import Path
 
 import thermrs
 
 
+def read_once(path: Path, buf: bytearray) -> int:
+    """Read the whole file once into ``buf`` (reused): bytes read."""
+    view = memoryview(buf)
+    n = 0
+    with open(path, "rb", buffering=0) as fh:
+        while True:
+            k = fh.readinto(view)
+            if not k:
+                return n
+            n += k
+
+
+def core(path: Path, rig: thermrs.Rig, crc: bool) -> object:
+    """The Rust core's extraction alone (no polars tables, visits or runs)."""
+    from thermrs import _native
+
+    return _native.extract(
+        str(path),
+        rig._native,
+        progress=None,
+        min_sigma_px=None,
+        threshold_sigma=None,
+        verify_crc=crc,
+    )
+
+
 def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("recordings", nargs="+", type=Path)
+    ap.add_argument("--repeats", type=int, default=9)
+    args = ap.parse_args()
     rig = thermrs.load_rig()
-    for path in sys.argv[1:]:
-        with open(path, "rb") as fh:  # warm the page cache
-            while fh.read(16 << 20):
-                pass
-        times: dict[bool, list[float]] = {True: [], False: []}
-        for i in range(16):
-            for crc in (True, False) if i % 2 else (False, True):
+    buf = bytearray(16 << 20)
+    print(f"load average at start: {os.getloadavg()[0]:.2f}")
+    for path in args.recordings:
+        routes: dict[str, Callable[[], object]] = {
+            "read": lambda p=path: read_once(p, buf),
+            "checked": lambda p=path: thermrs.extract(p, rig),
+            "unchecked": lambda p=path: thermrs.extract(p, rig, verify_crc=False),
+            "core checked": lambda p=path: core(p, rig, True),
+            "core unchecked": lambda p=path: core(p, rig, False),
+        }
+        names = list(routes)
+        for name in names:  # warm: page cache, first-call costs
+            routes[name]()
+        times: dict[str, list[float]] = {k: [] for k in names}
+        for i in range(args.repeats):
+            k = i % len(names)
+            for name in names[k:] + names[:k]:
                 t0 = time.perf_counter()
-                thermrs.extract(path, rig, verify_crc=crc)
-                times[crc].append(time.perf_counter() - t0)
-        on, off = times[True], times[False]
+                routes[name]()
+                times[name].append(time.perf_counter() - t0)
+        med = {k: statistics.median(v) for k, v in times.items()}
+        size = path.stat().st_size
         print(
-            f"{path}: median ratio {statistics.median(on) / statistics.median(off):.3f}, "
-            f"best-of-16 ratio {min(on) / min(off):.3f}"
+            f"{path.name} ({size / 1e6:,.0f} MB): median read {med['read'] * 1e3:.0f} ms "
+            f"({size / med['read'] / 1e9:.1f} GB/s); speed vs one read (median of "
+            f"{args.repeats}): "
+            + ", ".join(f"{k} {med['read'] / med[k]:.2f}×" for k in names if k != "read")
         )
+    print(f"load average at end: {os.getloadavg()[0]:.2f}")
 
 
 if __name__ == "__main__":

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from thermrs import (
+        campaigns,
         design,
         fit,
         heating,
@@ -41,6 +42,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
         rig,
         simulate,
     )
+    from thermrs.campaigns import campaign
     from thermrs.errors import (
         InputError,
         RecordingError,
@@ -57,6 +59,7 @@ __version__: str  # read from the installed package's metadata on first use
 #: Submodules imported on first attribute access.
 _SUBMODULES = (
     "design",
+    "campaigns",
     "errors",
     "fit",
     "heating",
@@ -72,6 +75,7 @@ _SUBMODULES = (
 
 #: Names re-exported at the top level: name → module that defines it.
 _NAMES = {
+    "campaign": "thermrs.campaigns",
     "Extraction": "thermrs.ingest",
     "extract": "thermrs.ingest",
     "ForwardModel": "thermrs.model",
@@ -97,6 +101,8 @@ __all__ = [
     "Spots",
     "ThermrsError",
     "__version__",
+    "campaign",
+    "campaigns",
     "default_rig_path",
     "design",
     "extract",

@@ -390,11 +390,12 @@ def rig(rig_path: Path | None, as_json: bool) -> None:
 
 
 @cli.command()
-@click.argument("recording", type=input_file)
+@click.argument("recordings", nargs=-1, required=True)
 @rig_option
 @out_option(
     "Frames Parquet (OUT.parquet, in an existing folder); visits, temperatures and joints "
-    "are written beside it."
+    "are written beside it. For several recordings (or a glob, or a folder): the dataset "
+    "folder, partitioned by recording and run, with catalog.parquet."
 )
 @click.option(
     "--visit-tolerance-deg",
@@ -404,18 +405,52 @@ def rig(rig_path: Path | None, as_json: bool) -> None:
     help="Joint tolerance (°) for a spot frame to count as at its camera's pose.",
 )
 @click.option(
+    "--scheduler",
+    metavar="ADDRESS",
+    default=None,
+    help="Dask scheduler to run a campaign on (default: a local cluster of worker processes).",
+)
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Worker processes of the local cluster (default: the cores).",
+)
+@click.option(
     "--quiet", is_flag=True, help="No progress bar or summary (a data loss is still reported)."
 )
 def extract(
-    recording: Path, rig_path: Path, out_path: Path, visit_tolerance_deg: float, quiet: bool
+    recordings: tuple[str, ...],
+    rig_path: Path,
+    out_path: Path,
+    visit_tolerance_deg: float,
+    scheduler: str | None,
+    workers: int | None,
+    quiet: bool,
 ) -> None:
     """Extract a recording into Parquet tables: frames (spot centroids), visits,
-    temperatures (thermal ROI maxima and ambient) and joints.
+    temperatures (thermal ROI maxima and ambient) and joints. Several recordings (paths,
+    globs, folders) make a campaign: one dataset, extracted on Dask workers, where a
+    recording already extracted (same bytes, rig and thermrs version) is not extracted again.
 
     Exits 3 (after writing every table) if part of the recording was lost: a file cut short,
     a corrupt chunk. The tables remember it (Parquet metadata): fit, predict and drift on
     them exit 3 too.
     """
+    from thermrs.cli_campaign import extract_campaign, is_campaign
+
+    if is_campaign(recordings, out_path, scheduler, workers):
+        extract_campaign(
+            recordings,
+            rig_path,
+            out_path,
+            scheduler=scheduler,
+            workers=workers,
+            visit_tolerance_deg=visit_tolerance_deg,
+            quiet=quiet,
+        )
+        return
+    recording = input_file.convert(recordings[0], None, click.get_current_context())
     from rich.progress import (
         BarColumn,
         DownloadColumn,
@@ -1034,11 +1069,13 @@ def main(argv: list[str] | None = None) -> None:
 def _register() -> None:
     """Commands that live in their own modules."""
     from thermrs import cli_report  # noqa: F401  (its @cli.command registers `thermrs report`)
+    from thermrs.cli_campaign import campaign_command
     from thermrs.cli_diagnose import diagnose, diagnose_bench
 
     cli.add_command(diagnose)
     cli.add_command(diagnose_bench)
     cli.add_command(__import__("thermrs.cli_design", fromlist=["design"]).design)
+    cli.add_command(campaign_command)
 
 
 _register()

@@ -209,16 +209,19 @@ pub fn roi_maxima(
                 y_px: 0,
                 peak_c: f64::NAN,
             };
-            let mut best_raw = f64::NEG_INFINITY;
+            // The ROI's raw values once, row-major (one decode per pixel, not nine).
+            let (w, h) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
+            let mut vals = Vec::with_capacity(w * h);
             for y in y0..y1 {
                 let row = &view.data[y * view.step..];
-                for x in x0..x1 {
-                    let v = view.raw(row, x);
-                    if v > best_raw {
-                        best_raw = v;
-                        best.x_px = x as u32;
-                        best.y_px = y as u32;
-                    }
+                vals.extend((x0..x1).map(|x| view.raw(row, x)));
+            }
+            let mut best_raw = f64::NEG_INFINITY;
+            for (k, &v) in vals.iter().enumerate() {
+                if v > best_raw {
+                    best_raw = v;
+                    best.x_px = (x0 + k % w) as u32;
+                    best.y_px = (y0 + k / w) as u32;
                 }
             }
             if !best_raw.is_finite() {
@@ -226,24 +229,29 @@ pub fn roi_maxima(
             }
             best.max_c = to_c(best_raw);
             best.peak_c = best.max_c;
-            if x1 - x0 < PEAK_N || y1 - y0 < PEAK_N {
+            if w < PEAK_N || h < PEAK_N {
                 return best;
             }
-            // The maximum of the 3×3 mean over centres whose window lies in the ROI.
+            // The maximum of the 3×3 sum over centres whose 7×7 window lies in the ROI, as
+            // sums of three row sums. The values are u16 counts or f32 readings held in f64,
+            // where nine-term sums are exact (f32 values within 2^29 of each other), so the
+            // order of the additions does not change which centre wins.
+            let rows3: Vec<f64> = (0..h)
+                .flat_map(|r| {
+                    let v = &vals[r * w..(r + 1) * w];
+                    (1..w - 1).map(move |c| v[c - 1] + v[c] + v[c + 1])
+                })
+                .collect();
+            let w3 = w - 2;
             let mut centre = None;
             let mut best_sum = f64::NEG_INFINITY;
-            for y in y0 + PEAK_R..y1 - PEAK_R {
-                for x in x0 + PEAK_R..x1 - PEAK_R {
-                    let mut s = 0.0;
-                    for yy in y - 1..=y + 1 {
-                        let row = &view.data[yy * view.step..];
-                        for xx in x - 1..=x + 1 {
-                            s += view.raw(row, xx);
-                        }
-                    }
+            for r in PEAK_R..h - PEAK_R {
+                for c in PEAK_R..w - PEAK_R {
+                    let i = c - 1;
+                    let s = rows3[(r - 1) * w3 + i] + rows3[r * w3 + i] + rows3[(r + 1) * w3 + i];
                     if s > best_sum {
                         best_sum = s;
-                        centre = Some((x, y));
+                        centre = Some((x0 + c, y0 + r));
                     }
                 }
             }

@@ -1,0 +1,215 @@
+"""A campaign dataset on disk: Parquet tables partitioned by recording and run, and a catalog.
+
+Layout under the dataset folder ``OUT``::
+
+    OUT/frames/recording=<id>/run=<run>/part-0.parquet     (also visits, temperatures,
+    OUT/runs/recording=<id>/run=<run>/part-0.parquet        joints; hive style, values
+    OUT/_catalog/<id>.parquet                               percent-encoded; rows no run
+    OUT/catalog.parquet                                     covers: run=__HIVE_DEFAULT_PARTITION__)
+
+A recording is committed in three steps: its tables are written into a staging folder
+(``OUT/.staging``), each table's folder is renamed into place, and then its catalog fragment
+(``_catalog/<id>.parquet``, one row) is written atomically. The fragment is the commit: a
+recording without one is not part of the dataset (readers filter on the catalog, and the next
+campaign removes what an interruption left behind). ``catalog.parquet`` is the fragments in
+one table, rewritten atomically at the end of each campaign, for other tools.
+
+Every data file carries the recording's losses in its Parquet metadata (``LOSS_KEY``), as the
+single-recording tables of ``thermrs extract`` do.
+"""
+
+from __future__ import annotations
+
+import shutil
+import urllib.parse
+import uuid
+from pathlib import Path
+from typing import Any
+
+import polars as pl
+
+from thermrs.campaigns.task import TABLES
+from thermrs.errors import InputError
+from thermrs.ingest import LOSS_KEY, write_parquet_atomic
+
+__all__ = ["CATALOG_SCHEMA", "NULL_PARTITION", "Dataset"]
+
+#: Hive's name of the partition of null values (polars reads it back as null).
+NULL_PARTITION = "__HIVE_DEFAULT_PARTITION__"
+
+CATALOG_SCHEMA: dict[str, Any] = {
+    "recording": pl.String,
+    "path": pl.String,
+    "content_hash": pl.String,
+    "size_bytes": pl.Int64,
+    "mtime_ns": pl.Int64,
+    "runs": pl.Int64,
+    "frames": pl.Int64,
+    "visits": pl.Int64,
+    "start_ns": pl.Int64,
+    "end_ns": pl.Int64,
+    "duration_s": pl.Float64,
+    "rig": pl.String,
+    "rig_hash": pl.String,
+    "robot": pl.String,
+    "losses": pl.Int64,
+    "lost_bytes": pl.Int64,
+    "loss_detail": pl.String,
+    "crc_failures": pl.Int64,
+    "thermrs_version": pl.String,
+    "options": pl.String,
+    "extracted_at": pl.String,
+}
+
+
+def _enc(value: str | None) -> str:
+    return NULL_PARTITION if value is None else urllib.parse.quote(value, safe="")
+
+
+class Dataset:
+    """A campaign dataset folder (created if missing; its parent must exist).
+
+    Parameters
+    ----------
+    root
+        The dataset folder.
+
+    Raises
+    ------
+    InputError
+        The parent folder does not exist, or ``root`` is a file.
+    """
+
+    def __init__(self, root: str | Path) -> None:
+        root = Path(root)
+        if root.exists() and not root.is_dir():
+            raise InputError(f"dataset {root}: is a file, expected a folder")
+        if not root.parent.is_dir():
+            raise InputError(
+                f"dataset {root}: folder {root.parent} does not exist (create it first)"
+            )
+        try:
+            (root / "_catalog").mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise InputError(f"dataset {root}: {e.strerror or e}") from None
+        self.root = root
+
+    # --- reading ----------------------------------------------------------------------------
+    def catalog(self) -> pl.DataFrame:
+        """One row per committed recording (columns :data:`CATALOG_SCHEMA`), by id."""
+        parts = sorted((self.root / "_catalog").glob("*.parquet"))
+        if not parts:
+            return pl.DataFrame(schema=CATALOG_SCHEMA)
+        df = pl.concat([pl.read_parquet(p) for p in parts], how="diagonal_relaxed")
+        return df.select(
+            [
+                pl.col(k).cast(v) if k in df.columns else pl.lit(None, v).alias(k)
+                for k, v in CATALOG_SCHEMA.items()
+            ]
+        ).sort("recording")
+
+    def scan(self, table: str) -> pl.LazyFrame:
+        """A committed table of every recording, read lazily, with ``recording`` and ``run``
+        columns from the partitions.
+
+        Raises
+        ------
+        InputError
+            ``table`` is not one of :data:`thermrs.campaigns.task.TABLES`.
+        """
+        if table not in TABLES:
+            raise InputError(f"dataset table {table!r}: not one of {', '.join(TABLES)}")
+        committed = self.catalog()["recording"].to_list()
+        files = [
+            f
+            for rid in committed
+            for f in (self.root / table / f"recording={_enc(rid)}").rglob("*.parquet")
+        ]
+        if not files:
+            return pl.LazyFrame(schema={"recording": pl.String, "run": pl.String})
+        return pl.scan_parquet(
+            files,
+            hive_partitioning=True,
+            hive_schema={"recording": pl.String, "run": pl.String},
+            missing_columns="insert",
+        )
+
+    # --- writing ----------------------------------------------------------------------------
+    def clean(self) -> None:
+        """Remove what an interrupted campaign left: staging folders, and partitions of
+        recordings that have no catalog fragment (never committed)."""
+        shutil.rmtree(self.root / ".staging", ignore_errors=True)
+        committed = {_enc(r) for r in self.catalog()["recording"].to_list()}
+        for table in TABLES:
+            d = self.root / table
+            if not d.is_dir():
+                continue
+            for part in d.iterdir():
+                if part.name.startswith("recording=") and part.name[10:] not in committed:
+                    shutil.rmtree(part, ignore_errors=True)
+
+    def uncommit(self, rid: str) -> None:
+        """Take a recording out of the dataset (its fragment first, then its partitions)."""
+        (self.root / "_catalog" / f"{rid}.parquet").unlink(missing_ok=True)
+        for table in TABLES:
+            shutil.rmtree(self.root / table / f"recording={_enc(rid)}", ignore_errors=True)
+
+    def commit(self, row: dict[str, Any], tables: dict[str, Any]) -> None:
+        """Write one recording's tables and catalog row (see the module docs for the steps).
+
+        Parameters
+        ----------
+        row
+            Its catalog row (:data:`CATALOG_SCHEMA`).
+        tables
+            Table name → Arrow table with a ``run`` column (null: no run covers the row).
+        """
+        rid = str(row["recording"])
+        meta = {LOSS_KEY: str(row.get("loss_detail") or "[]")}
+        stage = self.root / ".staging" / f"{rid}.{uuid.uuid4().hex}"
+        try:
+            for name, tab in tables.items():
+                self._write_partitions(stage / name, pl.from_arrow(tab), meta)  # type: ignore[arg-type]
+            self.uncommit(rid)
+            for name in tables:
+                dest = self.root / name / f"recording={_enc(rid)}"
+                dest.parent.mkdir(exist_ok=True)
+                (stage / name).rename(dest)
+            cat = pl.DataFrame([row]).select(
+                [pl.lit(row.get(k), v).alias(k) for k, v in CATALOG_SCHEMA.items()]
+            )
+            write_parquet_atomic(cat, self.root / "_catalog" / f"{rid}.parquet")
+        except OSError as e:
+            raise InputError(
+                f"dataset {self.root}: cannot write {rid}: {e.strerror or e}"
+            ) from None
+        finally:
+            shutil.rmtree(stage, ignore_errors=True)
+
+    def touch(self, rid: str, updates: dict[str, Any]) -> None:
+        """Update a committed recording's catalog row (e.g. the path and modification time of a
+        file renamed or touched but holding the same bytes)."""
+        path = self.root / "_catalog" / f"{rid}.parquet"
+        df = pl.read_parquet(path).with_columns(
+            [pl.lit(v, CATALOG_SCHEMA[k]).alias(k) for k, v in updates.items()]
+        )
+        write_parquet_atomic(df, path)
+
+    def consolidate(self) -> Path:
+        """Write ``catalog.parquet`` (every fragment in one table) atomically; its path."""
+        path = self.root / "catalog.parquet"
+        write_parquet_atomic(self.catalog(), path)
+        return path
+
+    @staticmethod
+    def _write_partitions(folder: Path, df: pl.DataFrame, meta: dict[str, str]) -> None:
+        """``df`` split by ``run`` into ``folder/run=<run>/part-0.parquet`` (without the
+        column); an empty table as one empty file, so that its columns are known."""
+        if df.height == 0:
+            groups = [(None, df)]
+        else:
+            groups = [(k[0], g) for k, g in df.group_by("run", maintain_order=True)]
+        for run, g in groups:
+            d = folder / f"run={_enc(run)}"
+            d.mkdir(parents=True)
+            g.drop("run").write_parquet(d / "part-0.parquet", metadata=meta)

@@ -1,0 +1,243 @@
+"""Running a campaign: which recordings need work, where it runs (Dask distributed), and the
+commits as results come back.
+
+The engine is Dask distributed, never a home-made pool: :func:`run_campaign` maps
+:func:`thermrs.campaigns.task.run_job` over the recordings on a ``distributed.Client``: the
+one given, one connected to ``scheduler``, or a ``LocalCluster`` of worker processes when
+neither is given and more than one recording needs work (a single recording runs in process).
+Results come back as Arrow tables and are committed by this process as they arrive, one
+recording at a time (:class:`~thermrs.campaigns.dataset.Dataset`), so that a campaign stopped
+anywhere resumes where it stopped, and a worker that dies only has its job run again
+elsewhere (jobs have no side effects: nothing is lost or written twice).
+
+Skipping work: a recording whose path, size and modification time match a catalog row made
+with the same rig and thermrs version is not read at all; one whose bytes hash to such a row
+(a file touched or copied) is hashed but not extracted.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Generator, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import polars as pl
+
+from thermrs.campaigns.dataset import Dataset
+from thermrs.campaigns.sources import Source, expand
+from thermrs.campaigns.task import Job, run_job
+from thermrs.errors import InputError
+from thermrs.rig import Rig, as_rig, load_rig
+
+__all__ = ["CampaignResult", "Progress", "rig_identity", "run_campaign"]
+
+#: ``progress(done, total, recording_path)`` after each recording (skipped ones included).
+Progress = Callable[[int, int, str], object]
+
+
+@dataclass
+class CampaignResult:
+    """What a campaign did.
+
+    Attributes
+    ----------
+    dataset
+        The dataset written (its :meth:`~Dataset.catalog` and :meth:`~Dataset.scan`).
+    extracted, unchanged
+        Recordings extracted now, and recordings already in the dataset (by path and stat, or
+        by content hash) and not extracted again.
+    failed
+        ``(path, one-line reason)`` of recordings that could not be read (bad input).
+    dashboard
+        The Dask dashboard's address, where a cluster ran the work.
+    seconds
+        Wall time of the campaign.
+    """
+
+    dataset: Dataset
+    extracted: list[str] = field(default_factory=list)
+    unchanged: list[str] = field(default_factory=list)
+    failed: list[tuple[str, str]] = field(default_factory=list)
+    dashboard: str | None = None
+    seconds: float = 0.0
+
+    @property
+    def catalog(self) -> pl.DataFrame:
+        """The dataset's catalog (one row per recording)."""
+        return self.dataset.catalog()
+
+    @property
+    def data_loss(self) -> bool:
+        """Whether any recording of the campaign lost data (exit 3 for the CLI)."""
+        cat = self.catalog
+        return bool(cat.height and cat["losses"].sum())
+
+
+def rig_identity(rig: Rig | str | os.PathLike[str] | None) -> tuple[Rig, str, str]:
+    """The rig, its file's text (what workers load) and its hash (BLAKE3 of the validated
+    rig as JSON, so that two files of the same rig hash alike)."""
+    from blake3 import blake3
+
+    from thermrs import _native
+
+    r = load_rig() if rig is None else as_rig(rig)
+    path = Path(r.source)
+    text = path.read_text(encoding="utf-8") if path.is_file() else None
+    if text is None:
+        raise InputError(f"rig {r.source}: a campaign needs a rig read from a file")
+    digest = blake3(_native.Rig.from_toml(text, r.source).to_json().encode()).hexdigest()
+    return r, text, digest
+
+
+def _version() -> str:
+    from importlib.metadata import version
+
+    return version("thermrs")
+
+
+def run_campaign(
+    recordings: Sequence[str | os.PathLike[str]],
+    out: str | os.PathLike[str],
+    *,
+    rig: Rig | str | os.PathLike[str] | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    visit_tolerance_deg: float | None = None,
+    progress: Progress | None = None,
+    on_cluster: Callable[[str | None], object] | None = None,
+) -> CampaignResult:
+    """Extract many recordings into one dataset (see :func:`thermrs.campaigns.campaign`)."""
+    import json
+
+    from thermrs.visits import DEFAULT_TOLERANCE_DEG
+
+    t0 = time.perf_counter()
+    sources = expand([str(r) for r in recordings])
+    r, text, rig_hash = rig_identity(rig)
+    version = _version()
+    ds = Dataset(Path(out))
+    ds.clean()
+    cat = ds.catalog()
+    options = json.dumps(
+        {"visit_tolerance_deg": visit_tolerance_deg or DEFAULT_TOLERANCE_DEG}, sort_keys=True
+    )
+    same = cat.filter(
+        (pl.col("rig_hash") == rig_hash)
+        & (pl.col("thermrs_version") == version)
+        & (pl.col("options") == options)
+    )
+    by_stat = {
+        (row["path"], row["size_bytes"], row["mtime_ns"]): row["recording"]
+        for row in same.iter_rows(named=True)
+    }
+    by_hash = dict(zip(same["content_hash"], same["recording"], strict=True))
+    result = CampaignResult(dataset=ds)
+    todo: list[Source] = []
+    for s in sources:
+        if (str(s.path), s.size_bytes, s.mtime_ns) in by_stat:
+            result.unchanged.append(str(s.path))
+        else:
+            todo.append(s)
+    done = len(result.unchanged)
+    total = len(sources)
+    if progress is not None:
+        progress(done, total, "")
+    jobs = [
+        Job(str(s.path), text, r.source, rig_hash, version, options, frozenset(by_hash))
+        for s in todo
+    ]
+    stat = {str(s.path): s for s in todo}
+    with _engine(jobs, client, scheduler, workers) as (results, dashboard):
+        if on_cluster is not None:
+            on_cluster(dashboard)
+        for res in results:
+            _absorb(ds, res, stat, by_hash, result)
+            done += 1
+            if progress is not None:
+                progress(done, total, res["path"])
+        result.dashboard = dashboard
+    ds.consolidate()
+    result.seconds = time.perf_counter() - t0
+    return result
+
+
+def _absorb(
+    ds: Dataset,
+    res: dict[str, Any],
+    stat: dict[str, Source],
+    by_hash: dict[str, str],
+    result: CampaignResult,
+) -> None:
+    """Commit one job's result."""
+    path = res["path"]
+    s = stat[path]
+    if res["status"] == "failed":
+        result.failed.append((path, res["error"]))
+    elif res["status"] == "unchanged":
+        ds.touch(by_hash[res["content_hash"]], {"path": path, "mtime_ns": s.mtime_ns})
+        result.unchanged.append(path)
+    else:
+        row = dict(res["row"], mtime_ns=s.mtime_ns, size_bytes=s.size_bytes)
+        ds.commit(row, res["tables"])
+        result.extracted.append(path)
+
+
+@contextmanager
+def _engine(
+    jobs: list[Job], client: Any, scheduler: str | None, workers: int | None
+) -> Iterator[tuple[Iterator[dict[str, Any]], str | None]]:
+    """Results of ``jobs`` as they complete, and the dashboard address where a cluster runs
+    them."""
+    if not jobs:
+        yield iter(()), None
+        return
+    if client is None and scheduler is None and len(jobs) == 1:
+        yield (run_job(j) for j in jobs), None
+        return
+    from distributed import Client, LocalCluster
+
+    cluster = None
+    own = client is None
+    if own:
+        if scheduler is not None:
+            client = Client(scheduler)  # type: ignore[no-untyped-call]
+        else:
+            n = workers or max(1, min(len(jobs), os.cpu_count() or 1))
+            cluster = LocalCluster(  # type: ignore[no-untyped-call]
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",
+                env={"RAYON_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"},
+            )
+            client = Client(cluster)  # type: ignore[no-untyped-call]
+    results = _as_completed(client, jobs)
+    try:
+        yield results, client.dashboard_link
+    finally:
+        results.close()  # cancels what is still running, while the client is open
+        if own:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+
+def _as_completed(client: Any, jobs: list[Job]) -> Generator[dict[str, Any], None, None]:
+    """Map the jobs on the cluster and yield each result as it arrives (its future released
+    right after, so that the cluster holds no finished result)."""
+    from distributed import as_completed
+
+    futures = client.map(run_job, jobs, key=[f"thermrs-extract-{j.path}" for j in jobs], pure=False)
+    try:
+        for fut in as_completed(futures):  # type: ignore[no-untyped-call]
+            res = fut.result()
+            fut.release()
+            yield res
+    except BaseException:
+        client.cancel(futures)
+        raise

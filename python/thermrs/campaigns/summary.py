@@ -1,0 +1,80 @@
+"""Across a campaign, per run: α fitted on that run alone and the drift it showed (does the
+robot change over weeks?), and the held-out check of a rule
+(:func:`thermrs.campaigns.select.folds`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from thermrs.campaigns.dataset import Dataset
+from thermrs.campaigns.select import campaign_runs, folds, run_tables
+
+__all__ = ["alpha_by_run", "holdout_by_rule"]
+
+
+def alpha_by_run(dataset: Dataset, rig: Any, *, query: str | None = None) -> pl.DataFrame:
+    """Per selected run: ``recording``, ``run``, ``date``, ``speed_deg_s``, ``alpha_per_k``
+    with ``ci95_low``/``ci95_high`` (the time-series fit of :func:`thermrs.fit.fit_alpha` on
+    that run alone), ``rms_um``, ``visits`` and ``drift_um``: the largest drift of a spot from
+    its camera's first visit in the run (µm, the norm of u and v)."""
+    from thermrs.fit import fit_alpha
+
+    runs = campaign_runs(dataset, query)
+    tables = run_tables(dataset, runs, rig)
+    rows = []
+    for r, t in zip(runs.iter_rows(named=True), tables, strict=True):
+        f = fit_alpha([t], rig)
+        drift = np.hypot(t["drift_u_um"].to_numpy(), t["drift_v_um"].to_numpy())
+        rows.append(
+            {
+                "recording": r["recording"],
+                "run": r["run"],
+                "date": r["date"],
+                "speed_deg_s": r["speed_deg_s"],
+                "alpha_per_k": f.alpha_per_k,
+                "ci95_low": f.ci95[0],
+                "ci95_high": f.ci95[1],
+                "rms_um": f.rms_um,
+                "visits": t.height,
+                "drift_um": float(np.nanmax(drift)) if drift.size else None,
+            }
+        )
+    return pl.DataFrame(rows)
+
+
+def holdout_by_rule(
+    dataset: Dataset, rig: Any, *, rule: str, query: str | None = None
+) -> pl.DataFrame:
+    """Per fold of ``rule``: α fitted on the training runs and the RMS (µm, over visits, the
+    norm of u and v) of measured minus predicted drift on the held-out runs
+    (:func:`thermrs.predict.predict` with that α)."""
+    from thermrs.fit import fit_alpha
+    from thermrs.predict import predict
+
+    runs = campaign_runs(dataset, query)
+    tables = dict(
+        zip(
+            [f"{a}#{b}" for a, b in zip(runs["recording"], runs["run"], strict=True)],
+            run_tables(dataset, runs, rig),
+            strict=True,
+        )
+    )
+    rows = []
+    for fold in folds(runs, rule):
+        f = fit_alpha([tables[n] for n in fold.train], rig)
+        p = predict(pl.concat([tables[n] for n in fold.holdout]), rig, alpha_per_k=f.alpha_per_k)
+        res = np.hypot(p["residual_u_um"].to_numpy(), p["residual_v_um"].to_numpy())
+        rows.append(
+            {
+                "fold": fold.name,
+                "train_runs": len(fold.train),
+                "holdout_runs": len(fold.holdout),
+                "alpha_per_k": f.alpha_per_k,
+                "holdout_rms_um": float(np.sqrt(np.nanmean(res**2))),
+            }
+        )
+    return pl.DataFrame(rows)

@@ -1,0 +1,186 @@
+"""One recording of a campaign, extracted where a worker runs it.
+
+:func:`run_job` is what the engine maps over the recordings (on Dask workers or in process): it
+hashes the file, extracts it (the Rust core releases the GIL) and returns its tables as Arrow
+tables and its catalog row as plain values, never polars frames, so that nothing but Arrow
+buffers and builtins crosses between processes. It has no side effect: a job run twice (its
+worker died and the scheduler ran it again) returns the same thing, and only the caller
+writes.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from thermrs.campaigns.sources import content_hash, recording_id
+from thermrs.errors import ThermrsError
+
+__all__ = ["TABLES", "Job", "run_job", "run_stats"]
+
+#: The tables of a recording in a campaign dataset; each is partitioned by recording and run.
+TABLES = ("frames", "visits", "temperatures", "joints", "runs")
+
+
+@dataclass(frozen=True)
+class Job:
+    """What a worker needs to extract one recording (small, picklable).
+
+    Attributes
+    ----------
+    path
+        The recording.
+    rig_text, rig_source
+        The rig file's text and where it came from (a worker may not see the client's files).
+    rig_hash, thermrs_version
+        Written into the catalog row.
+    options
+        Extraction options as JSON (``{"visit_tolerance_deg": …}``), also written into the
+        catalog: a recording extracted with other options is extracted again.
+    known
+        Content hashes already extracted with this rig, version and options: a file holding
+        one of them is not extracted again.
+    """
+
+    path: str
+    rig_text: str
+    rig_source: str
+    rig_hash: str
+    thermrs_version: str
+    options: str = "{}"
+    known: frozenset[str] = frozenset()
+
+
+def run_job(job: Job) -> dict[str, Any]:
+    """Hash and extract one recording.
+
+    Returns
+    -------
+    dict
+        ``status``: ``"extracted"`` (with ``row``, the catalog row, and ``tables``, name →
+        ``pyarrow.Table`` with a ``run`` column), ``"unchanged"`` (its hash is in
+        ``job.known``: with ``content_hash`` and ``recording``) or ``"failed"`` (with
+        ``error``, one line: the recording is bad input, the campaign goes on).
+    """
+    from thermrs.ingest import extract
+    from thermrs.rig import Rig
+
+    try:
+        digest = content_hash(job.path)
+        rid = recording_id(job.path, digest)
+        if digest in job.known:
+            return {
+                "status": "unchanged",
+                "path": job.path,
+                "content_hash": digest,
+                "recording": rid,
+            }
+        rig = Rig.from_toml(job.rig_text, source_name=job.rig_source)
+        ex = extract(job.path, rig, **json.loads(job.options))
+    except ThermrsError as e:
+        return {"status": "failed", "path": job.path, "error": str(e)}
+    from thermrs.runs import label_runs
+
+    runs = ex.runs
+    tables: dict[str, pl.DataFrame] = {
+        "frames": ex.frames.with_columns(run=label_runs(ex.frames["t_ns"], runs)),
+        "visits": ex.visits
+        if "run" in ex.visits.columns
+        else ex.visits.with_columns(run=pl.lit(None, pl.String)),
+        "temperatures": ex.temperatures.with_columns(run=label_runs(ex.temperatures["t_ns"], runs)),
+        "joints": ex.joints.with_columns(run=label_runs(ex.joints["t_ns"], runs)),
+        "runs": run_stats(runs, ex.frames, ex.visits, ex.joints),
+    }
+    losses = ex.report.losses
+    stamps = [t["t_ns"] for t in (ex.frames, ex.joints, ex.temperatures) if t.height]
+    start = min(int(s.min()) for s in stamps) if stamps else None  # type: ignore[arg-type]
+    end = max(int(s.max()) for s in stamps) if stamps else None  # type: ignore[arg-type]
+    row: dict[str, Any] = {
+        "recording": rid,
+        "path": job.path,
+        "content_hash": digest,
+        "size_bytes": ex.report.file_bytes,
+        "runs": runs.height,
+        "frames": ex.frames.height,
+        "visits": ex.visits.height,
+        "start_ns": start,
+        "end_ns": end,
+        "duration_s": (end - start) / 1e9 if start is not None and end is not None else None,
+        "rig": rig.name or rig.source,
+        "rig_hash": job.rig_hash,
+        "robot": rig.model,
+        "losses": len(losses),
+        "lost_bytes": int(sum(int(x["bytes"]) for x in losses)),
+        "loss_detail": json.dumps(losses),
+        "crc_failures": ex.report.crc_failures,
+        "thermrs_version": job.thermrs_version,
+        "options": job.options,
+        "extracted_at": datetime.now(UTC).isoformat(timespec="seconds"),
+    }
+    return {
+        "status": "extracted",
+        "path": job.path,
+        "row": row,
+        "tables": {k: v.to_arrow() for k, v in tables.items()},
+    }
+
+
+def run_stats(
+    runs: pl.DataFrame, frames: pl.DataFrame, visits: pl.DataFrame, joints: pl.DataFrame
+) -> pl.DataFrame:
+    """The runs table of a recording with what a campaign query needs of each run.
+
+    Columns: ``run``, ``start_ns``, ``end_ns``, ``source`` (as :func:`thermrs.runs.find_runs`),
+    ``date`` (UTC day of the start), ``duration_s``, ``frames``, ``visits`` and
+    ``speed_deg_s``: how fast the robot moved in the run, the 95th percentile of the fastest
+    joint's speed (°/s, from consecutive joint states) over the intervals in which it moved
+    (faster than 0.1 °/s; null where it never did).
+    """
+    rows = []
+    jt = joints["t_ns"].to_numpy() if joints.height else np.zeros(0, np.int64)
+    jq = (
+        joints.drop("t_ns").select(pl.all().cast(pl.Float64)).to_numpy()
+        if joints.height
+        else np.zeros((0, 0))
+    )
+    for r in runs.iter_rows(named=True):
+        a, b = int(r["start_ns"]), int(r["end_ns"])
+        inside = (jt >= a) & (jt <= b)
+        speed = None
+        if inside.sum() >= 2:
+            dt = np.diff(jt[inside]) / 1e9
+            dq = np.abs(np.diff(jq[inside], axis=0)).max(axis=1)
+            ok = dt > 0
+            v = np.degrees(dq[ok] / dt[ok])
+            moving = v[v > 0.1]
+            if moving.size:
+                speed = float(np.percentile(moving, 95))
+        rows.append(
+            {
+                **r,
+                "date": datetime.fromtimestamp(a / 1e9, UTC).date(),
+                "duration_s": (b - a) / 1e9,
+                "frames": frames.filter(pl.col("t_ns").is_between(a, b)).height,
+                "visits": visits.filter(pl.col("run") == r["run"]).height
+                if "run" in visits.columns
+                else 0,
+                "speed_deg_s": speed,
+            }
+        )
+    schema = {
+        "run": pl.String,
+        "start_ns": pl.Int64,
+        "end_ns": pl.Int64,
+        "source": pl.String,
+        "date": pl.Date,
+        "duration_s": pl.Float64,
+        "frames": pl.Int64,
+        "visits": pl.Int64,
+        "speed_deg_s": pl.Float64,
+    }
+    return pl.DataFrame(rows, schema=schema)

@@ -1,0 +1,181 @@
+"""``thermrs extract`` on many recordings: the campaign's rendering (parse and render only;
+the work is :func:`thermrs.campaign`)."""
+
+from __future__ import annotations
+
+import glob
+import sys
+from pathlib import Path
+
+import click
+
+__all__ = ["campaign_command", "extract_campaign", "is_campaign"]
+
+
+def is_campaign(
+    recordings: tuple[str, ...], out: Path, scheduler: str | None, workers: int | None
+) -> bool:
+    """Whether the arguments ask for a campaign: several recordings, a glob pattern, a folder
+    of recordings with ``-o`` not a ``.parquet`` file, or a Dask option."""
+    if len(recordings) > 1 or scheduler is not None or workers is not None:
+        return True
+    r = recordings[0]
+    if not Path(r).exists() and glob.has_magic(r):
+        return True
+    return Path(r).is_dir() and not out.name.endswith(".parquet")
+
+
+def extract_campaign(
+    recordings: tuple[str, ...],
+    rig_path: Path,
+    out: Path,
+    *,
+    scheduler: str | None,
+    workers: int | None,
+    visit_tolerance_deg: float,
+    quiet: bool,
+) -> None:
+    """Run the campaign with one progress bar over its recordings, print the dashboard's
+    address and a summary; exit 3 if a recording lost data, 2 if one could not be read."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from thermrs.campaigns import campaign
+    from thermrs.cli import EXIT_BAD_INPUT, EXIT_DATA_LOSS, console, table
+
+    err = console(stderr=True)
+
+    def on_cluster(link: str | None) -> None:
+        if link and not quiet:
+            err.print(f"thermrs: Dask dashboard: {link}")
+
+    with Progress(
+        TextColumn("[bold]campaign[/bold]"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[last]}"),
+        TimeElapsedColumn(),
+        console=err,
+        disable=quiet or not err.is_terminal,
+        transient=True,
+    ) as bar:
+        task = bar.add_task("campaign", total=None, last="")
+
+        def on_progress(done: int, total: int, path: str) -> None:
+            bar.update(task, completed=done, total=total, last=Path(path).name if path else "")
+
+        res = campaign(
+            list(recordings),
+            out,
+            rig=rig_path,
+            scheduler=scheduler,
+            workers=workers,
+            visit_tolerance_deg=visit_tolerance_deg,
+            progress=on_progress,
+            on_cluster=on_cluster,
+        )
+    cat = res.catalog
+    if not quiet:
+        err.print(
+            f"{len(res.extracted)} recordings extracted, {len(res.unchanged)} unchanged "
+            f"(not extracted again), {len(res.failed)} failed, in {res.seconds:.1f} s"
+        )
+        t = table(
+            f"Catalog ({out / 'catalog.parquet'})",
+            [("recording", "left"), ("runs", "right"), ("frames", "right"), ("losses", "right")],
+        )
+        for row in cat.iter_rows(named=True):
+            t.add_row(row["recording"], str(row["runs"]), f"{row['frames']:,}", str(row["losses"]))
+        err.print(t)
+    for row in cat.filter(cat["losses"] > 0).iter_rows(named=True):
+        click.echo(
+            f"thermrs: data loss: {row['path']}: {row['losses']} damaged part(s), "
+            f"{row['lost_bytes']:,} bytes (see the catalog's loss_detail)",
+            err=True,
+        )
+    for path, why in res.failed:
+        click.echo(f"thermrs: {path}: {why}", err=True)
+    if res.failed:
+        sys.exit(EXIT_BAD_INPUT)
+    if res.data_loss:
+        sys.exit(EXIT_DATA_LOSS)
+
+
+@click.command("campaign")
+@click.argument("dataset", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option(
+    "--rig",
+    "rig_path",
+    required=True,
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="Rig file (TOML, SPEC §3).",
+)
+@click.option(
+    "--where",
+    "query",
+    default=None,
+    metavar="QUERY",
+    help="Runs to use: KEY OP VALUE terms, comma-separated (keys robot, rig, "
+    "recording, run, date, speed, duration), e.g. 'date>=2026-11-02, speed>20'.",
+)
+@click.option(
+    "--rule",
+    type=click.Choice(["leave-one-run-out", "by-day"]),
+    default=None,
+    help="Also fit on training runs and check on held-out runs by this rule.",
+)
+@click.option(
+    "-o",
+    "--out",
+    "out_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Write the campaign page (OUT.md or OUT.html).",
+)
+def campaign_command(
+    dataset: Path, rig_path: Path, query: str | None, rule: str | None, out_path: Path | None
+) -> None:
+    """α and drift per run across a campaign dataset (written by `thermrs extract` on many
+    recordings), runs chosen by query, with the held-out check of a rule."""
+    from thermrs.campaigns import Dataset
+    from thermrs.campaigns.page import write_page
+    from thermrs.campaigns.summary import alpha_by_run, holdout_by_rule
+    from thermrs.cli import console, table, writable
+    from thermrs.rig import load_rig
+
+    writable(out_path, "-o", suffixes=(".md", ".html"))
+    rig = load_rig(rig_path)
+    ds = Dataset(dataset)
+    per_run = alpha_by_run(ds, rig, query=query)
+    folds = holdout_by_rule(ds, rig, rule=rule, query=query) if rule else None
+    out = console()
+    t = table(
+        "α and drift per run",
+        [
+            ("recording", "left"),
+            ("run", "left"),
+            ("date", "left"),
+            ("α (10⁻⁶/K)", "right"),
+            ("95 %", "left"),
+            ("largest drift (µm)", "right"),
+        ],
+    )
+    for r in per_run.iter_rows(named=True):
+        t.add_row(
+            r["recording"],
+            r["run"],
+            str(r["date"]),
+            f"{r['alpha_per_k'] * 1e6:.2f}",
+            f"{r['ci95_low'] * 1e6:.2f} … {r['ci95_high'] * 1e6:.2f}",
+            f"{r['drift_um']:.2f}",
+        )
+    out.print(t)
+    if folds is not None:
+        f = table(
+            f"Held out ({rule})",
+            [("fold", "left"), ("α (10⁻⁶/K)", "right"), ("held-out RMS (µm)", "right")],
+        )
+        for r in folds.iter_rows(named=True):
+            f.add_row(r["fold"], f"{r['alpha_per_k'] * 1e6:.2f}", f"{r['holdout_rms_um']:.2f}")
+        out.print(f)
+    if out_path is not None:
+        click.echo(f"wrote {write_page(per_run, out_path, folds=folds)}", err=True)

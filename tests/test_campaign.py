@@ -1,0 +1,266 @@
+"""Campaigns on a real Dask ``LocalCluster`` of worker processes: the dataset and catalog
+against single-file extraction of each recording, a worker killed mid-campaign, resuming after
+an interruption, skipping what is already extracted, and the CLI."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import polars as pl
+import pytest
+import thermrs
+from polars.testing import assert_frame_equal
+from thermrs.simulate import simulate
+
+SCENARIO = """format = "thermrs-scenario/1"
+seed = 2008
+[[run]]
+name = "run1"
+speed_pct = 30
+duration_min = 15
+cycle_s = 60
+start = "ambient"
+[[run]]
+name = "run2"
+speed_pct = 75
+duration_min = 15
+cycle_s = 60
+start = "continue"
+idle_before_min = 30
+[camera]
+mode = "visits"
+frames_per_visit = 2
+[output]
+compression = "zstd"
+"""
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    """Six recordings of two runs each (different seeds: different bytes and drifts)."""
+    d = tmp_path_factory.mktemp("campaign")
+    (d / "s.toml").write_text(SCENARIO)
+    (d / "recs").mkdir()
+    rig = thermrs.load_rig()
+    return [
+        simulate(rig, d / "s.toml", d / "recs" / f"r{i}.mcap", seed=i).recording
+        for i in range(1, 7)
+    ]
+
+
+@pytest.fixture(scope="module")
+def client() -> Iterator[Any]:
+    from distributed import Client, LocalCluster
+
+    with (
+        LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            env={"RAYON_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"},
+        ) as cluster,
+        Client(cluster) as c,
+    ):
+        yield c
+
+
+def check_against_single_files(res: Any, recordings: list[Path]) -> None:
+    """Catalog and data of the campaign equal each recording's own extraction: every
+    recording once, nothing lost, nothing twice."""
+    from blake3 import blake3
+
+    rig = thermrs.load_rig()
+    cat = res.catalog
+    assert sorted(cat["path"].to_list()) == sorted(str(p.resolve()) for p in recordings)
+    assert cat["recording"].is_unique().all()
+    frames = res.dataset.scan("frames").collect()
+    visits = res.dataset.scan("visits").collect()
+    assert frames.height == sum(cat["frames"]) and visits.height == sum(cat["visits"])
+    for p in recordings:
+        ex = thermrs.extract(p, rig)
+        row = cat.filter(pl.col("path") == str(p.resolve())).row(0, named=True)
+        assert row["content_hash"] == blake3(p.read_bytes()).hexdigest()
+        assert (row["frames"], row["visits"], row["runs"]) == (
+            ex.frames.height,
+            ex.visits.height,
+            ex.runs.height,
+        )
+        assert row["losses"] == 0 and row["robot"] == rig.model
+        assert row["thermrs_version"] == thermrs.__version__
+        mine = pl.col("recording") == row["recording"]
+        got = frames.filter(mine).drop("recording", "run").sort("camera", "t_ns")
+        assert_frame_equal(got.select(ex.frames.columns), ex.frames.sort("camera", "t_ns"))
+        got_v = visits.filter(mine).drop("recording").sort("camera", "t_start_ns")
+        assert_frame_equal(got_v.select(ex.visits.columns), ex.visits.sort("camera", "t_start_ns"))
+        runs = res.dataset.scan("runs").filter(mine).collect().sort("start_ns")
+        assert runs["run"].to_list() == ex.runs["run"].to_list()
+
+
+def test_a_worker_killed_mid_campaign(recordings: list[Path], client: Any, tmp_path: Path) -> None:
+    killed: dict[str, Any] = {}
+
+    def kill_a_busy_worker(done: int, total: int, path: str) -> None:
+        if killed or not path:
+            return
+        busy = {w: keys for w, keys in client.processing().items() if keys}
+        if not busy:
+            return
+        worker, keys = next(iter(busy.items()))
+        pid = client.run(os.getpid, workers=[worker])[worker]
+        os.kill(pid, signal.SIGKILL)
+        killed[worker] = keys
+
+    res = thermrs.campaign(recordings, tmp_path / "ds", client=client, progress=kill_a_busy_worker)
+    assert killed, "a worker was killed while it held a recording"
+    assert sorted(res.extracted) == sorted(str(p.resolve()) for p in recordings)
+    assert not res.failed and not res.unchanged
+    check_against_single_files(res, recordings)
+    # polars reads the dataset itself lazily, hive partitions and all.
+    lazy = pl.scan_parquet(tmp_path / "ds" / "visits", hive_partitioning=True)
+    assert lazy.select(pl.len()).collect().item() == sum(res.catalog["visits"])
+
+
+def test_interrupted_campaign_resumes_and_unchanged_is_skipped(
+    recordings: list[Path], client: Any, tmp_path: Path
+) -> None:
+    out = tmp_path / "ds"
+
+    def stop_after_two(done: int, total: int, path: str) -> None:
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        thermrs.campaign(recordings, out, client=client, progress=stop_after_two)
+    first = thermrs.campaigns.Dataset(out).catalog()
+    assert first.height == 2
+    # What an interruption during a commit leaves: a staging folder, a partition with no
+    # catalog row.
+    (out / ".staging" / "x").mkdir(parents=True)
+    ghost = out / "frames" / "recording=ghost-000000000000" / "run=run1"
+    ghost.mkdir(parents=True)
+    shutil.copy(next((out / "frames").rglob("*.parquet")), ghost / "part-0.parquet")
+
+    res = thermrs.campaign(recordings, out, client=client)
+    assert len(res.extracted) == 4 and len(res.unchanged) == 2
+    assert not (out / ".staging" / "x").exists() and not ghost.exists()
+    check_against_single_files(res, recordings)
+    assert_frame_equal(
+        res.catalog.filter(pl.col("recording").is_in(first["recording"].to_list())),
+        first,
+    )
+
+    # Unchanged: nothing extracted; a file touched (same bytes) is hashed, not extracted.
+    os.utime(recordings[0], ns=(1, 1))
+    again = thermrs.campaign([str(recordings[0].parent)], out, client=client)
+    assert again.extracted == [] and len(again.unchanged) == len(recordings)
+    row = again.catalog.filter(pl.col("path") == str(recordings[0].resolve()))
+    assert row["mtime_ns"].item() == 1
+    assert (out / "catalog.parquet").exists()
+    assert_frame_equal(pl.read_parquet(out / "catalog.parquet"), again.catalog)
+
+
+def test_one_recording_runs_in_process(recordings: list[Path], tmp_path: Path) -> None:
+    res = thermrs.campaign([recordings[0]], tmp_path / "ds")
+    assert res.dashboard is None and len(res.extracted) == 1
+    check_against_single_files(res, recordings[:1])
+
+
+def test_cli_campaign_on_a_scheduler(recordings: list[Path], client: Any, tmp_path: Path) -> None:
+    out = tmp_path / "ds"
+    pattern = str(recordings[0].parent / "r[12].mcap")
+    args = [sys.executable, "-m", "thermrs", "extract", pattern, str(recordings[2])]
+    args += ["--rig", str(thermrs.default_rig_path()), "-o", str(out)]
+    args += ["--scheduler", client.scheduler.address]
+    p = subprocess.run(args, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert "3 recordings extracted" in p.stderr
+    cat = pl.read_parquet(out / "catalog.parquet")
+    assert sorted(Path(x).name for x in cat["path"]) == ["r1.mcap", "r2.mcap", "r3.mcap"]
+    # The campaign page: α and drift per run, and the held-out folds.
+    page = tmp_path / "page.md"
+    rig = str(thermrs.default_rig_path())
+    cmd = [sys.executable, "-m", "thermrs", "campaign", str(out), "--rig", rig]
+    p = subprocess.run(
+        [*cmd, "--rule", "leave-one-run-out", "-o", str(page)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert p.returncode == 0, p.stderr
+    text = page.read_text()
+    assert text.count("#run1 |") + text.count("| run1 |") >= 3 and "## Held out" in text
+    assert text.count("| without ") == 6
+    p = subprocess.run([*cmd, "--where", "colour=red"], capture_output=True, text=True)
+    assert p.returncode == 2 and "unknown key 'colour'" in p.stderr and "Traceback" not in p.stderr
+    # A pattern that matches nothing is bad input, exit 2 with one line.
+    args[4] = str(recordings[0].parent / "nothing*.mcap")
+    p = subprocess.run(args, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and "matches no file" in p.stderr
+    assert "Traceback" not in p.stderr
+
+
+def test_runs_by_query_alpha_per_run_and_rules(
+    recordings: list[Path], client: Any, tmp_path: Path
+) -> None:
+    from datetime import date
+
+    from thermrs.campaigns.select import campaign_runs, folds, parse_query, run_tables
+    from thermrs.campaigns.summary import alpha_by_run, holdout_by_rule
+    from thermrs.errors import InputError
+    from thermrs.fit import fit_alpha
+    from thermrs.runs import load_runs
+
+    rig = thermrs.load_rig()
+    res = thermrs.campaign(recordings[:3], tmp_path / "ds", client=client)
+    ds = res.dataset
+    every = campaign_runs(ds)
+    assert every.height == 6
+    # The simulator moved 2.5 times faster in run2 (75 % against 30 % speed).
+    fast = campaign_runs(ds, "speed > 150")
+    assert set(fast["run"]) == {"run2"} and fast.height == 3
+    ratio = fast["speed_deg_s"].mean() / campaign_runs(ds, "run=run1")["speed_deg_s"].mean()
+    assert ratio == pytest.approx(75 / 30, rel=0.02)
+    assert campaign_runs(ds, f"robot={rig.model}, date=2025-06-15").height == 6
+    with pytest.raises(InputError, match="no run matches"):
+        campaign_runs(ds, "date>=2030-01-01")
+    with pytest.raises(InputError, match="unknown key 'colour'"):
+        parse_query("colour=red")
+    with pytest.raises(InputError, match="is not a float"):
+        parse_query("speed>fast")
+
+    # α per run from the dataset is α fitted on that run of the file itself.
+    per_run = alpha_by_run(ds, rig)
+    for row in per_run.iter_rows(named=True):
+        path = res.catalog.filter(pl.col("recording") == row["recording"])["path"].item()
+        own = fit_alpha(load_runs(f"{path}#{row['run']}", rig).tables, rig)
+        assert row["alpha_per_k"] == pytest.approx(own.alpha_per_k, rel=1e-9)
+    # ... and close to the simulated truth (the rig's α) on the whole.
+    assert per_run["alpha_per_k"].median() == pytest.approx(rig.alpha_per_k, rel=0.15)
+    assert (per_run["drift_um"] > 1).all()
+
+    tables = run_tables(ds, every, rig)
+    assert [t["run"][0] for t in tables] == [
+        f"{a}#{b}" for a, b in every.select("recording", "run").rows()
+    ]
+    loro = holdout_by_rule(ds, rig, rule="leave-one-run-out")
+    assert loro.height == 6 and (loro["train_runs"] == 5).all()
+    assert (loro["holdout_rms_um"] < 10).all()
+
+    # Train on one day, hold out the next (dates made up: the simulator starts every file on
+    # the same day).
+    days = every.with_columns(
+        date=pl.Series([date(2026, 1, 1 + i // 2) for i in range(every.height)])
+    )
+    f = folds(days, "by-day")
+    assert [(len(x.train), len(x.holdout)) for x in f] == [(2, 2), (2, 2)]
+    assert f[0].holdout == f[1].train
+    with pytest.raises(InputError, match="at least two days"):
+        folds(every, "by-day")
