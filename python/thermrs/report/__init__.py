@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from thermrs.errors import InputError
-from thermrs.report.data import RunInput, Step, gather, load_run, run_from_extraction
+from thermrs.report.data import RunInput, Step, gather, load_run, load_runs, run_from_extraction
 from thermrs.rig import Rig
 
 __all__ = [
@@ -43,6 +43,7 @@ __all__ = [
     "Written",
     "find_chromium",
     "load_run",
+    "load_runs",
     "print_pdf",
     "run_from_extraction",
     "write_report",
@@ -72,7 +73,6 @@ def _version() -> str:
 def _atomic_text(path: Path, text: str) -> None:
     from thermrs.ingest import atomic_tmp, publish
 
-    path.parent.mkdir(parents=True, exist_ok=True)
     tmp = atomic_tmp(path)
     try:
         tmp.write_text(text, encoding="utf-8")

@@ -141,47 +141,118 @@ def _reanchor(visits: pl.DataFrame) -> pl.DataFrame:
     )
 
 
-def load_run(path: str | Path, rig: Rig, *, name: str | None = None) -> RunInput:
-    """A run from a recording (``.mcap``, extracted here) or from the tables ``thermrs
-    extract`` wrote (any of ``OUT.parquet``, ``OUT.visits.parquet``, …)."""
-    from thermrs.fit import load_run_table
+def load_runs(
+    spec: str | Path,
+    rig: Rig,
+    *,
+    name: str | None = None,
+    cache: dict[Any, Any] | None = None,
+) -> list[RunInput]:
+    """The runs of a recording (``.mcap``, extracted here) or of the tables ``thermrs
+    extract`` wrote, one :class:`RunInput` per run, split as every other command splits them
+    (:mod:`thermrs.runs`: run markers, else idle gaps); ``FILE#RUN`` takes one run.
 
-    path = Path(path)
-    if not path.exists():
-        raise InputError(f"{path}: no such file")
+    Parameters
+    ----------
+    spec
+        ``path`` (each of its runs) or ``path#run``.
+    rig
+        The rig it was recorded on.
+    name
+        The base name of the runs (default the file's stem): ``<name>#<run>``, or ``<name>``
+        alone when the file holds one run.
+    cache
+        Files read once serve every run asked of them (see :func:`thermrs.runs.load_runs`).
+
+    Raises
+    ------
+    InputError
+        No such file, no such run, or a run without a visit with a spot.
+    """
+    from thermrs.runs import load_runs as load_run_tables
+    from thermrs.runs import split_run_spec
+
+    path, _ = split_run_spec(spec)
+    rt = load_run_tables(spec, rig, name=name, cache=cache)
+    for t in rt.tables:
+        if t.height == 0:
+            raise InputError(f"{spec}: no visit with a spot")
+    windows: dict[str, tuple[int, int]] = {}
+    for r in rt.runs.iter_rows(named=True):
+        windows[r["run"]] = (int(r["start_ns"]), int(r["end_ns"]))
+
+    def window(table: pl.DataFrame) -> tuple[int, int] | None:
+        label = str(table["run"][0])
+        run = label.rpartition("#")[2] if "#" in label else None
+        if run is None and rt.runs.height == 1:
+            run = str(rt.runs["run"][0])
+        return windows.get(run) if run is not None else None
+
     if not path.name.endswith(".parquet"):
-        from thermrs.ingest import extract
-
-        ex = extract(path, rig)
-        stem = path.name[: -len(".mcap")] if path.name.endswith(".mcap") else path.stem
-        run = run_from_extraction(ex, rig, name=name or stem, source=str(path))
-        if run.table.height == 0:
-            raise InputError(f"{path}: no visit with a spot")
-        return run
-    table, _ = load_run_table(path, rig, run=name)
-    if table.height == 0:
-        raise InputError(f"{path}: no visit with a spot")
+        ex = rt.extraction
+        out = []
+        for t in rt.tables:
+            w = window(t)
+            run = run_from_extraction(
+                ex, rig, name=str(t["run"][0]), source=str(path), window_ns=w,
+                recording=str(path),
+            )  # fmt: skip
+            # The run table as every other command builds it (temperatures of its own run).
+            out.append(RunInput(**{**run.__dict__, "table": t}))
+        return out
     stem = path.name[: -len(".parquet")]
-    for part in (".visits", ".temperatures", ".joints"):
+    for part in (".visits", ".temperatures", ".joints", ".runs"):
         stem = stem.removesuffix(part)
     temps = pl.read_parquet(path.with_name(f"{stem}.temperatures.parquet"))
     jp = path.with_name(f"{stem}.joints.parquet")
     fp = path.with_name(f"{stem}.parquet")
-    joints = pl.scan_parquet(jp).select(pl.len()).collect().item() if jp.exists() else None
-    frames_by_status = None
-    if fp.exists():
-        st = pl.read_parquet(fp, columns=["status"])
-        frames_by_status = {
-            str(k): int(v) for k, v in st.group_by("status").len().sort("status").iter_rows()
-        }
-    return RunInput(
-        name=str(table["run"][0]),
-        table=table,
-        source=str(path),
-        temperatures=temps,
-        joints=joints,
-        frames_by_status=frames_by_status,
-    )
+    joints_t = pl.read_parquet(jp, columns=["t_ns"]) if jp.exists() else None
+    frames = pl.read_parquet(fp, columns=["t_ns", "status"]) if fp.exists() else None
+    out = []
+    for t in rt.tables:
+        w = window(t)
+
+        def cut(df: pl.DataFrame, w: tuple[int, int] | None = w) -> pl.DataFrame:
+            return df if w is None else df.filter(pl.col("t_ns").is_between(*w))
+
+        fbs = None
+        if frames is not None:
+            fbs = {
+                str(k): int(v)
+                for k, v in cut(frames).group_by("status").len().sort("status").iter_rows()
+            }
+        out.append(
+            RunInput(
+                name=str(t["run"][0]),
+                table=t,
+                source=str(path),
+                temperatures=cut(temps),
+                joints=None if joints_t is None else cut(joints_t).height,
+                frames_by_status=fbs,
+                data_loss=rt.data_loss,
+                recording=str(path),
+            )
+        )
+    return out
+
+
+def load_run(path: str | Path, rig: Rig, *, name: str | None = None) -> RunInput:
+    """One run of a recording or of extracted tables (``FILE`` holding one run, or
+    ``FILE#RUN``); see :func:`load_runs`.
+
+    Raises
+    ------
+    InputError
+        No such file, no visit with a spot, or a file of several runs given without ``#RUN``
+        (the runs would be merged into one: use :func:`load_runs`).
+    """
+    runs = load_runs(path, rig, name=name)
+    if len(runs) > 1:
+        raise InputError(
+            f"{path} holds {len(runs)} runs ({', '.join(r.name for r in runs)}): "
+            "take one with FILE#RUN, or all with thermrs.report.load_runs"
+        )
+    return runs[0]
 
 
 @dataclass
