@@ -565,7 +565,7 @@ def _run_tables(paths: tuple[Path, ...], rig: Rig, what: str) -> tuple[list[pl.D
         click.echo(f"thermrs: {what} {rt.describe()}", err=True)
         for t in rt.tables:
             if t.height == 0:
-                raise InputError(f"{what} {p}: no visit with a spot")
+                raise InputError(f"{what} {p}: no visit with a spot" + _radians_hint(rig))
         if rt.data_loss:
             click.echo(
                 f"thermrs: data loss: {p}: part of the recording was lost "
@@ -575,6 +575,38 @@ def _run_tables(paths: tuple[Path, ...], rig: Rig, what: str) -> tuple[list[pl.D
         tables.extend(rt.tables)
         loss |= rt.data_loss
     return tables, loss
+
+
+def _radians_hint(rig: Rig) -> str:
+    """Why no visit may have matched: poses given in radians where degrees are expected."""
+    import math
+
+    small = [p.name for p in rig.poses.values() if all(abs(q) <= 2 * math.pi for q in p.joints_deg)]
+    if small and len(small) == len(rig.poses):
+        return (
+            f" (rig {Path(rig.source).name}: every pose's joints_deg lies within ±2π, like "
+            "radians; poses are in degrees, as the controller reports them)"
+        )
+    return ""
+
+
+def distinct_runs(
+    train: Sequence[pl.DataFrame], held: Sequence[pl.DataFrame], what: str = "--holdout"
+) -> None:
+    """A held-out run must not be a training run again (a copy of its recording, say).
+
+    Raises
+    ------
+    InputError
+        One line naming both runs.
+    """
+    from thermrs.runs import same_runs
+
+    for a, b in same_runs(train, held):
+        raise InputError(
+            f"{what} run {b} is identical to training run {a} (same visits, times and spots): "
+            "a held-out run must be another run"
+        )
 
 
 def runs_option(what: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
@@ -675,6 +707,14 @@ def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None
     help="Take α from a `thermrs fit --json` file.",
 )
 @click.option(
+    "--diagnosis",
+    "diagnosis_path",
+    type=input_file,
+    default=None,
+    help="Predict with α and the effect a `thermrs diagnose --json` file identified, and show "
+    "the error before (nominal model) and after.",
+)
+@click.option(
     "--train",
     "train",
     multiple=True,
@@ -715,6 +755,7 @@ def predict(
     runs: tuple[Path, ...],
     alpha: float | None,
     fit_path: Path | None,
+    diagnosis_path: Path | None,
     train: tuple[Path, ...],
     axis: str,
     end_visits: int,
@@ -733,12 +774,17 @@ def predict(
     from thermrs.predict import predict as run_predict
     from thermrs.rig import load_rig
 
-    given = sum(x is not None and x != () for x in (alpha, fit_path, train))
+    given = sum(x is not None and x != () for x in (alpha, fit_path, diagnosis_path, train))
     if given != 1:
-        raise InputError("give exactly one of --alpha, --fit or --train")
+        raise InputError("give exactly one of --alpha, --fit, --diagnosis or --train")
     writable(json_path, "--json")
     writable(series_path, "--series", suffixes=(".parquet", ".csv"))
     r = load_rig(rig_path)
+    if diagnosis_path is not None:
+        from thermrs.cli_compensate import predict_diagnosed
+
+        predict_diagnosed(r, diagnosis_path, runs, json_path, series_path)
+        return
     loss = False
     alphas: dict[str, float] = {}
     if alpha is not None:
@@ -762,6 +808,8 @@ def predict(
             alphas["mean"] = se.mean[0]
     held, lost = _run_tables(runs, r, "--run")
     loss |= lost
+    if train:
+        distinct_runs(tables, held, "--run")
     result = prediction_table(held, r, alphas=alphas, axis=axis, end_visits=end_visits)
     if json_path is not None:
         _write_json(
@@ -1034,8 +1082,12 @@ def main(argv: list[str] | None = None) -> None:
 def _register() -> None:
     """Commands that live in their own modules."""
     from thermrs import cli_report  # noqa: F401  (its @cli.command registers `thermrs report`)
+    from thermrs.cli_compensate import compensate
     from thermrs.cli_diagnose import diagnose, diagnose_bench
+    from thermrs.cli_info import info
 
+    cli.add_command(info)
+    cli.add_command(compensate)
     cli.add_command(diagnose)
     cli.add_command(diagnose_bench)
 

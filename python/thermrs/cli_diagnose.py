@@ -8,19 +8,17 @@ from pathlib import Path
 from typing import Any
 
 import click
-from rich.console import Console
 from rich.table import Table
 
-out = Console(highlight=False)
+
+def _types() -> tuple[click.ParamType, click.ParamType, Any]:  # type: ignore[type-arg]
+    from thermrs.cli import input_file, out, run_file
+
+    return input_file, run_file, out
 
 
-def _types() -> tuple[click.ParamType, click.ParamType]:  # type: ignore[type-arg]
-    from thermrs.cli import input_file, run_file
-
-    return input_file, run_file
-
-
-input_file, run_file = _types()
+# The CLI's console: the terminal's width on a terminal; piped, tables are never cut or wrapped.
+input_file, run_file, out = _types()
 
 
 def _f(x: Any, digits: int = 2) -> str:
@@ -49,7 +47,8 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
     )
     t = Table(title="Where: largest shares of the residual (run, camera, chip axis, phase)")
     for c in ("run", "role", "camera", "axis", "phase", "visits", "rms µm", "share"):
-        t.add_column(c, justify="right" if c in ("visits", "rms µm", "share") else "left")
+        t.add_column(c, justify="right" if c in ("visits", "rms µm", "share") else "left",
+                     overflow="fold")  # fmt: skip
     for r in sorted(doc["location"], key=lambda r: -r["share"])[:8]:
         t.add_row(
             r["run"], r["role"], r["camera"], r["axis"], r["phase"], str(r["n"]),
@@ -67,7 +66,8 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
     t = Table(title="Which: each effect fitted on the training runs, scored on the held-out runs")
     for c in ("effect", "parameters", "held-out rms µm", "shrink", "gain z", "gap closed",
               "placebo rms", "stability", "ok"):  # fmt: skip
-        t.add_column(c, justify="left" if c in ("effect", "parameters") else "right")
+        t.add_column(c, justify="left" if c in ("effect", "parameters") else "right",
+                     overflow="fold")  # fmt: skip
     for r in doc["ranking"]:
         e = r["evidence"]
         t.add_row(
@@ -110,11 +110,11 @@ def render_paper(doc: dict[str, Any]) -> None:
         return ["/".join(f"{values[k]:.0f}" for k in keys if k.startswith(r + "/")) for r in runs]
 
     t = Table(title="Table 4 (drift along chip y, µm, cameras A/B) and the effects that fit it")
-    t.add_column("model", justify="left", ratio=3)
+    t.add_column("model", justify="left", ratio=3, overflow="fold")
     for r in runs:
-        t.add_column(r, justify="right")
-    t.add_column("rms µm", justify="right")
-    t.add_column("possible", justify="right")
+        t.add_column(r, justify="right", overflow="fold")
+    t.add_column("rms µm", justify="right", overflow="fold")
+    t.add_column("possible", justify="right", overflow="fold")
     t.add_row("measured (Table 4)", *per_run(doc["measured_um"]), "", "")
     nom = doc["nominal"]
     t.add_row(
@@ -203,7 +203,7 @@ def diagnose(
 
     Exits 3 (after diagnosing) if part of a recording was lost.
     """
-    from thermrs.cli import EXIT_DATA_LOSS, _run_tables, _write_json, writable
+    from thermrs.cli import EXIT_DATA_LOSS, _run_tables, _write_json, distinct_runs, writable
     from thermrs.errors import InputError
     from thermrs.rig import load_rig
 
@@ -235,6 +235,7 @@ def diagnose(
     r = load_rig(rig_path)
     tt, loss1 = _run_tables(train, r, "--train")
     th, loss2 = _run_tables(holdout, r, "--holdout")
+    distinct_runs(tt, th)
     with out.status("diagnosing…") as status:
         d = run(tt, th, r, exclude=list(exclude), bootstrap=bootstrap, seed=seed,
                 progress=lambda m: status.update(f"diagnosing: {m}…"))  # fmt: skip
@@ -305,9 +306,9 @@ def diagnose_bench(
         _write_json(json_path, doc)
     t = Table(title=f"Confusion over {doc['cases']} cases (rows: truth)")
     cols = sorted({k for row in doc["confusion"].values() for k in row})
-    t.add_column("truth", justify="left")
+    t.add_column("truth", justify="left", overflow="fold")
     for c in cols:
-        t.add_column(c, justify="right")
+        t.add_column(c, justify="right", overflow="fold")
     for truth, row in doc["confusion"].items():
         t.add_row(truth, *[str(row.get(c, "")) for c in cols])
     out.print(t)
