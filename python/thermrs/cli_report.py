@@ -153,9 +153,10 @@ def report(
                 # Two files of one name in different folders: name the runs by their paths.
                 same = any(n == names[i] and g != f for n, g in zip(names, files, strict=True))
                 got = load_runs(p, rig, name=str(f) if same else None, cache=cache)
-                err.print(
+                click.echo(
                     f"thermrs: {'--train' if p in train else '--run'} {p}: "
-                    f"{len(got)} run{'s' * (len(got) != 1)}: {', '.join(r.name for r in got)}"
+                    f"{len(got)} run{'s' * (len(got) != 1)}: {', '.join(r.name for r in got)}",
+                    err=True,
                 )
                 if any(r.data_loss for r in got) and (f not in files[:i]):
                     err.print(f"thermrs: warning: {f}: part of the recording was lost")

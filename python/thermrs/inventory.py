@@ -19,6 +19,7 @@ Example
 from __future__ import annotations
 
 import json
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,14 +35,13 @@ from thermrs.runs import (
     DEFAULT_GAP_FACTOR,
     DEFAULT_MIN_GAP_S,
     RUNS_SCHEMA,
-    runs_from_gaps,
-    runs_from_markers,
+    find_runs,
 )
 
 __all__ = ["Inventory", "inventory"]
 
-#: Frames of one camera closer than this many times its typical frame spacing belong to one
-#: visit (a burst at the pose).
+#: Frames of one camera belong to one visit (a burst at the pose) when the spacings between
+#: frames are bimodal by at least this factor (within visits and between them).
 BURST_FACTOR = 10.0
 
 
@@ -134,12 +134,18 @@ class Inventory:
 
 
 def _bursts(times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Start and end of each burst of frames (one visit each)."""
+    """Start and end of each burst of frames (one visit each): frames within a visit are
+    far closer to each other than visits are (the spacings are bimodal); with one frame per
+    visit (spacings alike) every frame is a visit."""
     if len(times) == 0:
         return times, times
-    d = np.diff(times)
-    spacing = float(np.percentile(d, 10)) if len(d) else 0.0
-    cut = np.flatnonzero(d > max(BURST_FACTOR * spacing, 1e9)) + 1
+    d = np.diff(times).astype(np.float64)
+    threshold = 0.0
+    if len(d):
+        p10, p90 = np.percentile(d, [10, 90])
+        if p90 > BURST_FACTOR * max(p10, 1.0):
+            threshold = math.sqrt(max(p10, 1.0) * p90)
+    cut = np.flatnonzero(d > threshold) + 1
     first = np.concatenate([[0], cut])
     last = np.concatenate([cut - 1, [len(times) - 1]])
     return times[first], times[last]
@@ -227,9 +233,13 @@ def inventory(
     )
     counts = dict(zip(topics["topic"].to_list(), topics["messages"].to_list(), strict=True))
     visits = _visits(doc["log_times"], topic_camera)
-    runs = runs_from_markers(doc["metadata"])
-    if runs.height == 0:
-        runs = runs_from_gaps(visits, gap_factor=gap_factor, min_gap_s=min_gap_s)
+    # As the extraction finds them: markers, and visits no marker covers split by idle gaps.
+    runs = find_runs(
+        doc["metadata"],
+        visits.with_columns(t_ns=pl.col("t_start_ns")),
+        gap_factor=gap_factor,
+        min_gap_s=min_gap_s,
+    )
     n_visits = [
         visits.filter(pl.col("t_start_ns").is_between(a, b)).height
         for a, b in zip(runs["start_ns"].to_list(), runs["end_ns"].to_list(), strict=True)
