@@ -379,3 +379,93 @@ def test_a_scenario_without_nodes_on_another_rig_says_so(tmp_path: Path) -> None
     msg = bad(cli("simulate", "--rig", str(UR5), "--scenario", str(sc), "-o",
                   str(tmp_path / "x.mcap")), "no [[node]]", "upper_arm")  # fmt: skip
     assert "add one [[node]] per ROI" in msg
+
+
+# --- numbers shown only where they mean something -------------------------------------------
+
+CONTROL = """format = "thermrs-scenario/1"
+name = "a control: slow, short, no effect"
+seed = 23
+[[run]]
+name = "idle"
+speed_pct = 10
+duration_min = 40
+cycle_s = 120
+start = "ambient"
+[ambient]
+start_c = 23.0
+noise_c = 0.02
+"""
+
+
+def test_end_errors_inside_the_noise_and_undetermined_heating_curves_are_said_so(
+    tmp_path: Path,
+) -> None:
+    rig = str(thermrs.default_rig_path())
+    sc = tmp_path / "ctl.toml"
+    sc.write_text(CONTROL)
+    rec = tmp_path / "ctl.mcap"
+    ok(cli("simulate", "--rig", rig, "--scenario", str(sc), "-o", str(rec)))
+    js = tmp_path / "p.json"
+    p = ok(cli("predict", "--rig", rig, "--alpha", "23.2u", "--run", str(rec), "--json", str(js)))
+    table = json.loads(js.read_text())["table"]
+    rows = [ln for ln in p.stdout.splitlines() if ln.startswith("│")]
+    assert len(rows) == len(table)
+    quiet = 0
+    for row, ln in zip(table, rows, strict=True):
+        inside = abs(row["measured_um"]) <= 2 * math.sqrt(2) * row["noise_um"]
+        quiet += inside
+        # Inside the noise: compared in µm, no % of a drift that is not there.
+        assert ("within noise" in ln) == inside, ln
+        if inside:
+            assert f"{row['error_pct']:+.2f}" not in ln
+    assert quiet >= 1  # the control's slow 40 minutes move the spot less than its noise
+    dj = tmp_path / "d.json"
+    p = ok(cli("drift", "--rig", rig, "--run", str(rec), "--json", str(dj)))
+    curves = json.loads(dj.read_text())["curves"]
+
+    def determined(c: dict[str, float | None]) -> bool:
+        tau, se = c["tau_min"], c["tau_min_se"]
+        return tau is not None and se is not None and tau > 0 and se <= tau / 2
+
+    loose = [c for c in curves if c["phase"] and not determined(c)]
+    assert loose, "the control should leave some τ undetermined"
+    assert p.stdout.count("no heating curve: τ not determined") == len(loose)
+
+
+def test_a_gap_closed_beyond_the_gap_is_capped_and_implausible_candidates_marked(
+    d: dict[str, Path],
+) -> None:
+    doc = json.loads(d["diag"].read_text())
+    assert doc["how_far"]["gap_closed"] > 1.0  # the floor is estimated above what is left
+    p = ok(cli("diagnose", "--rig", str(d["rig"]), "--train", f"{d['rec']}#s30",
+               "--holdout", f"{d['rec']}#s75"))  # fmt: skip
+    (how,) = [ln for ln in p.stdout.splitlines() if ln.startswith("How far")]
+    assert "closed: 100 % (the effect removed" in how and "floor is estimated too high" in how
+    for r in doc["ranking"]:
+        if r["effect"] == "laser_tilt" and abs(r["params"]["tilt_deg"]) > 10:
+            (row,) = [ln for ln in p.stdout.splitlines() if "tilt_deg = " in ln]
+            assert "implausible" in row
+
+
+def test_the_bench_says_how_many_effect_cases_were_visible() -> None:
+    p = ok(cli("diagnose-bench", "--seeds", "1", "--hours", "1", "--effect", "laser_tilt"))
+    line = next(ln for ln in p.stdout.splitlines() if ln.startswith("effect cases"))
+    assert "visible effect: 0 of 2" in line and "says nothing about naming effects" in line
+
+
+def test_the_overview_puts_runs_side_by_side(d: dict[str, Path]) -> None:
+    from thermrs.report import figures
+
+    rig = thermrs.load_rig()
+    tables = thermrs.runs.load_runs(d["rec"], rig).tables
+    # Two of them on one clock as if recorded on other days: the same times.
+    shifted = tables[1].with_columns(t_ns=pl.col("t_ns") - tables[1]["t_ns"].min())
+    svg = figures.fig_overview(
+        [("a", tables[0]), ("b", shifted), ("c", tables[2])],
+        {"A": "#1f77b4", "B": "#d62728"},
+        ["link2", "link3"],
+        {"link2": "#2ca02c", "link3": "#9467bd"},
+    )
+    # A panel per run and row, each run's own hours from 0.
+    assert svg.count('id="axes_') == 6

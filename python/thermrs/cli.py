@@ -770,6 +770,7 @@ def predict(
     """
     from thermrs.fit import fit_alpha, fit_alpha_start_end
     from thermrs.ingest import write_parquet_atomic
+    from thermrs.numbers import end_error
     from thermrs.predict import check_alpha, prediction_table
     from thermrs.predict import predict as run_predict
     from thermrs.rig import load_rig
@@ -858,7 +859,7 @@ def predict(
             row["axis"],
             f"{row['predicted_um']:.2f}",
             f"{row['measured_um']:.2f}",
-            f"{row['error_pct']:+.2f}",
+            end_error(row["predicted_um"], row["measured_um"], row["noise_um"]),
             f"{row['rms_centred_um']:.3f}",
             f"{row['noise_um']:.3f}",
         )
@@ -920,6 +921,8 @@ def drift(
     if json_path is not None:
         _write_json(json_path, {"curves": curves.to_dicts(), "iso9283": iso.to_json()})
 
+    from thermrs.numbers import tau_determined
+
     def num(x: float | None, digits: int = 2) -> str:
         return "—" if x is None else f"{x:.{digits}f}"
 
@@ -937,6 +940,10 @@ def drift(
             else (f"drift {row['camera']} {row['axis']} (µm)")
         )
         unit = " °C" if row["kind"] == "temperature" else ""
+        if row["phase"] is not None and not tau_determined(row["tau_min"], row["tau_min_se"]):
+            t.add_row(row["run"], series + unit, "", "", "", "", "",
+                      "no heating curve: τ not determined")  # fmt: skip
+            continue
         t.add_row(
             row["run"], series + unit, num(row["y0"]), num(row["a"]), num(row["tau_min"], 1),
             num(row["tau_min_se"], 1), num(row["rms"], 3), row["phase"] or "no fit (--json: why)",

@@ -21,6 +21,10 @@ def _types() -> tuple[click.ParamType, click.ParamType, Any]:  # type: ignore[ty
 input_file, run_file, out = _types()
 
 
+def _pct(x: float | None) -> str:
+    return "—" if x is None else f"{x:.0%}"
+
+
 def _f(x: Any, digits: int = 2) -> str:
     if x is None:
         return "—"
@@ -68,20 +72,28 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
               "placebo rms", "stability", "ok"):  # fmt: skip
         t.add_column(c, justify="left" if c in ("effect", "parameters") else "right",
                      overflow="fold")  # fmt: skip
+    from thermrs.numbers import implausible
+
+    beyond = []
     for r in doc["ranking"]:
         e = r["evidence"]
+        why = implausible(r["effect"], r["params"])
+        if why is not None:
+            beyond.append(f"{r['family']}: {why}")
         t.add_row(
             r["family"],
             _params(r["params"]),
             f"{r['holdout_rms_um']:.2f}",
             f"{r['shrink']:.0%}",
             _f(e["gain_z"], 1),
-            "—" if e["gap_closed"] is None else f"{e['gap_closed']:.0%}",
+            "—" if e["gap_closed"] is None else f"{min(e['gap_closed'], 1.0):.0%}",
             _f(e["placebo_holdout_rms_um"]),
             _f(e["stability"]),
-            "yes" if e["qualifies"] else "no",
+            "implausible" if why is not None else "yes" if e["qualifies"] else "no",
         )
     out.print(t)
+    for line in beyond:
+        out.print(f"Implausible, outside the effect's own bounds: {line}")
     for c in doc["confounded"]:
         out.print(
             f"Confounded: {' and '.join(c['families'])} (canonical correlation {c['cos']:.2f}); "
@@ -92,12 +104,15 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
     out.print(f"[bold]Verdict: {v['status']}[/bold] — {v['reason']}")
     if v["effect"]:
         out.print(f"  {v['effect']}: {_params(v['params'])}")
+    from thermrs.numbers import gap_closed
+
     gap = hf["gap_closed"]
+    shown = gap_closed(gap, hf["holdout_rms_after_um"], hf.get("noise_floor_um"))
     out.print(
         f"How far: held-out rms {hf['holdout_rms_before_um']:.2f} → "
         f"{hf['holdout_rms_after_um']:.2f} µm, max {hf['holdout_max_before_um']:.2f} → "
         f"{hf['holdout_max_after_um']:.2f} µm"
-        + ("" if gap is None else f", {gap:.0%} of the gap above the noise floor closed")
+        + ("" if gap is None else f"; the gap above the noise floor closed: {shown}")
     )
 
 
@@ -312,9 +327,26 @@ def diagnose_bench(
     for truth, row in doc["confusion"].items():
         t.add_row(truth, *[str(row.get(c, "")) for c in cols])
     out.print(t)
+    import numpy as np
+
+    from thermrs.diagnose.bench import _correct
+
     g = doc["gap_closed_when_identified"]
+    effect_cases = [r for r in doc["results"] if r["truth"] != "none"]
+    seen = [r for r in effect_cases if r.get("visible", True)]
+    if effect_cases:
+        out.print(
+            f"effect cases with a visible effect: {len(seen)} of {len(effect_cases)}"
+            + (
+                f"; correct verdicts on those {np.mean([_correct(r) for r in seen]):.0%}"
+                if seen
+                else ": none was visible above the noise, so this bench says nothing about "
+                "naming effects (give more --hours)"
+            )
+        )
     out.print(
-        f"correct verdicts {doc['correct_rate']:.0%} (effects {doc['effect_correct_rate']:.0%}); "
+        f"correct verdicts {doc['correct_rate']:.0%} over all {doc['cases']} cases, an invisible "
+        f"effect counted correct as 'none' (effects {_pct(doc['effect_correct_rate'])}); "
         f"effects named on none {doc['false_attribution_on_none']:.0%}; true effect excluded: "
         f"unexplained/ambiguous {doc['excluded_ok_rate']:.0%}, confidently wrong "
         f"{doc['excluded_confidently_wrong']}; gap closed when identified: median "

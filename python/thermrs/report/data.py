@@ -408,7 +408,9 @@ def gather(
             alphas["mean"] = se.mean[0]
         say("predicting")
         targets = ho if ho else tr
-        prediction = prediction_table(targets, rig, alphas=alphas)
+        # The paper compares drift along its cameras' y axis (v): so does its demo.
+        axis = "v" if paper_reference else "auto"
+        prediction = prediction_table(targets, rig, alphas=alphas, axis=axis)
         series = predict(pl.concat(targets, how="diagonal_relaxed"), rig, alpha_per_k=f.alpha_per_k)
     except InputError as e:
         fit_note = f"α could not be fitted, so nothing was predicted: {e}."

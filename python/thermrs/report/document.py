@@ -17,6 +17,7 @@ from typing import Any
 
 import polars as pl
 
+from thermrs.numbers import end_error, gap_closed, implausible, tau_determined, within_noise
 from thermrs.report import figures as F
 from thermrs.report.data import (
     ISO_TOLERANCE_UM,
@@ -183,7 +184,8 @@ def _summary(d: ReportData, colours: Mapping[str, str]) -> Section:
         s.blocks.append(Missing(d.fit_note or "α was not fitted."))
     if d.prediction is not None and d.prediction.height:
         p = d.prediction.filter(pl.col("alpha") == "series")
-        errs = p["error_pct"].to_list()
+        quiet = [within_noise(m, n) for m, n in zip(p["measured_um"], p["noise_um"], strict=True)]
+        errs = [e for e, q in zip(p["error_pct"], quiet, strict=True) if not q]
         which = (
             "the training run itself (no run was held out)"
             if d.prediction_in_sample
@@ -192,8 +194,19 @@ def _summary(d: ReportData, colours: Mapping[str, str]) -> Section:
         s.blocks.append(
             Paragraph(
                 f"With that α the forward model's prediction of {which} is off by "
-                f"{fmt(min(errs), 2, sign=True)} to {fmt(max(errs), 2, sign=True)} % at the "
-                "run's end (predicted − measured, per camera and run); over every visit the "
+                + (
+                    f"{fmt(min(errs), 2, sign=True)} to {fmt(max(errs), 2, sign=True)} % at the "
+                    "run's end (predicted − measured, per camera and run"
+                    if errs
+                    else "an end drift inside the noise wherever it is measured (no % error is "
+                    "meaningful there"
+                )
+                + (
+                    f"; {sum(quiet)} end drift(s) within the noise, compared in µm in Table 7)"
+                    if errs and any(quiet)
+                    else ")"
+                )
+                + "; over every visit the "
                 "RMS difference "
                 f"(mean offset removed) is {fmt(min(p['rms_centred_um']), 3)} – "
                 f"{fmt(max(p['rms_centred_um']), 3)} µm against a measurement noise of "
@@ -345,6 +358,10 @@ def _heating(d: ReportData) -> Section:
     )
     rows = []
     for row in d.curves.iter_rows(named=True):
+        fitted = row["phase"] is not None and tau_determined(row["tau_min"], row["tau_min_se"])
+        if row["phase"] is not None and not fitted:
+            row = {**row, "phase": None, "note": "no heating curve: τ not determined"}
+            row |= {k: None for k in ("y0", "y0_se", "a", "a_se", "tau_min", "tau_min_se", "rms")}
         if row["kind"] == "temperature":
             series, unit = f"{row['series']} (°C)", "°C"
         else:
@@ -505,7 +522,7 @@ def _table7(d: ReportData) -> Table | Missing:
             r["axis"],
             fmt(r["predicted_um"]),
             fmt(r["measured_um"]),
-            fmt(r["error_pct"], 2, sign=True),
+            end_error(r["predicted_um"], r["measured_um"], r["noise_um"]),
             fmt(r["rms_centred_um"], 3),
             fmt(r["noise_um"], 3),
         ]
@@ -529,7 +546,7 @@ def _table7(d: ReportData) -> Table | Missing:
             "axis",
             "predicted (µm)",
             "measured (µm)",
-            "error (%)",
+            "error (% or µm within noise)",
             "rms (µm)",
             "noise (µm)",
         ],
@@ -709,7 +726,9 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
         ],
         [
             "share of the gap closed",
-            fmt(None if hf.get("gap_closed") is None else 100 * hf["gap_closed"], 1) + " %",
+            gap_closed(
+                hf.get("gap_closed"), hf.get("holdout_rms_after_um"), doc.get("noise_floor_um")
+            ),
             "",
         ],
     ]
@@ -742,8 +761,16 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
         s.blocks.append(
             Table(
                 "What the residual follows: correlation with temperatures, rates, ambient, time",
-                ["driver", "correlation", "p"],
-                [[r["driver"], fmt(r["corr"], 3), f"{float(r['p']):.2g}"] for r in drivers],
+                ["driver", "chip axis", "correlation", "p"],
+                [
+                    [
+                        r["driver"],
+                        _axis_name(r["axis"]) if r.get("axis") else "—",
+                        fmt(r["corr"], 3),
+                        f"{float(r['p']):.2g}",
+                    ]
+                    for r in drivers
+                ],
             )
         )
     w = doc.get("whiteness")
@@ -769,6 +796,7 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
                     "shrink",
                     "ΔAICc",
                     "placebo beaten",
+                    "plausible",
                 ],
                 [
                     [
@@ -779,6 +807,8 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
                         fmt(r.get("shrink"), 3),
                         fmt((r.get("evidence") or {}).get("delta_aicc"), 1),
                         _yes_no((r.get("evidence") or {}).get("placebo_beaten")),
+                        implausible(r["effect"], r.get("params") or {})
+                        or _yes_no((r.get("evidence") or {}).get("plausible")),
                     ]
                     for r in ranking
                 ],

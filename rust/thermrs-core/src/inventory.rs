@@ -10,6 +10,7 @@
 //! indexes or hold a channel not yet seen (then that chunk alone is decompressed for its
 //! channel records or its messages' times).
 
+use std::borrow::Cow;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
@@ -221,15 +222,15 @@ fn from_summary(buf: &[u8], s: &Summary, topics: &[String], inv: &mut Inventory)
 
 /// Per channel id: (channel, message count); what the walk has learnt so far.
 #[derive(Default)]
-struct Walk {
+struct Walk<'a> {
     channels: BTreeMap<u16, ChannelInfo>,
     schemas: BTreeMap<u16, String>,
     /// The last chunk seen, not yet decompressed: (header, compressed data).
-    pending: Option<(records::ChunkHeader, Vec<u8>)>,
+    pending: Option<(records::ChunkHeader, Cow<'a, [u8]>)>,
     pending_indexed: bool,
 }
 
-impl Walk {
+impl Walk<'_> {
     fn add_channel(&mut self, c: &records::Channel) {
         let schema = self.schemas.get(&c.schema_id).cloned().unwrap_or_default();
         self.channels.entry(c.id).or_insert_with(|| ChannelInfo {
@@ -336,7 +337,7 @@ fn walk(buf: &[u8], topics: &[String], inv: &mut Inventory) {
                 } else {
                     header.compression.clone()
                 });
-                w.pending = Some((header, data.into_owned()));
+                w.pending = Some((header, data));
                 w.pending_indexed = false;
             }
             Record::MessageIndex(mi) => {

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use pyo3::prelude::*;
 use serde_json::json;
-use thermrs_core::inventory;
+use thermrs_core::inventory as core;
 
 use crate::{panic, to_py};
 
@@ -16,7 +16,7 @@ fn inventory(py: Python<'_>, path: PathBuf, topics: Vec<String>) -> PyResult<Str
     let inv = py
         .detach(|| {
             panic::guard("reading a recording's summary", || {
-                inventory::inventory(&path, &topics)
+                core::inventory(&path, &topics)
             })
         })
         .map_err(panic::to_py)?
