@@ -859,7 +859,7 @@ def predict(
             row["axis"],
             f"{row['predicted_um']:.2f}",
             f"{row['measured_um']:.2f}",
-            end_error(row["predicted_um"], row["measured_um"], row["noise_um"]),
+            end_error(row["predicted_um"], row["measured_um"], row["noise_um"], suffix=""),
             f"{row['rms_centred_um']:.3f}",
             f"{row['noise_um']:.3f}",
         )

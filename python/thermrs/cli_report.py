@@ -11,7 +11,8 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from thermrs.cli import EXIT_DATA_LOSS, cli, run_file, writable
+from thermrs.cli import EXIT_DATA_LOSS, cli, writable
+from thermrs.errors import InputError
 
 __all__ = ["report"]
 
@@ -34,7 +35,7 @@ __all__ = ["report"]
     "--run",
     "runs",
     multiple=True,
-    type=run_file,
+    type=click.Path(path_type=Path),
     help="Runs: recordings (MCAP) or tables written by `thermrs extract`; FILE#RUN takes one "
     "run of a file (FILE alone: each of its runs, split as every command splits them).",
 )
@@ -42,7 +43,7 @@ __all__ = ["report"]
     "--train",
     "train",
     multiple=True,
-    type=run_file,
+    type=click.Path(path_type=Path),
     help="Runs α is fitted on (default: the first --run); the others are held out, predicted "
     "and diagnosed. A --train run not given as --run is added.",
 )
@@ -96,6 +97,14 @@ def report(
         raise click.UsageError("give --run RUN… (and --rig RIG), or --demo")
     if not demo and rig_path is None:
         raise click.UsageError("give --rig RIG")
+    from thermrs.runs import split_run_spec
+
+    for p in (*train, *runs):
+        f = split_run_spec(p)[0]
+        if f.is_dir():
+            raise InputError(f"{f}: is a directory, expected a recording (.mcap) or tables")
+        if not f.exists():
+            raise InputError(f"{f}: no such file")
     out = out_path or Path("thermrs-demo-report.html" if demo else "thermrs-report.html")
     writable(out, "-o")
     t_start = time.perf_counter()

@@ -35,9 +35,11 @@ def within_noise(measured_um: float, noise_um: float) -> bool:
     return abs(measured_um) <= NOISE_Z * math.sqrt(2.0) * noise_um
 
 
-def end_error(predicted_um: float, measured_um: float, noise_um: float) -> str:
+def end_error(
+    predicted_um: float, measured_um: float, noise_um: float, *, suffix: str = " %"
+) -> str:
     """``+12.34 %``, or ``within noise (Δ +1.20 µm, noise 2.00 µm)`` where the measured drift
-    is inside the noise.
+    is inside the noise; ``suffix`` follows the percentage (a column headed "%" takes "").
 
     Examples
     --------
@@ -48,7 +50,7 @@ def end_error(predicted_um: float, measured_um: float, noise_um: float) -> str:
     """
     if within_noise(measured_um, noise_um) or measured_um == 0:
         return f"within noise (Δ {predicted_um - measured_um:+.2f} µm, noise {noise_um:.2f} µm)"
-    return f"{(predicted_um - measured_um) / measured_um * 100:+.2f} %"
+    return f"{(predicted_um - measured_um) / measured_um * 100:+.2f}{suffix}"
 
 
 def tau_determined(tau_min: float | None, tau_se_min: float | None) -> bool:

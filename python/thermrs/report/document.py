@@ -522,7 +522,7 @@ def _table7(d: ReportData) -> Table | Missing:
             r["axis"],
             fmt(r["predicted_um"]),
             fmt(r["measured_um"]),
-            end_error(r["predicted_um"], r["measured_um"], r["noise_um"]),
+            end_error(r["predicted_um"], r["measured_um"], r["noise_um"], suffix=""),
             fmt(r["rms_centred_um"], 3),
             fmt(r["noise_um"], 3),
         ]
