@@ -17,9 +17,9 @@ document :mod:`thermrs.report.document`, figures :mod:`thermrs.report.figures`, 
 
 Example
 -------
->>> from thermrs.report import load_run, write_report  # doctest: +SKIP
+>>> from thermrs.report import load_runs, write_report  # doctest: +SKIP
 >>> rig = thermrs.load_rig()  # doctest: +SKIP
->>> runs = [load_run(p, rig) for p in ("run1.mcap", "run2.mcap", "run3.mcap")]  # doctest: +SKIP
+>>> runs = load_runs("campaign.mcap", rig)  # each run of the file  # doctest: +SKIP
 >>> write_report("report.html", runs=runs, rig=rig)  # doctest: +SKIP
 """
 
