@@ -363,6 +363,7 @@ def test_kelvin_radians_and_a_copy_of_the_training_run_are_refused(
         for p in thermrs.load_rig(radrig).poses.values()
     )
     bad(cli("fit", "--rig", str(radrig), "--train", f"{d['rec']}#s30"), "radians")
+    bad(cli("rig", str(radrig)), "misses", "radians")
     # A byte-identical copy of the training recording given as the held-out run.
     copy = tmp_path / "copy.mcap"
     copy.write_bytes(d["rec"].read_bytes())

@@ -346,7 +346,10 @@ def rig(rig_path: Path | None, as_json: bool) -> None:
     from thermrs.rig import default_rig_path, load_rig
 
     r = load_rig(rig_path)
-    view = r.check()
+    try:
+        view = r.check()
+    except ThermrsError as e:
+        raise InputError(f"{e}{_radians_hint(r)}") from None
     if as_json:
         doc = {"poses": view["poses"]}
         click.echo(json.dumps(doc, indent=2))
