@@ -274,6 +274,8 @@ def test_report_takes_runs_inside_a_recording(d: dict[str, Path], tmp_path: Path
            "-o", str(one), "--quiet", "--no-markdown"))  # fmt: skip
     html = one.read_text()
     assert "jo#s30" in html and "jo#s75" in html and "jo#s10" not in html
+    # The diagnosed model used: the held-out run predicted with α and the identified effect.
+    assert "predicted with α and the identified effect" in html
     # The extracted tables of the whole file: its three runs, not one merged 22-hour run.
     allr = tmp_path / "all.html"
     p = ok(cli("report", "--rig", rig, "--run", str(d["root"] / "jo.parquet"), "-o", str(allr),

@@ -46,6 +46,7 @@ __all__ = [
     "CompensationLaw",
     "DiagnosedModel",
     "compensation_law",
+    "diagnosed_model",
     "load_diagnosis",
     "predict_series",
     "shrink_table",
@@ -101,6 +102,16 @@ def load_diagnosis(path: str | os.PathLike[str], rig: Rig | None = None) -> Diag
         raise InputError(f"{what}: no such file") from None
     except (OSError, UnicodeDecodeError, ValueError) as e:
         raise InputError(f"{what}: not a `thermrs diagnose --json` file ({e})") from None
+    return diagnosed_model(doc, rig, what=what)
+
+
+def diagnosed_model(
+    doc: Any, rig: Rig | None = None, *, what: str = "the diagnosis"
+) -> DiagnosedModel:
+    """The model a diagnosis document (``Diagnosis.to_json()``) identified; see
+    :func:`load_diagnosis`."""
+    if not isinstance(doc, dict):
+        raise InputError(f"{what}: not a `thermrs diagnose --json` document")
     try:
         verdict = doc["verdict"]
         status = str(verdict["status"])

@@ -278,6 +278,9 @@ class ReportData:
     diagnosis_note: str | None
     title: str
     paper_reference: bool = False
+    #: With an identified effect: the held-out runs predicted by the nominal model and by the
+    #: diagnosed one (:func:`thermrs.compensate.shrink_table`), else None.
+    diagnosed_prediction: pl.DataFrame | None = None
     notes: list[str] = field(default_factory=list)
 
     def run(self, name: str) -> RunInput:
@@ -433,6 +436,13 @@ def gather(
         else:
             say("diagnosing")
             diag, note = _diagnose(tr, ho, rig)
+    diagnosed = None
+    if diag is not None and ho:
+        from thermrs.compensate import diagnosed_model, predict_series, shrink_table
+
+        model = diagnosed_model(diagnosis_json(diag), rig)
+        if model.effects:
+            diagnosed = shrink_table(predict_series(ho, rig, model))
 
     return ReportData(
         rig=rig,
@@ -452,6 +462,7 @@ def gather(
         table4=table4(runs),
         diagnosis=diag,
         diagnosis_note=note,
+        diagnosed_prediction=diagnosed,
         title=title or f"Thermal drift of {rig.name or rig.model}",
         paper_reference=paper_reference,
     )

@@ -735,6 +735,21 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
     s.blocks.append(
         Table("How far: the nominal model and the chosen effect (µm)", ["", "value", ""], rows)
     )
+    if d.diagnosed_prediction is not None:
+        s.blocks.append(
+            Table(
+                "The held-out runs predicted with α and the identified effect (`thermrs predict "
+                "--diagnosis`): RMS of measured − predicted over every visit, both axes, each "
+                "series' mean removed (µm)",
+                ["run", "camera", "nominal model", "with the effect", "shrink (%)", "visits"],
+                [
+                    [r["run"], r["camera"], fmt(r["nominal_rms_um"], 3),
+                     fmt(r["diagnosed_rms_um"], 3), fmt(100 * r["shrink"], 1),
+                     str(r["n_visits"])]
+                    for r in d.diagnosed_prediction.iter_rows(named=True)
+                ],
+            )
+        )  # fmt: skip
     loc = sorted(doc.get("location") or [], key=lambda r: -float(r.get("share") or 0))
     if loc:
         s.blocks.append(
