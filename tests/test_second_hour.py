@@ -373,6 +373,22 @@ def test_kelvin_radians_and_a_copy_of_the_training_run_are_refused(
         "identical to training run")  # fmt: skip
 
 
+def test_diagnosing_runs_too_short_is_bad_input_not_a_crash(tmp_path: Path) -> None:
+    rig = str(thermrs.default_rig_path())
+    sc = tmp_path / "short.toml"
+    sc.write_text(
+        'format = "thermrs-scenario/1"\nseed = 3\n'
+        '[[run]]\nname = "a"\nspeed_pct = 30\nduration_min = 1\ncycle_s = 60\n'
+        'start = "ambient"\n'
+        '[[run]]\nname = "b"\nspeed_pct = 75\nduration_min = 1\ncycle_s = 60\n'
+        'start = "continue"\n'
+    )
+    rec = tmp_path / "short.mcap"
+    ok(cli("simulate", "--rig", rig, "--scenario", str(sc), "-o", str(rec)))
+    bad(cli("diagnose", "--rig", rig, "--train", f"{rec}#a", "--holdout", f"{rec}#b"),
+        "visit(s); a diagnosis needs at least 3")  # fmt: skip
+
+
 def test_a_scenario_without_nodes_on_another_rig_says_so(tmp_path: Path) -> None:
     sc = tmp_path / "plain.toml"
     sc.write_text(

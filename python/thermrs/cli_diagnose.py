@@ -21,6 +21,10 @@ def _types() -> tuple[click.ParamType, click.ParamType, Any]:  # type: ignore[ty
 input_file, run_file, out = _types()
 
 
+#: Visits a camera needs in a run to be diagnosed: one goes to the run's unknown offset.
+MIN_VISITS = 3
+
+
 def _pct(x: float | None) -> str:
     return "—" if x is None else f"{x:.0%}"
 
@@ -251,6 +255,15 @@ def diagnose(
     tt, loss1 = _run_tables(train, r, "--train")
     th, loss2 = _run_tables(holdout, r, "--holdout")
     distinct_runs(tt, th)
+    for role, tables in (("--train", tt), ("--holdout", th)):
+        for t in tables:
+            for cam, n in t.group_by("camera").len().sort("camera").iter_rows():
+                if n < MIN_VISITS:
+                    raise InputError(
+                        f"{role} run {t['run'][0]}: camera {cam} has {n} visit(s); a diagnosis "
+                        f"needs at least {MIN_VISITS} per camera and run (each run's unknown "
+                        "mounting takes one)"
+                    )
     with out.status("diagnosing…") as status:
         d = run(tt, th, r, exclude=list(exclude), bootstrap=bootstrap, seed=seed,
                 progress=lambda m: status.update(f"diagnosing: {m}…"))  # fmt: skip
