@@ -64,8 +64,8 @@ EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_DATA_LOSS = 0, 1, 2, 3
 EXIT_INTERRUPTED = 130
 
 #: The joint tolerance of a visit (°); the same as :data:`thermrs.visits.DEFAULT_TOLERANCE_DEG`
-#: (a test checks), written out so that ``thermrs --help`` need not import polars.
-VISIT_TOLERANCE_DEG = 0.05
+#: (a test checks), from :mod:`thermrs.defaults` so that ``thermrs --help`` need not import polars.
+from thermrs.defaults import ISO_TOLERANCE_UM, ISO_WINDOW, VISIT_TOLERANCE_DEG  # noqa: E402
 
 
 def console(*, stderr: bool = False) -> Console:
@@ -203,7 +203,9 @@ class AlphaType(click.ParamType):  # type: ignore[type-arg]
 
 
 def _fmt(x: float | None, digits: int = 2) -> str:
-    return "—" if x is None else f"{x:.{digits}f}"
+    from thermrs.numbers import fmt
+
+    return fmt(x, digits)
 
 
 class _Interrupted(Exception):
@@ -524,15 +526,9 @@ def simulate(rig_path: Path, scenario_path: Path, out_path: Path, seed: int | No
 
 def _write_json(path: Path, doc: object) -> None:
     """Write ``doc`` as JSON to ``path`` atomically."""
-    from thermrs.ingest import atomic_tmp, publish
+    from thermrs.atomic import write_json
 
-    tmp = atomic_tmp(path)
-    try:
-        tmp.write_text(json.dumps(doc, indent=2))
-        publish(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    write_json(path, doc)
 
 
 #: Files read by this process's command, by path: `predict --train rec#run1 --run rec#run2`
@@ -655,16 +651,14 @@ def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None
 
     Exits 3 (after fitting) if part of a training recording was lost.
     """
-    from thermrs.fit import fit_alpha, fit_alpha_start_end
     from thermrs.rig import load_rig
+    from thermrs.workflows import fit_document
 
     writable(json_path, "--json")
     r = load_rig(rig_path)
     tables, loss = _run_tables(train, r, "--train")
-    f = fit_alpha(tables, r)
-    doc = f.to_json()
-    start_end = {t["run"][0]: fit_alpha_start_end(t, r) for t in tables}
-    doc["start_end"] = {run: se.to_json() for run, se in start_end.items()}
+    result = fit_document(tables, r)
+    f, start_end, doc = result.fit, result.start_end, result.to_json()
     if json_path is not None:
         _write_json(json_path, doc)
     t = table(
@@ -771,12 +765,12 @@ def predict(
 
     Exits 3 (after predicting) if part of a recording was lost.
     """
-    from thermrs.fit import fit_alpha, fit_alpha_start_end
     from thermrs.ingest import write_parquet_atomic
     from thermrs.numbers import end_error
     from thermrs.predict import check_alpha, prediction_table
     from thermrs.predict import predict as run_predict
     from thermrs.rig import load_rig
+    from thermrs.workflows import fit_document, training_alphas
 
     given = sum(x is not None and x != () for x in (alpha, fit_path, diagnosis_path, train))
     if given != 1:
@@ -804,12 +798,7 @@ def predict(
             raise InputError(f"--fit {fit_path}: not a `thermrs fit --json` file ({why})") from None
     else:
         tables, loss = _run_tables(train, r, "--train")
-        alphas["series"] = fit_alpha(tables, r).alpha_per_k
-        if len(tables) == 1:  # the paper's protocol: α per camera and their mean, one run
-            se = fit_alpha_start_end(tables[0], r)
-            for cam, (a, _) in se.per_camera.items():
-                alphas[cam] = a
-            alphas["mean"] = se.mean[0]
+        alphas.update(training_alphas(fit_document(tables, r)))
     held, lost = _run_tables(runs, r, "--run")
     loss |= lost
     if train:
@@ -881,14 +870,14 @@ def predict(
 @click.option(
     "--window",
     type=click.IntRange(min=3),
-    default=10,
+    default=ISO_WINDOW,
     show_default=True,
     help="Visits per ISO 9283 window.",
 )
 @click.option(
     "--tolerance-um",
     type=click.FloatRange(min=0, min_open=True),
-    default=1.0,
+    default=ISO_TOLERANCE_UM,
     show_default=True,
     help="Settling tolerance of the barycentre (µm).",
 )
@@ -924,10 +913,8 @@ def drift(
     if json_path is not None:
         _write_json(json_path, {"curves": curves.to_dicts(), "iso9283": iso.to_json()})
 
+    from thermrs.numbers import fmt as num
     from thermrs.numbers import tau_determined
-
-    def num(x: float | None, digits: int = 2) -> str:
-        return "—" if x is None else f"{x:.{digits}f}"
 
     t = table(
         "Heating curves y = y₀ + A·e^(−t/τ)",
@@ -971,15 +958,9 @@ def drift(
 
 def _write_csv(path: Path, df: pl.DataFrame) -> None:
     """Write ``df`` as CSV to ``path`` atomically."""
-    from thermrs.ingest import atomic_tmp, publish
+    from thermrs.atomic import write_csv
 
-    tmp = atomic_tmp(path)
-    try:
-        df.write_csv(tmp)
-        publish(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    write_csv(path, df)
 
 
 #: Options that take several values (``--train A B``) as well as repeats (``--train A

@@ -18,13 +18,45 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-__all__ = ["end_error", "gap_closed", "implausible", "tau_determined", "within_noise"]
+__all__ = [
+    "end_error",
+    "fmt",
+    "fmt_alpha",
+    "gap_closed",
+    "implausible",
+    "tau_determined",
+    "within_noise",
+]
 
 #: A measured end drift within this many standard deviations of the difference of two noisy
 #: visits (√2·noise) of zero is "within noise".
 NOISE_Z = 2.0
 #: A time constant whose standard error exceeds this share of it is not determined.
 TAU_REL_SE = 0.5
+
+
+def fmt(x: object, digits: int = 2, *, sign: bool = False) -> str:
+    """A number with ``digits`` decimals (``sign``: always signed); "—" for None, a bool or
+    NaN; anything else as text.
+
+    Examples
+    --------
+    >>> fmt(1.23456), fmt(None), fmt(float("nan")), fmt(-0.5, 1, sign=True), fmt(2.0, sign=True)
+    ('1.23', '—', '—', '-0.5', '+2.00')
+    """
+    if x is None or isinstance(x, bool):
+        return "—"
+    if not isinstance(x, int | float):
+        return str(x)
+    v = float(x)
+    if not math.isfinite(v):
+        return "—"
+    return f"{v:+.{digits}f}" if sign else f"{v:.{digits}f}"
+
+
+def fmt_alpha(a: float | None) -> str:
+    """α (1/K) in 10⁻⁶/K, three decimals: ``fmt_alpha(2.3438e-05)`` → ``'23.438'``."""
+    return "—" if a is None else fmt(a * 1e6, 3)
 
 
 def within_noise(measured_um: float, noise_um: float) -> bool:

@@ -71,15 +71,9 @@ def _version() -> str:
 
 
 def _atomic_text(path: Path, text: str) -> None:
-    from thermrs.ingest import atomic_tmp, publish
+    from thermrs.atomic import write_text
 
-    tmp = atomic_tmp(path)
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        publish(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    write_text(path, text)
 
 
 def write_report(

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import polars as pl
 
+from thermrs.defaults import ISO_TOLERANCE_UM, ISO_WINDOW
 from thermrs.errors import InputError, ThermrsError
 from thermrs.ingest import Extraction, ExtractReport
 from thermrs.rig import Rig
@@ -38,10 +39,6 @@ __all__ = [
     "load_run",
     "run_from_extraction",
 ]
-
-#: ``thermrs drift``'s defaults.
-ISO_WINDOW = 10
-ISO_TOLERANCE_UM = 1.0
 
 Step = Callable[[str], None]
 
@@ -364,10 +361,10 @@ def gather(
     step
         Called with a short description before each stage (progress).
     """
-    from thermrs.fit import fit_alpha, fit_alpha_start_end
     from thermrs.heating import heating_curves
     from thermrs.iso9283 import iso9283
     from thermrs.predict import predict, prediction_table
+    from thermrs.workflows import fit_document, training_alphas
 
     def say(what: str) -> None:
         if step is not None:
@@ -399,16 +396,10 @@ def gather(
     fit_note: str | None = None
     in_sample = not ho
     try:
-        f = fit_alpha(tr, rig)
-        fit_doc = f.to_json()
-        start_end = {t["run"][0]: fit_alpha_start_end(t, rig) for t in tr}
-        fit_doc["start_end"] = {run: se.to_json() for run, se in start_end.items()}
-        alphas["series"] = f.alpha_per_k
-        if len(tr) == 1:
-            se = next(iter(start_end.values()))
-            for cam, (a, _) in se.per_camera.items():
-                alphas[cam] = a
-            alphas["mean"] = se.mean[0]
+        result = fit_document(tr, rig)
+        f = result.fit
+        fit_doc = result.to_json()
+        alphas.update(training_alphas(result))
         say("predicting")
         targets = ho if ho else tr
         # The paper compares drift along its cameras' y axis (v): so does its demo.

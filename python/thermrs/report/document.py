@@ -17,7 +17,15 @@ from typing import Any
 
 import polars as pl
 
-from thermrs.numbers import end_error, gap_closed, implausible, tau_determined, within_noise
+from thermrs.numbers import (
+    end_error,
+    fmt,
+    fmt_alpha,
+    gap_closed,
+    implausible,
+    tau_determined,
+    within_noise,
+)
 from thermrs.report import figures as F
 from thermrs.report.data import (
     ISO_TOLERANCE_UM,
@@ -87,23 +95,6 @@ SECTION_IDS = (
     "diagnosis",
     "extraction",
 )
-
-
-def fmt(x: object, digits: int = 2, *, sign: bool = False) -> str:
-    """A number with ``digits`` decimals; "—" for None or NaN."""
-    if x is None or isinstance(x, bool):
-        return "—"
-    if not isinstance(x, int | float):
-        return str(x)
-    v = float(x)
-    if not math.isfinite(v):
-        return "—"
-    return f"{v:+.{digits}f}" if sign else f"{v:.{digits}f}"
-
-
-def fmt_alpha(a: float | None) -> str:
-    """α (1/K) in 10⁻⁶/K, three decimals."""
-    return "—" if a is None else fmt(a * 1e6, 3)
 
 
 def _axis_name(axis: str) -> str:
