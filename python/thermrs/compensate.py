@@ -147,8 +147,8 @@ def diagnosed_model(
         ),
         None,
     )
-    if row is None:
-        raise InputError(f"{what}: the verdict's effect {name} has no ranking row (its α)")
+    if row is None or not isinstance(row.get("alpha_per_k"), int | float):
+        raise InputError(f"{what}: the verdict's effect {name} has no ranking row with its α")
     before, after = how.get("holdout_rms_before_um"), verdict.get("holdout_rms_um")
     shrink = 1.0 - after / before if before and after is not None else None
     note = ""

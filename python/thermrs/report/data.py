@@ -431,8 +431,11 @@ def gather(
     if diag is not None and ho:
         from thermrs.compensate import diagnosed_model, predict_series, shrink_table
 
-        model = diagnosed_model(diagnosis_json(diag), rig)
-        if model.effects:
+        try:
+            model = diagnosed_model(diagnosis_json(diag), rig)
+        except InputError:  # a diagnosis without the effect's α: nothing to predict with
+            model = None
+        if model is not None and model.effects:
             diagnosed = shrink_table(predict_series(ho, rig, model))
 
     return ReportData(
