@@ -10,16 +10,8 @@ from typing import Any
 import click
 from rich.table import Table
 
-
-def _types() -> tuple[click.ParamType, click.ParamType, Any]:  # type: ignore[type-arg]
-    from thermrs.cli import input_file, out, run_file
-
-    return input_file, run_file, out
-
-
 # The CLI's console: the terminal's width on a terminal; piped, tables are never cut or wrapped.
-input_file, run_file, out = _types()
-
+from thermrs.cli.common import input_file, out, run_file
 
 #: Visits a camera needs in a run to be diagnosed: one goes to the run's unknown offset.
 MIN_VISITS = 3
@@ -222,7 +214,7 @@ def diagnose(
 
     Exits 3 (after diagnosing) if part of a recording was lost.
     """
-    from thermrs.cli import EXIT_DATA_LOSS, _run_tables, _write_json, distinct_runs, writable
+    from thermrs.cli.common import EXIT_DATA_LOSS, distinct_runs, run_tables, writable, write_json
     from thermrs.errors import InputError
     from thermrs.rig import load_rig
 
@@ -237,7 +229,7 @@ def diagnose(
 
         pdoc = paper_diagnosis(rig=load_rig(rig_path))
         if json_path is not None:
-            _write_json(json_path, pdoc)
+            write_json(json_path, pdoc)
         render_paper(pdoc)
         return
     if rig_path is None:
@@ -252,8 +244,8 @@ def diagnose(
     from thermrs.diagnose import diagnose as run
 
     r = load_rig(rig_path)
-    tt, loss1 = _run_tables(train, r, "--train")
-    th, loss2 = _run_tables(holdout, r, "--holdout")
+    tt, loss1 = run_tables(train, r, "--train")
+    th, loss2 = run_tables(holdout, r, "--holdout")
     distinct_runs(tt, th)
     for role, tables in (("--train", tt), ("--holdout", th)):
         for t in tables:
@@ -269,7 +261,7 @@ def diagnose(
                 progress=lambda m: status.update(f"diagnosing: {m}…"))  # fmt: skip
     doc = d.to_json()
     if json_path is not None:
-        _write_json(json_path, doc)
+        write_json(json_path, doc)
     render_diagnosis(doc)
     if loss1 or loss2:
         sys.exit(EXIT_DATA_LOSS)
@@ -315,7 +307,7 @@ def diagnose_bench(
     """The diagnoser on simulated runs with each SPEC §6 effect injected (and withheld from
     its library), with what it does not model perturbed: confusion matrix, parameter
     recovery, held-out shrink, false attributions."""
-    from thermrs.cli import _write_json, writable
+    from thermrs.cli.common import writable, write_json
     from thermrs.diagnose.bench import run_bench
 
     writable(json_path, "--json", suffixes=(".json",))
@@ -331,7 +323,7 @@ def diagnose_bench(
         doc = run_bench(r, seeds=seeds, hours=hours, effects=tuple(effects) or None,
                         progress=lambda m: status.update(m))  # fmt: skip
     if json_path is not None:
-        _write_json(json_path, doc)
+        write_json(json_path, doc)
     t = Table(title=f"Confusion over {doc['cases']} cases (rows: truth)")
     cols = sorted({k for row in doc["confusion"].values() for k in row})
     t.add_column("truth", justify="left", overflow="fold")

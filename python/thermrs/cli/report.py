@@ -1,6 +1,6 @@
 """``thermrs report``: parse, call :func:`thermrs.report.write_report` (or the demo), show
-progress and what was written. Importing this module registers the command on
-:data:`thermrs.cli.cli`; the report's own modules (and matplotlib) load only when it runs."""
+progress and what was written. The report's own modules (and matplotlib) load only when it
+runs."""
 
 from __future__ import annotations
 
@@ -11,13 +11,13 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from thermrs.cli import EXIT_DATA_LOSS, cli, writable
+from thermrs.cli.common import EXIT_DATA_LOSS, writable
 from thermrs.errors import InputError
 
 __all__ = ["report"]
 
 
-@cli.command()
+@click.command()
 @click.option(
     "--demo",
     is_flag=True,
@@ -177,7 +177,7 @@ def report(
                     if p in train:
                         train_names.append(r.name)
             if train_names:
-                from thermrs.cli import distinct_runs
+                from thermrs.cli.common import distinct_runs
 
                 distinct_runs(
                     [r.table for r in loaded if r.name in train_names],

@@ -9,16 +9,16 @@ from typing import TYPE_CHECKING
 
 import click
 
-from thermrs.cli import (
+from thermrs.cli.common import (
     EXIT_DATA_LOSS,
-    _run_tables,
-    _write_csv,
-    _write_json,
     input_file,
     out,
     rig_option,
+    run_tables,
     table,
     writable,
+    write_csv,
+    write_json,
 )
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -61,11 +61,11 @@ def predict_diagnosed(
 
     model = load_diagnosis(diagnosis, r)
     _say_model(model)
-    held, loss = _run_tables(runs, r, "--run")
+    held, loss = run_tables(runs, r, "--run")
     series = predict_series(held, r, model)
     shrink = shrink_table(series)
     if json_path is not None:
-        _write_json(
+        write_json(
             json_path,
             {
                 "alpha_per_k": {
@@ -79,7 +79,7 @@ def predict_diagnosed(
         )
     if series_path is not None:
         if series_path.name.endswith(".csv"):
-            _write_csv(series_path, series)
+            write_csv(series_path, series)
         else:
             write_parquet_atomic(series, series_path)
     t = table(
@@ -141,9 +141,9 @@ def compensate(rig_path: Path, diagnosis: Path, out_path: Path, span_k: float) -
     _say_model(model)
     law = compensation_law(r, model, span_k=span_k)
     if out_path.name.endswith(".csv"):
-        _write_csv(out_path, law.table)
+        write_csv(out_path, law.table)
     else:
-        _write_json(out_path, law.to_json())
+        write_json(out_path, law.to_json())
     t = table(
         f"Compensation law: drift (µm) = Σ coefficient × (T − {law.reference_c:g} °C)",
         [(c, "left" if c in ("pose", "axis", "term", "unit") else "right")

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import click
 
-from thermrs.cli import EXIT_DATA_LOSS, input_file, out, table
+from thermrs.cli.common import EXIT_DATA_LOSS, input_file, out, table
 
 __all__ = ["info"]
 
