@@ -131,7 +131,7 @@ WRONG: list[tuple[str, str]] = [
     ("drift --rig {rig} --run {tables} --tolerance-um 0", "--tolerance-um"),
     ("extract {rec} --rig {rig} -o {dir}/o.parquet --visit-tolerance-deg -1", "tolerance"),
     # usage
-    ("predict --rig {rig} --run {tables}", "exactly one of --alpha, --fit or --train"),
+    ("predict --rig {rig} --run {tables}", "exactly one of --alpha, --fit, --diagnosis or --train"),
     ("fit --rig {rig}", "--train"),
     ("frobnicate", "frobnicate"),
 ]

@@ -203,7 +203,7 @@ def test_cli_predict_and_fit_on_recordings_and_tables(
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--run", "X.mcap"], "give exactly one of --alpha, --fit or --train"),
+        (["--run", "X.mcap"], "give exactly one of --alpha, --fit, --diagnosis or --train"),
         (["--alpha", "2e-5", "--run", "nope.mcap"], "'nope.mcap' does not exist"),
         (["--fit", "nope.json", "--run", "X.mcap"], "'--fit': File 'nope.json' does not exist"),
     ],

@@ -10,7 +10,13 @@ The heavy lifting is Rust (``thermrs._native``); this package is the library API
 - :mod:`thermrs.heating`: first-order heating curves;
 - :mod:`thermrs.iso9283`: ISO 9283-style pose figures;
 - :mod:`thermrs.simulate`: the simulator (a rig at work under a scenario);
-- :mod:`thermrs.paper`: the KR 15/2 paper's own model and its Tables 6 and 7.
+- :mod:`thermrs.paper`: the KR 15/2 paper's own model and its Tables 6 and 7;
+- :mod:`thermrs.runs`: runs inside a recording; :mod:`thermrs.inventory`: what a recording
+  holds, from its summary;
+- :mod:`thermrs.effects`, :mod:`thermrs.signatures`, :mod:`thermrs.diagnose`: the SPEC §6
+  effects and the diagnosis of the sim-to-real gap; :mod:`thermrs.compensate`: the diagnosed
+  model put to use; :mod:`thermrs.stats`: least squares and its covariance;
+- :mod:`thermrs.report`: the report a person reads.
 
 Every submodule and name below is reachable right after ``import thermrs``; each is imported
 on first use, so that ``import thermrs`` (and ``thermrs --help``) stay fast.
@@ -31,20 +37,29 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from thermrs import (
         campaigns,
+        compensate,
         design,
+        diagnose,
+        effects,
         fit,
         heating,
         ingest,
+        inventory,
         iso9283,
         model,
         paper,
         predict,
+        report,
         rig,
+        runs,
+        signatures,
         simulate,
+        stats,
     )
     from thermrs.campaigns import campaign
     from thermrs.errors import (
         InputError,
+        InternalError,
         RecordingError,
         RigError,
         ScenarioError,
@@ -58,18 +73,26 @@ __version__: str  # read from the installed package's metadata on first use
 
 #: Submodules imported on first attribute access.
 _SUBMODULES = (
-    "design",
     "campaigns",
+    "compensate",
+    "design",
+    "diagnose",
+    "effects",
     "errors",
     "fit",
     "heating",
     "ingest",
+    "inventory",
     "iso9283",
     "model",
     "paper",
     "predict",
+    "report",
     "rig",
+    "runs",
+    "signatures",
     "simulate",
+    "stats",
     "visits",
 )
 
@@ -84,6 +107,7 @@ _NAMES = {
     "default_rig_path": "thermrs.rig",
     "load_rig": "thermrs.rig",
     "InputError": "thermrs.errors",
+    "InternalError": "thermrs.errors",
     "RecordingError": "thermrs.errors",
     "RigError": "thermrs.errors",
     "ScenarioError": "thermrs.errors",
@@ -94,6 +118,7 @@ __all__ = [
     "Extraction",
     "ForwardModel",
     "InputError",
+    "InternalError",
     "RecordingError",
     "Rig",
     "RigError",
@@ -103,19 +128,27 @@ __all__ = [
     "__version__",
     "campaign",
     "campaigns",
+    "compensate",
     "default_rig_path",
     "design",
+    "diagnose",
+    "effects",
     "extract",
     "fit",
     "heating",
     "ingest",
+    "inventory",
     "iso9283",
     "load_rig",
     "model",
     "paper",
     "predict",
+    "report",
     "rig",
+    "runs",
+    "signatures",
     "simulate",
+    "stats",
 ]
 
 

@@ -117,7 +117,9 @@ def run_table(
     TypeError
         ``ex`` is not an :class:`~thermrs.Extraction` or ``rig`` not a rig.
     InputError
-        ``temperature`` is neither ``"peak"`` nor ``"max"``.
+        ``temperature`` is neither ``"peak"`` nor ``"max"``, or the extraction holds several
+        runs (one table across them would anchor every run at the first one's start; use
+        :func:`thermrs.runs.load_runs`).
 
     Examples
     --------
@@ -130,6 +132,12 @@ def run_table(
         raise TypeError(
             f"run_table takes a thermrs.Extraction, not {type(ex).__name__} "
             "(for tables use run_table_from, for a file load_run_table)"
+        )
+    if ex.runs.height > 1:
+        # One table across runs would anchor every run's drift at the first one's start.
+        raise InputError(
+            f"the extraction holds {ex.runs.height} runs ({', '.join(ex.runs['run'])}): one "
+            "run table per run, e.g. thermrs.runs.load_runs(path, rig).tables"
         )
     return run_table_from(ex.visits, ex.temperatures, rig, run=run, temperature=temperature)
 

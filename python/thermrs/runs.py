@@ -41,14 +41,17 @@ from thermrs.errors import InputError
 __all__ = [
     "DEFAULT_GAP_FACTOR",
     "DEFAULT_MIN_GAP_S",
+    "PLAUSIBLE_C",
     "RUNS_SCHEMA",
     "RUN_METADATA",
     "RunTables",
+    "check_temperatures",
     "find_runs",
     "label_runs",
     "load_runs",
     "runs_from_gaps",
     "runs_from_markers",
+    "same_runs",
     "split_run_spec",
 ]
 
@@ -219,6 +222,56 @@ def split_run_spec(spec: str | Path) -> tuple[Path, str | None]:
     return Path(path), run
 
 
+#: Temperatures a robot's links or its hall can have (°C); outside them a reading is in other
+#: units (kelvin) or broken.
+PLAUSIBLE_C = (-40.0, 150.0)
+
+
+def check_temperatures(table: pl.DataFrame, where: str) -> None:
+    """Every temperature of a run table within :data:`PLAUSIBLE_C`, or a clear error.
+
+    Raises
+    ------
+    InputError
+        A reading outside −40…150 °C, naming the series, the run and the value (and kelvin
+        where it reads like it).
+    """
+    for c in table.columns:
+        if not c.endswith("_c") or not table[c].dtype.is_numeric():
+            continue
+        x = table[c].drop_nulls().to_numpy().astype(np.float64)
+        x = x[np.isfinite(x)]
+        if not len(x):
+            continue
+        lo, hi = float(x.min()), float(x.max())
+        if lo >= PLAUSIBLE_C[0] and hi <= PLAUSIBLE_C[1]:
+            continue
+        bad = hi if hi > PLAUSIBLE_C[1] else lo
+        kelvin = 233.0 <= bad <= 423.0
+        raise InputError(
+            f"{where}: {c[:-2]} reads {bad:.1f} °C, "
+            f"outside {PLAUSIBLE_C[0]:g}…{PLAUSIBLE_C[1]:g} °C"
+            + (
+                f" (kelvin? {bad:.1f} K is {bad - 273.15:.1f} °C: the recording or the rig's "
+                "thermal scale/offset gives kelvin)"
+                if kelvin
+                else ""
+            )
+        )
+
+
+def same_runs(a: Sequence[pl.DataFrame], b: Sequence[pl.DataFrame]) -> list[tuple[str, str]]:
+    """Pairs (run of ``a``, run of ``b``) whose visits are identical (same cameras, times and
+    spots): one run given twice, e.g. a copy of a training recording as a held-out run."""
+
+    def key(t: pl.DataFrame) -> int:
+        return int(t.select("camera", "t_ns", "u_um", "v_um").hash_rows().sum())
+
+    ka = [(str(t["run"][0]), key(t)) for t in a if t.height]
+    kb = [(str(t["run"][0]), key(t)) for t in b if t.height]
+    return [(na, nb) for na, x in ka for nb, y in kb if x == y]
+
+
 @dataclass(frozen=True)
 class RunTables:
     """The run tables read from one file (:func:`load_runs`).
@@ -233,13 +286,17 @@ class RunTables:
         One run table per selected run (:func:`thermrs.fit.run_table_from`), its ``run``
         column ``<stem>#<run>`` (``<stem>`` alone when the file holds one run).
     data_loss
-        Whether the recording lost data (always False for extracted tables).
+        Whether the recording lost data (for extracted tables: as their metadata records).
+    extraction
+        The extraction of a recording (:class:`thermrs.Extraction`: frames, joints, the
+        report), None for extracted tables.
     """
 
     path: Path
     runs: pl.DataFrame
     tables: list[pl.DataFrame]
     data_loss: bool
+    extraction: Any = None
 
     def describe(self) -> str:
         """One line: the runs found, their source and length, and which were selected."""
@@ -322,8 +379,9 @@ def load_runs(
         raise InputError(f"{path}: no such file")
     st = path.stat()
     key = (path.resolve(), st.st_mtime_ns, st.st_size)
+    ex: Any = None
     if cache is not None and key in cache:
-        visits, temps, runs, loss, stem = cache[key]
+        visits, temps, runs, loss, stem, ex = cache[key]
     elif path.name.endswith(".parquet"):
         from thermrs.ingest import data_loss
 
@@ -345,13 +403,14 @@ def load_runs(
         visits, temps, runs, loss = ex.visits, ex.temperatures, ex.runs, ex.report.data_loss
         stem = path.name[: -len(".mcap")] if path.name.endswith(".mcap") else path.stem
     if cache is not None:
-        cache[key] = (visits, temps, runs, loss, stem)
+        cache[key] = (visits, temps, runs, loss, stem, ex)
     base = name or stem
     if runs.height == 0 or "run" not in visits.columns:
         if wanted is not None:
             raise InputError(f"{spec}: {path} holds no named runs (use it without '#')")
         table = run_table_from(visits, temps, rig, run=base, temperature=temperature)
-        return RunTables(path, runs, [table], loss)
+        check_temperatures(table, str(spec))
+        return RunTables(path, runs, [table], loss, ex)
     names = runs["run"].to_list()
     if wanted is not None and wanted not in names:
         raise InputError(f"{spec}: no run {wanted!r} in {path} (it has {', '.join(names)})")
@@ -362,4 +421,5 @@ def load_runs(
         tt = temps.filter(pl.col("t_ns").is_between(r["start_ns"], r["end_ns"]))
         label = base if runs.height == 1 else f"{base}#{r['run']}"
         tables.append(run_table_from(v, tt, rig, run=label, temperature=temperature))
-    return RunTables(path, runs, tables, loss)
+        check_temperatures(tables[-1], f"{path}#{r['run']}")
+    return RunTables(path, runs, tables, loss, ex)

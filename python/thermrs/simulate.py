@@ -108,6 +108,7 @@ def simulate(
         ) from None
     except OSError as e:
         raise InputError(f"scenario {scenario}: cannot read it ({e.strerror or e})") from None
+    _check_default_nodes(text, scenario, rig)
     tmp = atomic_tmp(out)
     try:
         cols, sc_json = _native.simulate(
@@ -149,3 +150,26 @@ def simulate(
     tmp_json.write_text(json.dumps(doc, indent=2))
     publish(tmp_json, json_path)
     return Simulation(recording=out, frames=frames, samples=samples, scenario=doc)
+
+
+#: The thermal nodes a scenario without ``[[node]]`` gets: the paper rig's calibrated links.
+DEFAULT_NODES = ("link2", "link3", "base")
+
+
+def _check_default_nodes(text: str, scenario: Path, rig: Rig) -> None:
+    """A scenario without ``[[node]]`` on a rig whose ROIs are not the paper rig's: say so in
+    the user's terms (the node names come from the default, not from their file)."""
+    import tomllib
+
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        return  # the core names the line
+    rois = [r.name for r in rig.rois]
+    missing = [n for n in DEFAULT_NODES if n not in rois]
+    if "node" not in doc and missing:
+        raise InputError(
+            f"scenario {scenario}: no [[node]] given, so the paper rig's thermal nodes "
+            f"({', '.join(DEFAULT_NODES)}) are assumed, but rig {Path(rig.source).name} has the "
+            f"ROIs {', '.join(rois) or '(none)'}: add one [[node]] per ROI (docs/scenarios.md)"
+        )

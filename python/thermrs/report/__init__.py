@@ -17,9 +17,9 @@ document :mod:`thermrs.report.document`, figures :mod:`thermrs.report.figures`, 
 
 Example
 -------
->>> from thermrs.report import load_run, write_report  # doctest: +SKIP
+>>> from thermrs.report import load_runs, write_report  # doctest: +SKIP
 >>> rig = thermrs.load_rig()  # doctest: +SKIP
->>> runs = [load_run(p, rig) for p in ("run1.mcap", "run2.mcap", "run3.mcap")]  # doctest: +SKIP
+>>> runs = load_runs("campaign.mcap", rig)  # each run of the file  # doctest: +SKIP
 >>> write_report("report.html", runs=runs, rig=rig)  # doctest: +SKIP
 """
 
@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from thermrs.errors import InputError
-from thermrs.report.data import RunInput, Step, gather, load_run, run_from_extraction
+from thermrs.report.data import RunInput, Step, gather, load_run, load_runs, run_from_extraction
 from thermrs.rig import Rig
 
 __all__ = [
@@ -43,6 +43,7 @@ __all__ = [
     "Written",
     "find_chromium",
     "load_run",
+    "load_runs",
     "print_pdf",
     "run_from_extraction",
     "write_report",
@@ -70,16 +71,9 @@ def _version() -> str:
 
 
 def _atomic_text(path: Path, text: str) -> None:
-    from thermrs.ingest import atomic_tmp, publish
+    from thermrs.atomic import write_text
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = atomic_tmp(path)
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        publish(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    write_text(path, text)
 
 
 def write_report(

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import polars as pl
 
+from thermrs.defaults import ISO_TOLERANCE_UM, ISO_WINDOW
 from thermrs.errors import InputError, ThermrsError
 from thermrs.ingest import Extraction, ExtractReport
 from thermrs.rig import Rig
@@ -38,10 +39,6 @@ __all__ = [
     "load_run",
     "run_from_extraction",
 ]
-
-#: ``thermrs drift``'s defaults.
-ISO_WINDOW = 10
-ISO_TOLERANCE_UM = 1.0
 
 Step = Callable[[str], None]
 
@@ -141,47 +138,118 @@ def _reanchor(visits: pl.DataFrame) -> pl.DataFrame:
     )
 
 
-def load_run(path: str | Path, rig: Rig, *, name: str | None = None) -> RunInput:
-    """A run from a recording (``.mcap``, extracted here) or from the tables ``thermrs
-    extract`` wrote (any of ``OUT.parquet``, ``OUT.visits.parquet``, …)."""
-    from thermrs.fit import load_run_table
+def load_runs(
+    spec: str | Path,
+    rig: Rig,
+    *,
+    name: str | None = None,
+    cache: dict[Any, Any] | None = None,
+) -> list[RunInput]:
+    """The runs of a recording (``.mcap``, extracted here) or of the tables ``thermrs
+    extract`` wrote, one :class:`RunInput` per run, split as every other command splits them
+    (:mod:`thermrs.runs`: run markers, else idle gaps); ``FILE#RUN`` takes one run.
 
-    path = Path(path)
-    if not path.exists():
-        raise InputError(f"{path}: no such file")
+    Parameters
+    ----------
+    spec
+        ``path`` (each of its runs) or ``path#run``.
+    rig
+        The rig it was recorded on.
+    name
+        The base name of the runs (default the file's stem): ``<name>#<run>``, or ``<name>``
+        alone when the file holds one run.
+    cache
+        Files read once serve every run asked of them (see :func:`thermrs.runs.load_runs`).
+
+    Raises
+    ------
+    InputError
+        No such file, no such run, or a run without a visit with a spot.
+    """
+    from thermrs.runs import load_runs as load_run_tables
+    from thermrs.runs import split_run_spec
+
+    path, _ = split_run_spec(spec)
+    rt = load_run_tables(spec, rig, name=name, cache=cache)
+    for t in rt.tables:
+        if t.height == 0:
+            raise InputError(f"{spec}: no visit with a spot")
+    windows: dict[str, tuple[int, int]] = {}
+    for r in rt.runs.iter_rows(named=True):
+        windows[r["run"]] = (int(r["start_ns"]), int(r["end_ns"]))
+
+    def window(table: pl.DataFrame) -> tuple[int, int] | None:
+        label = str(table["run"][0])
+        run = label.rpartition("#")[2] if "#" in label else None
+        if run is None and rt.runs.height == 1:
+            run = str(rt.runs["run"][0])
+        return windows.get(run) if run is not None else None
+
     if not path.name.endswith(".parquet"):
-        from thermrs.ingest import extract
-
-        ex = extract(path, rig)
-        stem = path.name[: -len(".mcap")] if path.name.endswith(".mcap") else path.stem
-        run = run_from_extraction(ex, rig, name=name or stem, source=str(path))
-        if run.table.height == 0:
-            raise InputError(f"{path}: no visit with a spot")
-        return run
-    table, _ = load_run_table(path, rig, run=name)
-    if table.height == 0:
-        raise InputError(f"{path}: no visit with a spot")
+        ex = rt.extraction
+        out = []
+        for t in rt.tables:
+            w = window(t)
+            run = run_from_extraction(
+                ex, rig, name=str(t["run"][0]), source=str(path), window_ns=w,
+                recording=str(path),
+            )  # fmt: skip
+            # The run table as every other command builds it (temperatures of its own run).
+            out.append(RunInput(**{**run.__dict__, "table": t}))
+        return out
     stem = path.name[: -len(".parquet")]
-    for part in (".visits", ".temperatures", ".joints"):
+    for part in (".visits", ".temperatures", ".joints", ".runs"):
         stem = stem.removesuffix(part)
     temps = pl.read_parquet(path.with_name(f"{stem}.temperatures.parquet"))
     jp = path.with_name(f"{stem}.joints.parquet")
     fp = path.with_name(f"{stem}.parquet")
-    joints = pl.scan_parquet(jp).select(pl.len()).collect().item() if jp.exists() else None
-    frames_by_status = None
-    if fp.exists():
-        st = pl.read_parquet(fp, columns=["status"])
-        frames_by_status = {
-            str(k): int(v) for k, v in st.group_by("status").len().sort("status").iter_rows()
-        }
-    return RunInput(
-        name=str(table["run"][0]),
-        table=table,
-        source=str(path),
-        temperatures=temps,
-        joints=joints,
-        frames_by_status=frames_by_status,
-    )
+    joints_t = pl.read_parquet(jp, columns=["t_ns"]) if jp.exists() else None
+    frames = pl.read_parquet(fp, columns=["t_ns", "status"]) if fp.exists() else None
+    out = []
+    for t in rt.tables:
+        w = window(t)
+
+        def cut(df: pl.DataFrame, w: tuple[int, int] | None = w) -> pl.DataFrame:
+            return df if w is None else df.filter(pl.col("t_ns").is_between(*w))
+
+        fbs = None
+        if frames is not None:
+            fbs = {
+                str(k): int(v)
+                for k, v in cut(frames).group_by("status").len().sort("status").iter_rows()
+            }
+        out.append(
+            RunInput(
+                name=str(t["run"][0]),
+                table=t,
+                source=str(path),
+                temperatures=cut(temps),
+                joints=None if joints_t is None else cut(joints_t).height,
+                frames_by_status=fbs,
+                data_loss=rt.data_loss,
+                recording=str(path),
+            )
+        )
+    return out
+
+
+def load_run(path: str | Path, rig: Rig, *, name: str | None = None) -> RunInput:
+    """One run of a recording or of extracted tables (``FILE`` holding one run, or
+    ``FILE#RUN``); see :func:`load_runs`.
+
+    Raises
+    ------
+    InputError
+        No such file, no visit with a spot, or a file of several runs given without ``#RUN``
+        (the runs would be merged into one: use :func:`load_runs`).
+    """
+    runs = load_runs(path, rig, name=name)
+    if len(runs) > 1:
+        raise InputError(
+            f"{path} holds {len(runs)} runs ({', '.join(r.name for r in runs)}): "
+            "take one with FILE#RUN, or all with thermrs.report.load_runs"
+        )
+    return runs[0]
 
 
 @dataclass
@@ -207,6 +275,9 @@ class ReportData:
     diagnosis_note: str | None
     title: str
     paper_reference: bool = False
+    #: With an identified effect: the held-out runs predicted by the nominal model and by the
+    #: diagnosed one (:func:`thermrs.compensate.shrink_table`), else None.
+    diagnosed_prediction: pl.DataFrame | None = None
     notes: list[str] = field(default_factory=list)
 
     def run(self, name: str) -> RunInput:
@@ -290,10 +361,10 @@ def gather(
     step
         Called with a short description before each stage (progress).
     """
-    from thermrs.fit import fit_alpha, fit_alpha_start_end
     from thermrs.heating import heating_curves
     from thermrs.iso9283 import iso9283
     from thermrs.predict import predict, prediction_table
+    from thermrs.workflows import fit_document, training_alphas
 
     def say(what: str) -> None:
         if step is not None:
@@ -325,19 +396,15 @@ def gather(
     fit_note: str | None = None
     in_sample = not ho
     try:
-        f = fit_alpha(tr, rig)
-        fit_doc = f.to_json()
-        start_end = {t["run"][0]: fit_alpha_start_end(t, rig) for t in tr}
-        fit_doc["start_end"] = {run: se.to_json() for run, se in start_end.items()}
-        alphas["series"] = f.alpha_per_k
-        if len(tr) == 1:
-            se = next(iter(start_end.values()))
-            for cam, (a, _) in se.per_camera.items():
-                alphas[cam] = a
-            alphas["mean"] = se.mean[0]
+        result = fit_document(tr, rig)
+        f = result.fit
+        fit_doc = result.to_json()
+        alphas.update(training_alphas(result))
         say("predicting")
         targets = ho if ho else tr
-        prediction = prediction_table(targets, rig, alphas=alphas)
+        # The paper compares drift along its cameras' y axis (v): so does its demo.
+        axis = "v" if paper_reference else "auto"
+        prediction = prediction_table(targets, rig, alphas=alphas, axis=axis)
         series = predict(pl.concat(targets, how="diagonal_relaxed"), rig, alpha_per_k=f.alpha_per_k)
     except InputError as e:
         fit_note = f"α could not be fitted, so nothing was predicted: {e}."
@@ -360,6 +427,16 @@ def gather(
         else:
             say("diagnosing")
             diag, note = _diagnose(tr, ho, rig)
+    diagnosed = None
+    if diag is not None and ho:
+        from thermrs.compensate import diagnosed_model, predict_series, shrink_table
+
+        try:
+            model = diagnosed_model(diagnosis_json(diag), rig)
+        except InputError:  # a diagnosis without the effect's α: nothing to predict with
+            model = None
+        if model is not None and model.effects:
+            diagnosed = shrink_table(predict_series(ho, rig, model))
 
     return ReportData(
         rig=rig,
@@ -379,6 +456,7 @@ def gather(
         table4=table4(runs),
         diagnosis=diag,
         diagnosis_note=note,
+        diagnosed_prediction=diagnosed,
         title=title or f"Thermal drift of {rig.name or rig.model}",
         paper_reference=paper_reference,
     )

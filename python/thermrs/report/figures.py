@@ -106,7 +106,11 @@ def _hours(t_ns: np.ndarray, t0_ns: int) -> np.ndarray:
 
 def _curve_values(row: Mapping[str, Any], t_ns: np.ndarray) -> np.ndarray | None:
     """A heating curve row evaluated at ``t_ns`` (None where it has no fit)."""
+    from thermrs.numbers import tau_determined
+
     y0, a, tau = row.get("y0"), row.get("a"), row.get("tau_min")
+    if not tau_determined(tau, row.get("tau_min_se")):
+        return None  # no heating curve: τ not determined
     t0 = row.get("t_start_ns")
     if y0 is None or t0 is None:
         return None
@@ -192,27 +196,26 @@ def fig_overview(
     temperatures: Sequence[str],
     tcol: Mapping[str, str],
 ) -> str:
-    """Every run on one time axis (hours since the first run's first visit): each camera's
-    drift along chip x (u, solid) and y (v, dotted), anchored at each run's first visit, and
-    the temperatures the model expands with; runs shaded and named."""
-    t0 = min(int(t["t_ns"].min()) for _, t in runs)  # type: ignore[arg-type]
+    """Every run side by side on a broken time axis (hours since each run's first visit; a
+    panel per run, as wide as the run is long): each camera's drift along chip x (u, solid)
+    and y (v, dotted), anchored at the run's first visit, and the temperatures the model
+    expands with. Runs recorded days apart are not slivers of one long axis, and runs that
+    share a clock are not drawn over each other."""
+    spans = []
+    for _, t in runs:
+        lo, hi = int(t["t_ns"].min()), int(t["t_ns"].max())  # type: ignore[arg-type]
+        spans.append(max((hi - lo) / 3.6e12, 1e-3))
     fig = _figure(4.2)
-    axes = fig.subplots(2, 1, sharex=True, height_ratios=[3, 2])
+    axes = fig.subplots(
+        2, len(runs), sharey="row", squeeze=False, height_ratios=[3, 2], width_ratios=spans,
+        gridspec_kw={"wspace": 0.06},
+    )  # fmt: skip
     labelled: set[str] = set()
-    for name, t in runs:
+    for j, (name, t) in enumerate(runs):
         t = t.sort("t_ns")
-        lo, hi = (_hours(np.array([t["t_ns"].min(), t["t_ns"].max()]), t0)).tolist()
-        for ax in axes:
-            ax.axvspan(lo, hi, color="#000000", alpha=0.04, lw=0)
-        axes[0].text(
-            (lo + hi) / 2,
-            1.0,
-            name,
-            transform=axes[0].get_xaxis_transform(),
-            ha="center",
-            va="bottom",
-            fontsize=8,
-        )
+        t0 = int(t["t_ns"].min())  # type: ignore[arg-type]
+        top, bottom = axes[0][j], axes[1][j]
+        top.set_title(name, fontsize=8)
         for cam in colours:
             tc = t.filter(pl.col("camera") == cam)
             if not tc.height:
@@ -222,14 +225,8 @@ def fig_overview(
                 y = tc[f"drift_{axis}_um"].to_numpy().astype(np.float64)
                 xs, ys = _thin(x, y)
                 label = f"camera {cam}, chip {'x' if axis == 'u' else 'y'} ({axis})"
-                axes[0].plot(
-                    xs,
-                    ys,
-                    ls,
-                    lw=1.0,
-                    color=colours[cam],
-                    label=None if label in labelled else label,
-                )
+                top.plot(xs, ys, ls, lw=1.0, color=colours[cam],
+                         label=None if label in labelled else label)  # fmt: skip
                 labelled.add(label)
         per = t.unique("t_ns", keep="first", maintain_order=True)
         x = _hours(per["t_ns"].to_numpy(), t0)
@@ -237,15 +234,28 @@ def fig_overview(
             if f"{n}_c" not in per.columns:
                 continue
             xs, ys = _thin(x, per[f"{n}_c"].to_numpy().astype(np.float64))
-            axes[1].plot(xs, ys, "-", lw=1.0, color=tcol[n], label=None if n in labelled else n)
+            bottom.plot(xs, ys, "-", lw=1.0, color=tcol[n], label=None if n in labelled else n)
             labelled.add(n)
-    axes[0].axhline(0.0, color="black", lw=0.5)
-    axes[0].set_ylabel("drift from the run's\nfirst visit, µm")
-    axes[1].set_ylabel("temperature, °C")
-    axes[1].set_xlabel("time since the first run's first visit, h")
-    for ax in axes:
-        if ax.get_legend_handles_labels()[0]:
-            _legend(ax)
+        top.axhline(0.0, color="black", lw=0.5)
+        top.tick_params(labelbottom=False)
+        for ax in (top, bottom):
+            ax.set_xlim(0, spans[j])
+            if j > 0:  # the break between runs: no spine, no y labels
+                ax.spines["left"].set_linestyle((0, (2, 2)))
+                ax.tick_params(labelleft=False)
+    axes[0][0].set_ylabel("drift from the run's\nfirst visit, µm")
+    axes[1][0].set_ylabel("temperature, °C")
+    fig.supxlabel("hours since each run's first visit (runs side by side, axis broken between)",
+                  fontsize=8)  # fmt: skip
+    for row in axes:  # one legend per row, right of the last run, from every panel
+        handles, labels = [], []
+        for ax in row:
+            h, lab = ax.get_legend_handles_labels()
+            handles += h
+            labels += lab
+        if handles:
+            row[-1].legend(handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                           borderaxespad=0.0)  # fmt: skip
     return _svg(fig)
 
 

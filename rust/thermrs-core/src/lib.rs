@@ -11,6 +11,7 @@
 //! - [`centroid`]: laser-spot detection and sub-pixel centroids on CCD frames;
 //! - [`thermal`]: thermal ROI maxima in °C;
 //! - [`ingest`]: streaming, chunk-parallel MCAP extraction into tables;
+//! - [`inventory`]: what a recording holds, from its summary and indexes (`thermrs info`);
 //! - [`heat`]: the lumped thermal model of the links (warm-up, cool-down, lag);
 //! - [`scenario`]: scenario files, what the simulator makes a rig do;
 //! - [`record`]: a streaming writer of recordings (CDR encoders, MCAP);
@@ -23,6 +24,7 @@ pub mod error;
 pub mod explain;
 pub mod heat;
 pub mod ingest;
+pub mod inventory;
 pub mod kinematics;
 pub mod model;
 pub mod optics;

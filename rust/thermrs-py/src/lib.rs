@@ -27,6 +27,7 @@ use thermrs_core::model::{FlangeOutput, ForwardModel, SPOT_WIDTH};
 use thermrs_core::rig::Rig;
 
 mod effects;
+mod inventory;
 
 mod panic;
 
@@ -596,6 +597,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyRig>()?;
     m.add_class::<PyForwardModel>()?;
     effects::register(m)?;
+    inventory::register(m)?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(extract, m)?)?;
     m.add_function(wrap_pyfunction!(status_names, m)?)?;

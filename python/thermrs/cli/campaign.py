@@ -40,7 +40,7 @@ def extract_campaign(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from thermrs.campaigns import campaign
-    from thermrs.cli import EXIT_BAD_INPUT, EXIT_DATA_LOSS, console, table
+    from thermrs.cli.common import EXIT_BAD_INPUT, EXIT_DATA_LOSS, console, table
 
     err = console(stderr=True)
 
@@ -139,7 +139,7 @@ def campaign_command(
     from thermrs.campaigns import Dataset
     from thermrs.campaigns.page import write_page
     from thermrs.campaigns.summary import alpha_by_run, holdout_by_rule
-    from thermrs.cli import console, table, writable
+    from thermrs.cli.common import console, table, writable
     from thermrs.rig import load_rig
 
     writable(out_path, "-o", suffixes=(".md", ".html"))

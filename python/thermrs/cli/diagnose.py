@@ -8,19 +8,17 @@ from pathlib import Path
 from typing import Any
 
 import click
-from rich.console import Console
 from rich.table import Table
 
-out = Console(highlight=False)
+# The CLI's console: the terminal's width on a terminal; piped, tables are never cut or wrapped.
+from thermrs.cli.common import input_file, out, run_file
+
+#: Visits a camera needs in a run to be diagnosed: one goes to the run's unknown offset.
+MIN_VISITS = 3
 
 
-def _types() -> tuple[click.ParamType, click.ParamType]:  # type: ignore[type-arg]
-    from thermrs.cli import input_file, run_file
-
-    return input_file, run_file
-
-
-input_file, run_file = _types()
+def _pct(x: float | None) -> str:
+    return "—" if x is None else f"{x:.0%}"
 
 
 def _f(x: Any, digits: int = 2) -> str:
@@ -69,7 +67,8 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
         )
     t = Table(title="Where: largest shares of the residual (run, camera, chip axis, phase)")
     for c in ("run", "role", "camera", "axis", "phase", "visits", "rms µm", "share"):
-        t.add_column(c, justify="right" if c in ("visits", "rms µm", "share") else "left")
+        t.add_column(c, justify="right" if c in ("visits", "rms µm", "share") else "left",
+                     overflow="fold")  # fmt: skip
     for r in sorted(doc["location"], key=lambda r: -r["share"])[:8]:
         t.add_row(
             r["run"], r["role"], r["camera"], r["axis"], r["phase"], str(r["n"]),
@@ -87,21 +86,30 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
     t = Table(title="Which: each effect fitted on the training runs, scored on the held-out runs")
     for c in ("effect", "parameters", "held-out rms µm", "shrink", "gain z", "gap closed",
               "placebo rms", "stability", "ok"):  # fmt: skip
-        t.add_column(c, justify="left" if c in ("effect", "parameters") else "right")
+        t.add_column(c, justify="left" if c in ("effect", "parameters") else "right",
+                     overflow="fold")  # fmt: skip
+    from thermrs.numbers import implausible
+
+    beyond = []
     for r in doc["ranking"]:
         e = r["evidence"]
+        why = implausible(r["effect"], r["params"])
+        if why is not None:
+            beyond.append(f"{r['family']}: {why}")
         t.add_row(
             r["family"],
             _params(r["params"]),
             f"{r['holdout_rms_um']:.2f}",
             f"{r['shrink']:.0%}",
             _f(e["gain_z"], 1),
-            "—" if e["gap_closed"] is None else f"{e['gap_closed']:.0%}",
+            "—" if e["gap_closed"] is None else f"{min(e['gap_closed'], 1.0):.0%}",
             _f(e["placebo_holdout_rms_um"]),
             _f(e["stability"]),
-            "yes" if e["qualifies"] else "no",
+            "implausible" if why is not None else "yes" if e["qualifies"] else "no",
         )
     out.print(t)
+    for line in beyond:
+        out.print(f"Implausible, outside the effect's own bounds: {line}")
     for c in doc["confounded"]:
         out.print(
             f"Confounded: {' and '.join(c['families'])} (canonical correlation {c['cos']:.2f}); "
@@ -112,12 +120,15 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
     out.print(f"[bold]Verdict: {v['status']}[/bold] — {v['reason']}")
     if v["effect"]:
         out.print(f"  {v['effect']}: {_params(v['params'])}")
+    from thermrs.numbers import gap_closed
+
     gap = hf["gap_closed"]
+    shown = gap_closed(gap, hf["holdout_rms_after_um"], hf.get("noise_floor_um"))
     out.print(
         f"How far: held-out rms {hf['holdout_rms_before_um']:.2f} → "
         f"{hf['holdout_rms_after_um']:.2f} µm, max {hf['holdout_max_before_um']:.2f} → "
         f"{hf['holdout_max_after_um']:.2f} µm"
-        + ("" if gap is None else f", {gap:.0%} of the gap above the noise floor closed")
+        + ("" if gap is None else f"; the gap above the noise floor closed: {shown}")
     )
 
 
@@ -130,11 +141,11 @@ def render_paper(doc: dict[str, Any]) -> None:
         return ["/".join(f"{values[k]:.0f}" for k in keys if k.startswith(r + "/")) for r in runs]
 
     t = Table(title="Table 4 (drift along chip y, µm, cameras A/B) and the effects that fit it")
-    t.add_column("model", justify="left", ratio=3)
+    t.add_column("model", justify="left", ratio=3, overflow="fold")
     for r in runs:
-        t.add_column(r, justify="right")
-    t.add_column("rms µm", justify="right")
-    t.add_column("possible", justify="right")
+        t.add_column(r, justify="right", overflow="fold")
+    t.add_column("rms µm", justify="right", overflow="fold")
+    t.add_column("possible", justify="right", overflow="fold")
     t.add_row("measured (Table 4)", *per_run(doc["measured_um"]), "", "")
     nom = doc["nominal"]
     t.add_row(
@@ -223,7 +234,7 @@ def diagnose(
 
     Exits 3 (after diagnosing) if part of a recording was lost.
     """
-    from thermrs.cli import EXIT_DATA_LOSS, _run_tables, _write_json, writable
+    from thermrs.cli.common import EXIT_DATA_LOSS, distinct_runs, run_tables, writable, write_json
     from thermrs.errors import InputError
     from thermrs.rig import load_rig
 
@@ -238,7 +249,7 @@ def diagnose(
 
         pdoc = paper_diagnosis(rig=load_rig(rig_path))
         if json_path is not None:
-            _write_json(json_path, pdoc)
+            write_json(json_path, pdoc)
         render_paper(pdoc)
         return
     if rig_path is None:
@@ -253,14 +264,24 @@ def diagnose(
     from thermrs.diagnose import diagnose as run
 
     r = load_rig(rig_path)
-    tt, loss1 = _run_tables(train, r, "--train")
-    th, loss2 = _run_tables(holdout, r, "--holdout")
+    tt, loss1 = run_tables(train, r, "--train")
+    th, loss2 = run_tables(holdout, r, "--holdout")
+    distinct_runs(tt, th)
+    for role, tables in (("--train", tt), ("--holdout", th)):
+        for t in tables:
+            for cam, n in t.group_by("camera").len().sort("camera").iter_rows():
+                if n < MIN_VISITS:
+                    raise InputError(
+                        f"{role} run {t['run'][0]}: camera {cam} has {n} visit(s); a diagnosis "
+                        f"needs at least {MIN_VISITS} per camera and run (each run's unknown "
+                        "mounting takes one)"
+                    )
     with out.status("diagnosing…") as status:
         d = run(tt, th, r, exclude=list(exclude), bootstrap=bootstrap, seed=seed,
                 progress=lambda m: status.update(f"diagnosing: {m}…"))  # fmt: skip
     doc = d.to_json()
     if json_path is not None:
-        _write_json(json_path, doc)
+        write_json(json_path, doc)
     render_diagnosis(doc)
     if loss1 or loss2:
         sys.exit(EXIT_DATA_LOSS)
@@ -353,7 +374,7 @@ def diagnose_bench(
     and effects) with each SPEC §6 effect at target signal-to-noise ratios (and withheld from
     the library), no effect, and two effects at once, in two nuisance worlds: right, false
     `none` and false attributions per world and SNR bin."""
-    from thermrs.cli import _write_json, writable
+    from thermrs.cli.common import writable, write_json
     from thermrs.diagnose.bench import run_bench
 
     writable(json_path, "--json", suffixes=(".json",))
@@ -379,7 +400,7 @@ def diagnose_bench(
             progress=lambda m: status.update(m),
         )
     if json_path is not None:
-        _write_json(json_path, doc)
+        write_json(json_path, doc)
     render_bench(doc)
 
 

@@ -15,7 +15,7 @@ out = Console(highlight=False)
 
 
 def _types() -> tuple[click.ParamType, click.ParamType]:  # type: ignore[type-arg]
-    from thermrs.cli import input_file, run_file
+    from thermrs.cli.common import input_file, run_file
 
     return input_file, run_file
 
@@ -142,7 +142,7 @@ def design(
     again; recommends one only if every truth is identified. Exits 3 (after designing) if
     part of a recording was lost.
     """
-    from thermrs.cli import EXIT_DATA_LOSS, _run_tables
+    from thermrs.cli.common import EXIT_DATA_LOSS, run_tables
     from thermrs.design import design as run
     from thermrs.errors import InputError
     from thermrs.rig import load_rig
@@ -152,8 +152,8 @@ def design(
     if not out_dir.parent.exists():
         raise InputError(f"-o {out_dir}: its parent folder {out_dir.parent} does not exist")
     r = load_rig(rig_path)
-    tt, loss1 = _run_tables(train, r, "--train")
-    th, loss2 = _run_tables(holdout, r, "--holdout")
+    tt, loss1 = run_tables(train, r, "--train")
+    th, loss2 = run_tables(holdout, r, "--holdout")
     with out.status("designing…") as status:
         res = run(tt, th, r, exclude=list(exclude), between=list(between) or None,
                   budget_h=budget_h, seed=seed, prove_it=not no_proof,

@@ -1,6 +1,6 @@
 """``thermrs report``: parse, call :func:`thermrs.report.write_report` (or the demo), show
-progress and what was written. Importing this module registers the command on
-:data:`thermrs.cli.cli`; the report's own modules (and matplotlib) load only when it runs."""
+progress and what was written. The report's own modules (and matplotlib) load only when it
+runs."""
 
 from __future__ import annotations
 
@@ -11,13 +11,13 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from thermrs.cli import EXIT_DATA_LOSS, cli
+from thermrs.cli.common import EXIT_DATA_LOSS, writable
 from thermrs.errors import InputError
 
 __all__ = ["report"]
 
 
-@cli.command()
+@click.command()
 @click.option(
     "--demo",
     is_flag=True,
@@ -36,7 +36,8 @@ __all__ = ["report"]
     "runs",
     multiple=True,
     type=click.Path(path_type=Path),
-    help="Runs: recordings (MCAP) or tables written by `thermrs extract`, one run each.",
+    help="Runs: recordings (MCAP) or tables written by `thermrs extract`; FILE#RUN takes one "
+    "run of a file (FILE alone: each of its runs, split as every command splits them).",
 )
 @click.option(
     "--train",
@@ -96,10 +97,16 @@ def report(
         raise click.UsageError("give --run RUN… (and --rig RIG), or --demo")
     if not demo and rig_path is None:
         raise click.UsageError("give --rig RIG")
+    from thermrs.runs import split_run_spec
+
     for p in (*train, *runs):
-        if not p.exists():
-            raise InputError(f"{p}: no such file")
+        f = split_run_spec(p)[0]
+        if f.is_dir():
+            raise InputError(f"{f}: is a directory, expected a recording (.mcap) or tables")
+        if not f.exists():
+            raise InputError(f"{f}: no such file")
     out = out_path or Path("thermrs-demo-report.html" if demo else "thermrs-report.html")
+    writable(out, "-o")
     t_start = time.perf_counter()
     with Progress(
         TextColumn("[bold]report[/bold] {task.description}"),
@@ -136,24 +143,47 @@ def report(
             res = run_demo(out, workdir=workdir, pdf=pdf, markdown=not no_markdown, progress=stage)
             written = res.written
         else:
-            from thermrs.report import load_run, write_report
+            from thermrs.fit import run_name
+            from thermrs.report import write_report
+            from thermrs.report.data import RunInput, load_runs
             from thermrs.rig import load_rig
+            from thermrs.runs import split_run_spec
 
             assert rig_path is not None
             rig = load_rig(rig_path)
-            paths = list(dict.fromkeys([*train, *runs]))
-            names = [p.name for p in paths]
-            loaded = []
-            for i, p in enumerate(paths):
-                stage(f"reading {p} ({i + 1}/{len(paths)})")
+            specs = list(dict.fromkeys([*train, *runs]))
+            files = [split_run_spec(p)[0] for p in specs]
+            names = [run_name(f) for f in files]
+            loaded: list[RunInput] = []
+            train_names: list[str] = []
+            cache: dict[object, object] = {}
+            for i, (p, f) in enumerate(zip(specs, files, strict=True)):
+                stage(f"reading {p} ({i + 1}/{len(specs)})")
                 # Two files of one name in different folders: name the runs by their paths.
-                name = str(p) if names.count(p.name) > 1 else None
-                r = load_run(p, rig, name=name)
-                if r.data_loss:
-                    err.print(f"thermrs: warning: {p}: part of the recording was lost")
-                loss |= r.data_loss
-                loaded.append(r)
-            train_names = [r.name for r, p in zip(loaded, paths, strict=True) if p in train]
+                same = any(n == names[i] and g != f for n, g in zip(names, files, strict=True))
+                got = load_runs(p, rig, name=str(f) if same else None, cache=cache)
+                click.echo(
+                    f"thermrs: {'--train' if p in train else '--run'} {p}: "
+                    f"{len(got)} run{'s' * (len(got) != 1)}: {', '.join(r.name for r in got)}",
+                    err=True,
+                )
+                if any(r.data_loss for r in got) and (f not in files[:i]):
+                    err.print(f"thermrs: warning: {f}: part of the recording was lost")
+                loss |= any(r.data_loss for r in got)
+                for r in got:
+                    if r.name in {x.name for x in loaded}:
+                        continue
+                    loaded.append(r)
+                    if p in train:
+                        train_names.append(r.name)
+            if train_names:
+                from thermrs.cli.common import distinct_runs
+
+                distinct_runs(
+                    [r.table for r in loaded if r.name in train_names],
+                    [r.table for r in loaded if r.name not in train_names],
+                    "--run",
+                )
             written = write_report(
                 out,
                 runs=loaded,

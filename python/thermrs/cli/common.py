@@ -1,0 +1,289 @@
+"""What every command shares: the console and tables, option types, output checks and
+writers, and run tables read from recordings or extracted tables (``FILE`` or ``FILE#RUN``).
+
+Start-up is kept short (``thermrs --help``): numpy, polars, scipy, rich and the Rust
+extension are imported inside the functions that need them, never at module level.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import click
+
+from thermrs.atomic import write_csv, write_json
+from thermrs.defaults import VISIT_TOLERANCE_DEG
+from thermrs.errors import InputError, ThermrsError
+
+if TYPE_CHECKING:  # pragma: no cover
+    import polars as pl
+    from rich.console import Console
+    from rich.table import Table
+
+    from thermrs.rig import Rig
+
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_DATA_LOSS = 0, 1, 2, 3
+EXIT_INTERRUPTED = 130
+
+#: The joint tolerance of a visit (°); the same as :data:`thermrs.visits.DEFAULT_TOLERANCE_DEG`
+#: (a test checks), from :mod:`thermrs.defaults` so that ``thermrs --help`` need not import polars.
+__all__ = [
+    "TRAIN_HELP",
+    "VISIT_TOLERANCE_DEG",
+    "AlphaType",
+    "console",
+    "distinct_runs",
+    "fmt",
+    "input_file",
+    "out",
+    "out_option",
+    "radians_hint",
+    "rig_option",
+    "run_file",
+    "run_tables",
+    "runs_option",
+    "table",
+    "writable",
+    "write_csv",
+    "write_json",
+]
+
+
+def console(*, stderr: bool = False) -> Console:
+    """A rich console on stdout (or stderr). On a terminal it takes the terminal's width (or
+    ``COLUMNS``); piped into a file or another program it never cuts or wraps a table."""
+    from rich.console import Console
+
+    stream = sys.stderr if stderr else sys.stdout
+    width = None
+    if not os.environ.get("COLUMNS", "").isdigit() and not stream.isatty():
+        width = 100_000
+    return Console(stderr=stderr, highlight=False, width=width, soft_wrap=width is not None)
+
+
+class _LazyConsole:
+    """The stdout console, made on first use (rich is not imported for ``--help``)."""
+
+    _console: Console | None = None
+
+    def __getattr__(self, name: str) -> Any:
+        if self._console is None:
+            self._console = console()
+        return getattr(self._console, name)
+
+
+out: Any = _LazyConsole()
+
+
+def table(title: str, columns: Sequence[tuple[str, str]], *, caption: str | None = None) -> Table:
+    """A table whose cells fold rather than being cut at a narrow terminal: headers keep
+    their words whole (each column at least as wide as its header's longest word) and long
+    cells (run names, paths) wrap onto a second line instead of ending in "…".
+
+    ``columns`` are ``(header, justify)`` pairs, ``justify`` one of ``left``, ``right``.
+    """
+    from rich.table import Table
+
+    t = Table(title=title, caption=caption, title_justify="left", caption_justify="left")
+    for name, justify in columns:
+        longest = max((len(w) for w in name.split()), default=0)
+        t.add_column(name, justify=justify, overflow="fold", min_width=longest)  # type: ignore[arg-type]
+    return t
+
+
+#: An input file that must exist and be a file (not a folder): a usage error otherwise.
+input_file = click.Path(exists=True, dir_okay=False, readable=True, path_type=Path)
+
+
+class RunFileType(click.ParamType):  # type: ignore[type-arg]
+    """A run: a recording or extracted tables, optionally ``FILE#RUN`` (one run of the file);
+    the file must exist and not be a folder."""
+
+    name = "RUN"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        text = str(value)
+        path = Path(text)
+        if "#" in text and not path.exists():
+            path = Path(text.rpartition("#")[0])
+        if path.is_dir():
+            self.fail(f"{path}: is a directory, expected a recording (.mcap) or tables", param, ctx)
+        if not path.exists():
+            self.fail(f"{str(path)!r} does not exist.", param, ctx)
+        return Path(text)
+
+
+#: ``FILE`` or ``FILE#RUN`` of a recording or extracted tables.
+run_file = RunFileType()
+
+#: ``--rig RIG``, shared by the commands that read recordings.
+rig_option = click.option(
+    "--rig", "rig_path", required=True, type=input_file, help="Rig file (TOML, SPEC §3)."
+)
+
+
+def out_option(what: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """``-o/--out PATH`` with its help text."""
+    return click.option(
+        "-o", "--out", "out_path", required=True, type=click.Path(path_type=Path), help=what
+    )
+
+
+def writable(path: Path | None, option: str, *, suffixes: Sequence[str] = ()) -> None:
+    """Check before any work that an output can be written (its folder exists and takes a
+    new file; it is not a folder) and, with ``suffixes``, that its name says its format.
+
+    Raises
+    ------
+    InputError
+        One line naming the option, the path and what is wrong.
+    """
+    if path is None:
+        return
+    from thermrs.ingest import check_writable
+
+    if path.is_dir():
+        raise InputError(f"{option} {path}: is a directory, expected a file name")
+    if suffixes and not any(path.name.endswith(s) for s in suffixes):
+        raise InputError(
+            f"{option} {path}: the name must end in {' or '.join(suffixes)} (the format written)"
+        )
+    check_writable(path, what=option)
+
+
+class AlphaType(click.ParamType):  # type: ignore[type-arg]
+    """An expansion coefficient (1/K): a number (``2.32e-05``, ``23.2e-6``) or one with an SI
+    prefix for ×10⁻⁶ (``23.2u``, ``23.2µ``, ``23.2ppm``); positive and below 10⁻³ /K."""
+
+    name = "ALPHA"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, float):
+            return value
+        text = str(value).strip().removesuffix("/K").removesuffix("/k").strip()
+        scale = 1.0
+        for suffix in ("ppm", "µ", "μ", "u"):
+            if text.endswith(suffix):
+                text, scale = text[: -len(suffix)].strip(), 1e-6
+                break
+        try:
+            a = float(text) * scale
+        except ValueError:
+            self.fail(
+                f"{value!r} is not a number; write α per kelvin as 23.2e-6 or 23.2u", param, ctx
+            )
+        from thermrs.predict import check_alpha
+
+        try:
+            return check_alpha(a, what="α", positive=True)
+        except ThermrsError as e:
+            msg = str(e)
+            if "write" in msg:
+                msg += f" or {a:g}u"
+            self.fail(msg, param, ctx)
+
+
+def fmt(x: float | None, digits: int = 2) -> str:
+    from thermrs.numbers import fmt
+
+    return fmt(x, digits)
+
+
+#: Files read by this process's command, by path: `predict --train rec#run1 --run rec#run2`
+#: extracts `rec` once.
+_FILES: dict[Any, Any] = {}
+
+
+def run_tables(paths: tuple[Path, ...], rig: Rig, what: str) -> tuple[list[pl.DataFrame], bool]:
+    """Run tables of recordings or extracted tables (``FILE`` or ``FILE#RUN``), and whether
+    any recording lost data (for extracted tables: as their Parquet metadata records); lists
+    the runs found in each file on stderr."""
+    from thermrs.fit import run_name
+    from thermrs.runs import load_runs, split_run_spec
+
+    seen: set[str] = set()
+    for p in paths:
+        key = f"{split_run_spec(p)[0].resolve()}#{split_run_spec(p)[1]}"
+        if key in seen:
+            raise InputError(f"{what} {p}: given twice")
+        seen.add(key)
+    tables, loss = [], False
+    names = [run_name(split_run_spec(p)[0]) for p in paths]
+    for p, name in zip(paths, names, strict=True):
+        # Two runs of one name (r30.mcap and r30.parquet, or one name in two folders): name
+        # the runs by the paths given, so that no two share a key.
+        base = split_run_spec(p)[0]
+        same = sum(
+            1
+            for q, n in zip(paths, names, strict=True)
+            if n == name and split_run_spec(q)[0] != base
+        )
+        rt = load_runs(p, rig, name=str(base) if same else None, cache=_FILES)
+        click.echo(f"thermrs: {what} {rt.describe()}", err=True)
+        for t in rt.tables:
+            if t.height == 0:
+                raise InputError(f"{what} {p}: no visit with a spot" + radians_hint(rig))
+        if rt.data_loss:
+            click.echo(
+                f"thermrs: data loss: {p}: part of the recording was lost "
+                "(see `thermrs extract` for what); results use what was intact",
+                err=True,
+            )
+        tables.extend(rt.tables)
+        loss |= rt.data_loss
+    return tables, loss
+
+
+def radians_hint(rig: Rig) -> str:
+    """Why no visit may have matched: poses given in radians where degrees are expected."""
+    import math
+
+    small = [p.name for p in rig.poses.values() if all(abs(q) <= 2 * math.pi for q in p.joints_deg)]
+    if small and len(small) == len(rig.poses):
+        return (
+            f" (rig {Path(rig.source).name}: every pose's joints_deg lies within ±2π, like "
+            "radians; poses are in degrees, as the controller reports them)"
+        )
+    return ""
+
+
+def distinct_runs(
+    train: Sequence[pl.DataFrame], held: Sequence[pl.DataFrame], what: str = "--holdout"
+) -> None:
+    """A held-out run must not be a training run again (a copy of its recording, say).
+
+    Raises
+    ------
+    InputError
+        One line naming both runs.
+    """
+    from thermrs.runs import same_runs
+
+    for a, b in same_runs(train, held):
+        raise InputError(
+            f"{what} run {b} is identical to training run {a} (same visits, times and spots): "
+            "a held-out run must be another run"
+        )
+
+
+def runs_option(what: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """``--run RUN…`` (required, several), with its help text."""
+    return click.option(
+        "--run",
+        "runs",
+        required=True,
+        multiple=True,
+        type=run_file,
+        help=f"{what}: recordings (MCAP) or tables written by `thermrs extract`; FILE#RUN "
+        "takes one run of a file (FILE alone: each of its runs).",
+    )
+
+
+TRAIN_HELP = (
+    "Training runs: recordings (MCAP) or tables written by `thermrs extract` (--train A B or "
+    "--train A --train B); FILE#RUN takes one run of a file (FILE alone: each of its runs)."
+)

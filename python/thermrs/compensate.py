@@ -1,0 +1,412 @@
+"""The diagnosed model put to use: predict drift with α *and* the effect a diagnosis
+identified, and export it as a compensation law a robot controller or a CMM program applies.
+
+A diagnosis (``thermrs diagnose --json``, SPEC §7) names an effect with its parameters and the
+α fitted together with it (its ``ranking`` row), and promises a held-out shrink: 1 − RMS with
+the effect / RMS of the nominal model. :func:`load_diagnosis` reads that into a
+:class:`DiagnosedModel`; :func:`predict_series` predicts every visit of run tables with the
+nominal model and with the diagnosed one (the same evaluation the diagnoser uses,
+:class:`thermrs.signatures.VisitSet`, so a lag or a chip effect acts on the time axis of the
+run), and :func:`shrink_table` compares both with the measurement per run and camera (each
+(run, camera, axis) series' mean removed: a mounting offset is unknown, SPEC §4).
+
+The compensation law (:func:`compensation_law`)
+    Per camera pose and chip axis, the drift as a linear function of the measured
+    temperatures: ``drift = Σ_T c_T · (T − reference_c)`` (µm), the coefficients being the
+    forward model's slopes with the diagnosed α and geometric effects (secants over
+    ``reference_c … reference_c + span_k``; :attr:`CompensationLaw.linearity_um` is the largest
+    departure of the full model from the line over that span), a ``fixture_drift`` as its own
+    ambient slope, a ``sensor_drift`` as an amplitude with its time constant and a
+    ``thermal_lag`` as the time constant by which the structure lags the measured surface (a
+    controller filters the temperatures with it first). Each coefficient carries a 95 %
+    interval: α's interval (the nominal fit's relative interval, applied to the diagnosed α)
+    and the effect parameter's (``params_ci95``) propagated through the slope; ``residual_um``
+    is the held-out RMS left after the effect (the diagnosis' ``how_far``), the uncertainty of
+    one compensated pose.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from thermrs.effects import Effect, from_dict
+from thermrs.errors import InputError
+from thermrs.model import ForwardModel
+from thermrs.rig import Rig, as_rig
+
+__all__ = [
+    "CompensationLaw",
+    "DiagnosedModel",
+    "compensation_law",
+    "diagnosed_model",
+    "load_diagnosis",
+    "predict_series",
+    "shrink_table",
+]
+
+#: Effects that act on the chip or the time axis, not on the geometry at one instant.
+_TIME_EFFECTS = ("thermal_lag", "sensor_drift", "fixture_drift")
+
+
+@dataclass(frozen=True)
+class DiagnosedModel:
+    """What a diagnosis says to predict with (see :func:`load_diagnosis`)."""
+
+    status: str
+    nominal_alpha_per_k: float
+    nominal_alpha_ci95: tuple[float, float]
+    alpha_per_k: float
+    effects: tuple[Effect, ...]
+    params_ci95: dict[str, Any] = field(default_factory=dict)
+    promised_shrink: float | None = None
+    holdout_rms_before_um: float | None = None
+    holdout_rms_after_um: float | None = None
+    note: str = ""
+
+    @property
+    def alpha_ci95(self) -> tuple[float, float]:
+        """α's 95 % interval: the nominal fit's relative interval around the diagnosed α."""
+        lo, hi = self.nominal_alpha_ci95
+        a0 = self.nominal_alpha_per_k
+        if not (np.isfinite(lo) and np.isfinite(hi)) or a0 == 0:
+            return (float("nan"), float("nan"))
+        return (self.alpha_per_k * lo / a0, self.alpha_per_k * hi / a0)
+
+
+def load_diagnosis(path: str | os.PathLike[str], rig: Rig | None = None) -> DiagnosedModel:
+    """Read a ``thermrs diagnose --json`` document into the model it identified.
+
+    ``identified`` and ``ambiguous`` verdicts give the verdict's effect with the α fitted
+    together with it (its ``ranking`` row); ``none`` and ``unexplained`` give the nominal
+    model (no effect), said in :attr:`DiagnosedModel.note`.
+
+    Raises
+    ------
+    InputError
+        No such file, not JSON, not a diagnosis (the missing key named), or an effect that
+        does not fit the rig.
+    """
+    p = Path(path)
+    what = f"--diagnosis {p}"
+    try:
+        doc = json.loads(p.read_text())
+    except FileNotFoundError:
+        raise InputError(f"{what}: no such file") from None
+    except (OSError, UnicodeDecodeError, ValueError) as e:
+        raise InputError(f"{what}: not a `thermrs diagnose --json` file ({e})") from None
+    return diagnosed_model(doc, rig, what=what)
+
+
+def diagnosed_model(
+    doc: Any, rig: Rig | None = None, *, what: str = "the diagnosis"
+) -> DiagnosedModel:
+    """The model a diagnosis document (``Diagnosis.to_json()``) identified; see
+    :func:`load_diagnosis`."""
+    if not isinstance(doc, dict):
+        raise InputError(f"{what}: not a `thermrs diagnose --json` document")
+    try:
+        verdict = doc["verdict"]
+        status = str(verdict["status"])
+        base = doc["baseline"]["alpha_per_k"]
+        a0 = float(base["value"])
+        ci = tuple(float(x) for x in base.get("ci95", [np.nan, np.nan]))
+        how = doc.get("how_far", {})
+    except (KeyError, TypeError, ValueError) as e:
+        raise InputError(f"{what}: not a `thermrs diagnose --json` file (no {e})") from None
+    model = DiagnosedModel(
+        status=status,
+        nominal_alpha_per_k=a0,
+        nominal_alpha_ci95=(ci[0], ci[1]),
+        alpha_per_k=a0,
+        effects=(),
+        holdout_rms_before_um=how.get("holdout_rms_before_um"),
+    )
+    name = verdict.get("effect")
+    if status not in ("identified", "ambiguous") or not name:
+        return replace(
+            model,
+            promised_shrink=0.0,
+            holdout_rms_after_um=how.get("holdout_rms_before_um"),
+            note=f"the diagnosis is {status!r}: no effect to add, the nominal model is used",
+        )
+    params = dict(verdict.get("params", {}))
+    effect = from_dict({"name": name, **params}, rig=rig)
+    row = next(
+        (
+            r
+            for r in doc.get("ranking", [])
+            if r.get("effect") == name and r.get("params") == params
+        ),
+        None,
+    )
+    if row is None or not isinstance(row.get("alpha_per_k"), int | float):
+        raise InputError(f"{what}: the verdict's effect {name} has no ranking row with its α")
+    before, after = how.get("holdout_rms_before_um"), verdict.get("holdout_rms_um")
+    shrink = 1.0 - after / before if before and after is not None else None
+    note = ""
+    if status == "ambiguous":
+        rivals = ", ".join(verdict.get("confounded_with", []))
+        note = f"ambiguous: {rivals} explain the held-out runs about as well as {name}"
+    return replace(
+        model,
+        alpha_per_k=float(row["alpha_per_k"]),
+        effects=(effect,),
+        params_ci95=dict(verdict.get("params_ci95", {})),
+        promised_shrink=shrink,
+        holdout_rms_after_um=after,
+        note=note,
+    )
+
+
+def predict_series(
+    tables: Sequence[pl.DataFrame], rig: Rig | str | os.PathLike[str], model: DiagnosedModel
+) -> pl.DataFrame:
+    """Every visit's drift, measured, predicted by the nominal model (the diagnosis' baseline
+    α) and by the diagnosed one (α and the effect), anchored at the camera's first visit of
+    its run, both chip axes.
+
+    Returns
+    -------
+    polars.DataFrame
+        ``run``, ``camera``, ``visit``, ``t_ns``, then per axis ``a`` in (u, v):
+        ``measured_a_um``, ``nominal_a_um``, ``diagnosed_a_um``.
+    """
+    from thermrs.signatures import VisitSet
+
+    r = as_rig(rig)
+    vs = VisitSet(list(tables), r)
+    nominal = vs.positions(alpha_per_k=model.nominal_alpha_per_k)
+    diagnosed = vs.positions(effects=list(model.effects), alpha_per_k=model.alpha_per_k)
+    n = vs.n
+    first = np.empty(n, dtype=np.int64)
+    for g in vs.groups:
+        first[g] = g[0]
+
+    def anchored(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        u, v = x[:n], x[n:]
+        return u - u[first], v - v[first]
+
+    mu, mv = anchored(vs.y)
+    nu, nv = anchored(nominal)
+    du, dv = anchored(diagnosed)
+    return vs.table.select("run", "camera", "visit", "t_ns").with_columns(
+        measured_u_um=pl.Series(mu),
+        measured_v_um=pl.Series(mv),
+        nominal_u_um=pl.Series(nu),
+        nominal_v_um=pl.Series(nv),
+        diagnosed_u_um=pl.Series(du),
+        diagnosed_v_um=pl.Series(dv),
+    )
+
+
+def shrink_table(series: pl.DataFrame) -> pl.DataFrame:
+    """Per run and camera (and ``all``): the RMS of measured − predicted with each (run,
+    camera, axis) series' mean removed, nominal and diagnosed, both axes, and the shrink
+    1 − diagnosed / nominal."""
+    rows = []
+    keys = [*series.select("run", "camera").unique(maintain_order=True).iter_rows(), None]
+    for key in keys:
+        g = series if key is None else series.filter(
+            (pl.col("run") == key[0]) & (pl.col("camera") == key[1])
+        )  # fmt: skip
+        res: dict[str, list[np.ndarray]] = {"nominal": [], "diagnosed": []}
+        for (_, _), h in g.group_by(["run", "camera"], maintain_order=True):
+            for a in "uv":
+                m = h[f"measured_{a}_um"].to_numpy()
+                for k in res:
+                    d = m - h[f"{k}_{a}_um"].to_numpy()
+                    d = d[np.isfinite(d)]
+                    res[k].append(d - d.mean())
+        rms = {k: float(np.sqrt(np.mean(np.concatenate(v) ** 2))) for k, v in res.items()}
+        rows.append(
+            {
+                "run": "all" if key is None else key[0],
+                "camera": "all" if key is None else key[1],
+                "nominal_rms_um": rms["nominal"],
+                "diagnosed_rms_um": rms["diagnosed"],
+                "shrink": 1.0 - rms["diagnosed"] / rms["nominal"] if rms["nominal"] > 0 else 0.0,
+                "n_visits": g.height,
+            }
+        )
+    return pl.DataFrame(rows)
+
+
+@dataclass(frozen=True)
+class CompensationLaw:
+    """The compensation law (see the module docstring): one row per camera, axis and term."""
+
+    table: pl.DataFrame
+    reference_c: float
+    span_k: float
+    linearity_um: float
+    residual_um: float | None
+    model: DiagnosedModel
+
+    def to_json(self) -> dict[str, Any]:
+        """The document ``thermrs compensate -o comp.json`` writes."""
+        m = self.model
+        return {
+            "law": "drift_um = sum over temperature terms of coefficient * (T - reference_c); "
+            "chip terms as stated per row",
+            "reference_c": self.reference_c,
+            "span_k": self.span_k,
+            "linearity_um": self.linearity_um,
+            "residual_um": self.residual_um,
+            "alpha_per_k": m.alpha_per_k,
+            "alpha_ci95": list(m.alpha_ci95),
+            "effects": [e.to_dict() for e in m.effects],
+            "diagnosis": {
+                "status": m.status,
+                "promised_shrink": m.promised_shrink,
+                "holdout_rms_before_um": m.holdout_rms_before_um,
+                "holdout_rms_after_um": m.holdout_rms_after_um,
+                "note": m.note,
+            },
+            "terms": self.table.to_dicts(),
+        }
+
+
+def _spot(model: ForwardModel, rig: Rig, cam: str, temps: dict[str, np.ndarray]) -> np.ndarray:
+    s = model.spots(cam, rig.camera_pose(cam).joints_rad, temperatures=temps)
+    return np.stack([s.u_um, s.v_um])
+
+
+def _slopes(
+    rig: Rig, alpha: float, effects: Sequence[Effect], ref: float, steps: np.ndarray
+) -> tuple[dict[tuple[str, str], np.ndarray], float]:
+    """Per (camera, temperature): the secant slope (u, v) in µm/K over ``steps`` above
+    ``ref``, the others held at ``ref``; and the largest departure from the secant (µm)."""
+    fm = ForwardModel(rig, alpha_per_k=alpha, effects=list(effects))
+    names = fm.temperature_names
+    out: dict[tuple[str, str], np.ndarray] = {}
+    worst = 0.0
+    for cam in rig.cameras:
+        at_ref = _spot(fm, rig, cam.name, {n: np.full(1, ref) for n in names})[:, 0]
+        for name in names:
+            temps = {n: np.full(len(steps), ref) for n in names}
+            temps[name] = ref + steps
+            path = _spot(fm, rig, cam.name, temps) - at_ref[:, None]
+            slope = path[:, -1] / steps[-1]
+            worst = max(worst, float(np.max(np.abs(path - slope[:, None] * steps[None, :]))))
+            if np.any(slope != 0):
+                out[(cam.name, name)] = slope
+    return out, worst
+
+
+def _param_corners(effects: Sequence[Effect], ci: dict[str, Any]) -> list[list[Effect]]:
+    """The effects with each scalar parameter that has an interval at its two ends."""
+    variants: list[list[Effect]] = [list(effects)]
+    for i, e in enumerate(effects):
+        for key, c in ci.items():
+            if key in e.to_dict() and isinstance(e.to_dict()[key], (int, float)) and len(c) == 2:
+                variants = [
+                    [*v[:i], replace(v[i], **{key: float(end)}), *v[i + 1 :]]
+                    for v in variants
+                    for end in c
+                ]
+    return variants
+
+
+def compensation_law(
+    rig: Rig | str | os.PathLike[str], model: DiagnosedModel, *, span_k: float = 20.0
+) -> CompensationLaw:
+    """The compensation law of a diagnosed model on ``rig`` (see the module docstring).
+
+    Parameters
+    ----------
+    rig
+        The rig (its cameras' taught poses, its reference temperature).
+    model
+        The diagnosed model (:func:`load_diagnosis`).
+    span_k
+        The temperature rise above ``reference_c`` over which the slopes are secants and
+        the linearity is checked.
+
+    Returns
+    -------
+    CompensationLaw
+        ``table``: ``camera``, ``pose``, ``axis``, ``term``, ``unit``, ``coefficient``,
+        ``ci95_low``, ``ci95_high``.
+    """
+    r = as_rig(rig)
+    if not span_k > 0:
+        raise InputError(f"span_k must be > 0, got {span_k}")
+    geometric = [e for e in model.effects if e.name not in _TIME_EFFECTS]
+    ref = r.reference_c
+    steps = np.linspace(0.0, span_k, 21)
+    slopes, worst = _slopes(r, model.alpha_per_k, geometric, ref, steps)
+    # The interval: the slopes at the corners of α's interval and each geometric effect's
+    # scalar parameter's interval.
+    corners = []
+    for a in model.alpha_ci95:
+        for variant in _param_corners(geometric, model.params_ci95):
+            if np.isfinite(a):
+                corners.append(_slopes(r, a, variant, ref, steps)[0])
+    rows: list[dict[str, Any]] = []
+    for (cam, name), slope in slopes.items():
+        pose = r.camera(cam).pose
+        for k, axis in enumerate("uv"):
+            ends = [c[(cam, name)][k] for c in corners]
+            lo, hi = (min(ends), max(ends)) if ends else (float("nan"), float("nan"))
+            rows.append(
+                {"camera": cam, "pose": pose, "axis": axis,
+                 "term": f"{name} (T - reference_c)", "unit": "um/K",
+                 "coefficient": float(slope[k]), "ci95_low": lo, "ci95_high": hi}
+            )  # fmt: skip
+    for c in r.cameras:
+        for e in model.effects:
+            rows += _chip_rows(e, c.name, c.pose, model.params_ci95)
+    table = pl.DataFrame(rows).filter(
+        (pl.col("coefficient") != 0) | ~pl.col("term").str.contains("reference_c")
+    )
+    return CompensationLaw(
+        table=table,
+        reference_c=ref,
+        span_k=span_k,
+        linearity_um=worst,
+        residual_um=model.holdout_rms_after_um,
+        model=model,
+    )
+
+
+def _chip_rows(e: Effect, cam: str, pose: str, ci: dict[str, Any]) -> list[dict[str, Any]]:
+    """Rows of the effects that act on the chip or the time axis."""
+    d = e.to_dict()
+    rows: list[dict[str, Any]] = []
+
+    def row(axis: str, term: str, unit: str, v: float, lo: float, hi: float) -> None:
+        rows.append(
+            {"camera": cam, "pose": pose, "axis": axis, "term": term, "unit": unit,
+             "coefficient": float(v), "ci95_low": float(lo), "ci95_high": float(hi)}
+        )  # fmt: skip
+
+    def interval(key: str, k: int | None, v: float) -> tuple[float, float]:
+        c = ci.get(key)
+        if c is None:
+            return (float("nan"), float("nan"))
+        c = c[k] if k is not None else c
+        return (float(c[0]), float(c[1]))
+
+    if e.name == "thermal_lag":
+        for axis in "uv":
+            row(axis, "structure lag (filter every T first: dT_s/dt = (T - T_s)/tau)", "min",
+                d["tau_min"], *interval("tau_min", None, d["tau_min"]))  # fmt: skip
+    elif e.name == "fixture_drift" and d["camera"] == cam:
+        for k, axis in enumerate("uv"):
+            v = d["um_per_k"][k]
+            row(axis, "ambient (T - reference_c), chip mount", "um/K", v,
+                *interval("um_per_k", k, v))  # fmt: skip
+    elif e.name == "sensor_drift" and d["camera"] == cam:
+        for k, axis in enumerate("uv"):
+            v = d["um"][k]
+            row(axis, f"chip self-drift um * (1 - exp(-t_run / {d['tau_min']:.4g} min))", "um",
+                v, *interval("um", k, v))  # fmt: skip
+    return rows

@@ -1,0 +1,294 @@
+"""What a recording holds (``thermrs info``), read from its summary and indexes.
+
+No message is decoded: the MCAP summary gives the channels, their message counts, the time
+span, the chunks and the Metadata records (run markers among them); the message indexes give
+the log times of the CCD topics, from which runs are split at idle gaps when the recording has
+no run markers (as :mod:`thermrs.runs` does from the visits; here each burst of one camera's
+frames stands for a visit, and log times stand for header stamps). A recording without a
+summary (cut short, or written without one) is walked record by record with its chunks left
+compressed (see the Rust ``inventory`` module); what could not be read is listed in
+``losses``.
+
+Example
+-------
+>>> import thermrs
+>>> inv = thermrs.inventory.inventory("rec.mcap", rig=thermrs.load_rig())  # doctest: +SKIP
+>>> inv.runs.select("run", "start_ns", "end_ns", "source")  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from thermrs import _native
+from thermrs.errors import InputError
+from thermrs.rig import Rig, as_rig
+from thermrs.runs import (
+    DEFAULT_GAP_FACTOR,
+    DEFAULT_MIN_GAP_S,
+    RUNS_SCHEMA,
+    find_runs,
+)
+
+__all__ = ["Inventory", "inventory"]
+
+#: Frames of one camera belong to one visit (a burst at the pose) when the spacings between
+#: frames are bimodal by at least this factor (within visits and between them).
+BURST_FACTOR = 10.0
+
+
+@dataclass(frozen=True)
+class Inventory:
+    """What a recording holds.
+
+    Attributes
+    ----------
+    path
+        The recording.
+    bytes
+        Its size.
+    from_summary
+        Whether it was read from its summary section (False: walked record by record).
+    start_ns, end_ns
+        Log times of its first and last message (None without messages).
+    chunks, compression
+        How many chunks, and the compressions they use.
+    messages
+        Messages in all.
+    topics
+        One row per channel: ``topic``, ``schema``, ``encoding``, ``messages``, ``role``
+        (what the rig maps it to, e.g. ``camera A``; empty without a rig or for a topic the
+        rig does not read).
+    runs
+        ``run``, ``start_ns``, ``end_ns``, ``source`` (``marker`` or ``gap``), ``visits``.
+    cameras
+        With a rig: per camera ``camera``, ``topic``, ``pose``, ``frames`` in the file.
+    rois
+        With a rig: per thermal ROI ``roi``, ``rect_px``, ``drives`` (the DH lengths it
+        expands); ``thermal_frames`` and ``ambient_readings`` give the file's counts.
+    losses
+        What could not be read, one line each.
+    metadata
+        The Metadata records (``name``, ``values``).
+    """
+
+    path: Path
+    bytes: int
+    from_summary: bool
+    profile: str
+    library: str
+    start_ns: int | None
+    end_ns: int | None
+    chunks: int
+    compression: list[str]
+    messages: int
+    topics: pl.DataFrame
+    runs: pl.DataFrame
+    cameras: pl.DataFrame | None
+    rois: pl.DataFrame | None
+    thermal_frames: int | None
+    ambient_readings: int | None
+    joint_states: int | None
+    losses: list[str]
+    metadata: list[dict[str, Any]]
+
+    @property
+    def duration_s(self) -> float:
+        """Seconds from the first to the last message (0 without messages)."""
+        if self.start_ns is None or self.end_ns is None:
+            return 0.0
+        return (self.end_ns - self.start_ns) / 1e9
+
+    def to_json(self) -> dict[str, Any]:
+        """Everything above as JSON-ready values (``thermrs info --json``)."""
+        return {
+            "path": str(self.path),
+            "bytes": self.bytes,
+            "from_summary": self.from_summary,
+            "profile": self.profile,
+            "library": self.library,
+            "start_ns": self.start_ns,
+            "end_ns": self.end_ns,
+            "duration_s": self.duration_s,
+            "chunks": self.chunks,
+            "compression": self.compression,
+            "messages": self.messages,
+            "topics": self.topics.to_dicts(),
+            "runs": self.runs.to_dicts(),
+            "cameras": None if self.cameras is None else self.cameras.to_dicts(),
+            "rois": None if self.rois is None else self.rois.to_dicts(),
+            "thermal_frames": self.thermal_frames,
+            "ambient_readings": self.ambient_readings,
+            "joint_states": self.joint_states,
+            "losses": self.losses,
+            "metadata": self.metadata,
+        }
+
+
+def _bursts(times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and end of each burst of frames (one visit each): frames within a visit are
+    far closer to each other than visits are (the spacings are bimodal); with one frame per
+    visit (spacings alike) every frame is a visit."""
+    if len(times) == 0:
+        return times, times
+    d = np.diff(times).astype(np.float64)
+    threshold = 0.0
+    if len(d):
+        p10, p90 = np.percentile(d, [10, 90])
+        if p90 > BURST_FACTOR * max(p10, 1.0):
+            threshold = math.sqrt(max(p10, 1.0) * p90)
+    cut = np.flatnonzero(d > threshold) + 1
+    first = np.concatenate([[0], cut])
+    last = np.concatenate([cut - 1, [len(times) - 1]])
+    return times[first], times[last]
+
+
+def _visits(log_times: dict[str, list[int]], topic_camera: dict[str, str]) -> pl.DataFrame:
+    rows: dict[str, list[Any]] = {"camera": [], "t_start_ns": [], "t_end_ns": []}
+    for topic, times in log_times.items():
+        s, e = _bursts(np.asarray(times, dtype=np.int64))
+        rows["camera"] += [topic_camera.get(topic, topic)] * len(s)
+        rows["t_start_ns"] += s.tolist()
+        rows["t_end_ns"] += e.tolist()
+    return pl.DataFrame(
+        rows, schema={"camera": pl.String, "t_start_ns": pl.Int64, "t_end_ns": pl.Int64}
+    )
+
+
+def inventory(
+    path: str | os.PathLike[str],
+    *,
+    rig: Rig | str | os.PathLike[str] | None = None,
+    gap_factor: float = DEFAULT_GAP_FACTOR,
+    min_gap_s: float = DEFAULT_MIN_GAP_S,
+) -> Inventory:
+    """What the recording at ``path`` holds (see the module docstring).
+
+    Parameters
+    ----------
+    path
+        An MCAP recording.
+    rig
+        The rig it was recorded on (a :class:`~thermrs.Rig` or a rig file), to name each
+        topic's role, list the cameras and ROIs it maps, and know which topics are CCD
+        frames; without it every ``sensor_msgs/msg/Image`` topic counts.
+    gap_factor, min_gap_s
+        The idle threshold for runs without markers (see :mod:`thermrs.runs`).
+
+    Raises
+    ------
+    InputError
+        No such file, or a directory.
+    RecordingError
+        Not an MCAP recording, or run markers that contradict each other.
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{p}: is a directory, expected a recording (.mcap)")
+    if not p.exists():
+        raise InputError(f"{p}: no such file")
+    r = as_rig(rig) if rig is not None else None
+    topic_camera: dict[str, str] = {}
+    role: dict[str, str] = {}
+    if r is not None:
+        for c in r.cameras:
+            topic_camera[c.topic] = c.name
+            role[c.topic] = f"camera {c.name} (pose {c.pose})"
+        if r.thermal_topic:
+            role[r.thermal_topic] = "thermal camera"
+        if r.ambient_topic:
+            role[r.ambient_topic] = "ambient temperature"
+        role[r.joint_states_topic] = "joint states"
+        doc = json.loads(_native.inventory(str(p), list(topic_camera)))
+    else:
+        probe = json.loads(_native.inventory(str(p), []))
+        ccd = [c["topic"] for c in probe["channels"] if c["schema"].endswith("/Image")]
+        doc = json.loads(_native.inventory(str(p), ccd)) if ccd else probe
+    topics = pl.DataFrame(
+        [
+            {
+                "topic": c["topic"],
+                "schema": c["schema"],
+                "encoding": c["encoding"],
+                "messages": int(c["messages"]),
+                "role": role.get(c["topic"], ""),
+            }
+            for c in doc["channels"]
+        ],
+        schema={
+            "topic": pl.String,
+            "schema": pl.String,
+            "encoding": pl.String,
+            "messages": pl.Int64,
+            "role": pl.String,
+        },
+    )
+    counts = dict(zip(topics["topic"].to_list(), topics["messages"].to_list(), strict=True))
+    visits = _visits(doc["log_times"], topic_camera)
+    # As the extraction finds them: markers, and visits no marker covers split by idle gaps.
+    runs = find_runs(
+        doc["metadata"],
+        visits.with_columns(t_ns=pl.col("t_start_ns")),
+        gap_factor=gap_factor,
+        min_gap_s=min_gap_s,
+    )
+    n_visits = [
+        visits.filter(pl.col("t_start_ns").is_between(a, b)).height
+        for a, b in zip(runs["start_ns"].to_list(), runs["end_ns"].to_list(), strict=True)
+    ]
+    runs = runs.select(*(pl.col(c).cast(t) for c, t in RUNS_SCHEMA.items()))
+    runs = runs.with_columns(visits=pl.Series(n_visits, dtype=pl.Int64))
+    cameras = rois = None
+    thermal = ambient = joints = None
+    if r is not None:
+        cameras = pl.DataFrame(
+            [
+                {
+                    "camera": c.name,
+                    "topic": c.topic,
+                    "pose": c.pose,
+                    "frames": counts.get(c.topic, 0),
+                }
+                for c in r.cameras
+            ]
+        )
+        drives = {
+            roi.name: ", ".join(m.name for m in r.lengths if m.temperature == roi.name)
+            for roi in r.rois
+        }
+        rois = pl.DataFrame(
+            [{"roi": x.name, "rect_px": list(x.rect_px), "drives": drives[x.name]} for x in r.rois],
+            schema={"roi": pl.String, "rect_px": pl.List(pl.Int64), "drives": pl.String},
+        )
+        thermal = counts.get(r.thermal_topic or "", 0) if r.thermal_topic else None
+        ambient = counts.get(r.ambient_topic or "", 0) if r.ambient_topic else None
+        joints = counts.get(r.joint_states_topic, 0)
+    return Inventory(
+        path=p,
+        bytes=int(doc["bytes"]),
+        from_summary=bool(doc["from_summary"]),
+        profile=str(doc["profile"]),
+        library=str(doc["library"]),
+        start_ns=doc["start_ns"],
+        end_ns=doc["end_ns"],
+        chunks=int(doc["chunks"]),
+        compression=list(doc["compression"]),
+        messages=int(doc["messages"]),
+        topics=topics,
+        runs=runs,
+        cameras=cameras,
+        rois=rois,
+        thermal_frames=thermal,
+        ambient_readings=ambient,
+        joint_states=joints,
+        losses=list(doc["losses"]),
+        metadata=list(doc["metadata"]),
+    )

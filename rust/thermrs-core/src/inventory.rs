@@ -1,0 +1,474 @@
+//! What a recording holds, read from its summary and indexes without decoding a message:
+//! channels (topic, schema, encoding, message count), the time span, chunks and their
+//! compression, Metadata records (run markers among them), and the log times of the topics
+//! asked for (from the message indexes, so runs can be split at idle gaps), with what could
+//! not be read.
+//!
+//! A file with a summary section is read from its footer, summary and message indexes: a
+//! few reads whatever the file's size. A file without one (cut short, or written without a
+//! summary) is walked record by record; its chunks stay compressed unless they lack message
+//! indexes or hold a channel not yet seen (then that chunk alone is decompressed for its
+//! channel records or its messages' times).
+
+use std::borrow::Cow;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+use mcap::read::{ChunkReader, LinearReader, Options, Summary};
+use mcap::records::{self, Record};
+
+use crate::error::{Error, Result};
+
+/// One channel of a recording.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelInfo {
+    /// The channel id.
+    pub id: u16,
+    /// The topic, e.g. `/ccd_a/image_raw`.
+    pub topic: String,
+    /// The schema name (`sensor_msgs/msg/Image`), empty without a schema.
+    pub schema: String,
+    /// The message encoding (`cdr`).
+    pub encoding: String,
+    /// How many messages the file holds on it.
+    pub messages: u64,
+}
+
+/// What a recording holds (see the module docs).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Inventory {
+    /// The file's size in bytes.
+    pub bytes: u64,
+    /// Whether it was read from its summary section (false: walked record by record).
+    pub from_summary: bool,
+    /// The MCAP header's profile and library.
+    pub profile: String,
+    pub library: String,
+    /// Log time of the first and last message (ns), if any.
+    pub start_ns: Option<u64>,
+    pub end_ns: Option<u64>,
+    /// Chunks, and the compressions they use.
+    pub chunks: u64,
+    pub compression: BTreeSet<String>,
+    /// Messages in all.
+    pub messages: u64,
+    /// Every channel, by id.
+    pub channels: Vec<ChannelInfo>,
+    /// Metadata records: name and key/value pairs, in file order.
+    pub metadata: Vec<(String, BTreeMap<String, String>)>,
+    /// Attachments (name, bytes).
+    pub attachments: Vec<(String, u64)>,
+    /// Log times (ns) of the messages on each topic asked for, in time order.
+    pub log_times: BTreeMap<String, Vec<u64>>,
+    /// What could not be read, one line each (a file cut short, an index past its end).
+    pub losses: Vec<String>,
+    /// Chunks decompressed to learn channels or message times (0 on a summarised file).
+    pub chunks_decompressed: u64,
+}
+
+/// Read what the recording at `path` holds; `topics` are those whose messages' log times
+/// are wanted (from the message indexes).
+///
+/// # Errors
+/// [`Error::Io`] if the file cannot be opened or mapped; [`Error::Recording`] if it is not
+/// an MCAP file.
+pub fn inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
+    let io = |source| Error::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
+    // SAFETY: read-only map of a file nobody is expected to change while it is read; a
+    // change would at worst give wrong counts, never unsafety in this code (bytes only).
+    let map = unsafe { memmap2::Mmap::map(&file) }.map_err(io)?;
+    let buf: &[u8] = &map;
+    if buf.len() < 8 || !buf.starts_with(mcap::MAGIC) {
+        return Err(Error::Recording(format!(
+            "{}: not an MCAP recording (no MCAP magic at its start)",
+            path.display()
+        )));
+    }
+    let mut inv = Inventory {
+        bytes: buf.len() as u64,
+        ..Inventory::default()
+    };
+    read_header(buf, &mut inv);
+    let summary = if buf.ends_with(mcap::MAGIC) {
+        Summary::read(buf).ok().flatten()
+    } else {
+        None
+    };
+    match summary {
+        Some(s) if !s.chunk_indexes.is_empty() || s.stats.is_some() => {
+            from_summary(buf, &s, topics, &mut inv)
+        }
+        _ => walk(buf, topics, &mut inv),
+    }
+    for times in inv.log_times.values_mut() {
+        times.sort_unstable();
+    }
+    inv.channels.sort_by_key(|c| c.id);
+    Ok(inv)
+}
+
+fn read_header(buf: &[u8], inv: &mut Inventory) {
+    let mut r = LinearReader::sans_magic(&buf[mcap::MAGIC.len()..]);
+    if let Some(Ok(Record::Header(h))) = r.next() {
+        inv.profile = h.profile;
+        inv.library = h.library;
+    }
+}
+
+fn channel_info(c: &mcap::Channel<'_>, messages: u64) -> ChannelInfo {
+    ChannelInfo {
+        id: c.id,
+        topic: c.topic.clone(),
+        schema: c
+            .schema
+            .as_ref()
+            .map(|s| s.name.clone())
+            .unwrap_or_default(),
+        encoding: c.message_encoding.clone(),
+        messages,
+    }
+}
+
+/// The message index record at `offset`, if it is one.
+fn message_index(buf: &[u8], offset: u64) -> Option<records::MessageIndex> {
+    let start = usize::try_from(offset).ok()?;
+    if start >= buf.len() {
+        return None;
+    }
+    match LinearReader::sans_magic(&buf[start..]).next() {
+        Some(Ok(Record::MessageIndex(i))) => Some(i),
+        _ => None,
+    }
+}
+
+fn from_summary(buf: &[u8], s: &Summary, topics: &[String], inv: &mut Inventory) {
+    inv.from_summary = true;
+    let wanted: BTreeSet<u16> = s
+        .channels
+        .values()
+        .filter(|c| topics.contains(&c.topic))
+        .map(|c| c.id)
+        .collect();
+    let counted = s.stats.as_ref().map(|st| &st.channel_message_counts);
+    // Without statistics the message indexes give every channel's count.
+    let mut counts: BTreeMap<u16, u64> = BTreeMap::new();
+    for ci in &s.chunk_indexes {
+        inv.chunks += 1;
+        inv.compression.insert(if ci.compression.is_empty() {
+            "none".to_string()
+        } else {
+            ci.compression.clone()
+        });
+        let end = ci.chunk_start_offset.saturating_add(ci.chunk_length);
+        if end > inv.bytes {
+            inv.losses.push(format!(
+                "chunk at byte {} ends past the end of the file ({} bytes)",
+                ci.chunk_start_offset, inv.bytes
+            ));
+            continue;
+        }
+        for (&id, &off) in &ci.message_index_offsets {
+            if !wanted.contains(&id) && counted.is_some() {
+                continue;
+            }
+            let Some(mi) = message_index(buf, off) else {
+                inv.losses.push(format!(
+                    "message index of channel {id} at byte {off} is unreadable"
+                ));
+                continue;
+            };
+            *counts.entry(id).or_default() += mi.records.len() as u64;
+            if wanted.contains(&id) {
+                let topic = &s.channels[&id].topic;
+                let times = inv.log_times.entry(topic.clone()).or_default();
+                times.extend(mi.records.iter().map(|e| e.log_time));
+            }
+        }
+    }
+    if let Some(st) = &s.stats {
+        counts.clone_from(&st.channel_message_counts);
+        inv.messages = st.message_count;
+        if st.message_count > 0 {
+            inv.start_ns = Some(st.message_start_time);
+            inv.end_ns = Some(st.message_end_time);
+        }
+        inv.chunks = inv.chunks.max(u64::from(st.chunk_count));
+    } else {
+        inv.messages = counts.values().sum();
+        inv.start_ns = s.chunk_indexes.iter().map(|c| c.message_start_time).min();
+        inv.end_ns = s.chunk_indexes.iter().map(|c| c.message_end_time).max();
+    }
+    for c in s.channels.values() {
+        inv.channels
+            .push(channel_info(c, counts.get(&c.id).copied().unwrap_or(0)));
+    }
+    for mi in &s.metadata_indexes {
+        match mcap::read::metadata(buf, mi) {
+            Ok(m) => inv.metadata.push((m.name, m.metadata)),
+            Err(e) => inv.losses.push(format!(
+                "metadata record {:?} at byte {} is unreadable: {e}",
+                mi.name, mi.offset
+            )),
+        }
+    }
+    for a in &s.attachment_indexes {
+        inv.attachments.push((a.name.clone(), a.data_size));
+    }
+}
+
+/// Per channel id: (channel, message count); what the walk has learnt so far.
+#[derive(Default)]
+struct Walk<'a> {
+    channels: BTreeMap<u16, ChannelInfo>,
+    schemas: BTreeMap<u16, String>,
+    /// The last chunk seen, not yet decompressed: (header, compressed data).
+    pending: Option<(records::ChunkHeader, Cow<'a, [u8]>)>,
+    pending_indexed: bool,
+}
+
+impl Walk<'_> {
+    fn add_channel(&mut self, c: &records::Channel) {
+        let schema = self.schemas.get(&c.schema_id).cloned().unwrap_or_default();
+        self.channels.entry(c.id).or_insert_with(|| ChannelInfo {
+            id: c.id,
+            topic: c.topic.clone(),
+            schema,
+            encoding: c.message_encoding.clone(),
+            messages: 0,
+        });
+    }
+
+    fn message(&mut self, id: u16, log_time: u64, topics: &[String], inv: &mut Inventory) {
+        inv.messages += 1;
+        inv.start_ns = Some(inv.start_ns.map_or(log_time, |t| t.min(log_time)));
+        inv.end_ns = Some(inv.end_ns.map_or(log_time, |t| t.max(log_time)));
+        if let Some(c) = self.channels.get_mut(&id) {
+            c.messages += 1;
+            if topics.contains(&c.topic) {
+                inv.log_times
+                    .entry(c.topic.clone())
+                    .or_default()
+                    .push(log_time);
+            }
+        }
+    }
+
+    /// Decompress the pending chunk: learn its schemas and channels and, when `messages`,
+    /// count its messages (a chunk without message indexes).
+    fn open_pending(&mut self, messages: bool, topics: &[String], inv: &mut Inventory) {
+        let Some((header, data)) = self.pending.take() else {
+            return;
+        };
+        inv.chunks_decompressed += 1;
+        let reader = match ChunkReader::new(header, &data) {
+            Ok(r) => r,
+            Err(e) => {
+                inv.losses
+                    .push(format!("a chunk cannot be decompressed: {e}"));
+                return;
+            }
+        };
+        for rec in reader {
+            match rec {
+                Ok(Record::Schema { header, .. }) => {
+                    self.schemas.insert(header.id, header.name);
+                }
+                Ok(Record::Channel(c)) => self.add_channel(&c),
+                Ok(Record::Message { header, .. }) if messages => {
+                    self.message(header.channel_id, header.log_time, topics, inv);
+                }
+                Ok(_) => {}
+                Err(e) => {
+                    inv.losses.push(format!("a chunk is corrupt: {e}"));
+                    return;
+                }
+            }
+        }
+    }
+}
+
+fn walk(buf: &[u8], topics: &[String], inv: &mut Inventory) {
+    let mut w = Walk::default();
+    let reader = match LinearReader::new_with_options(buf, Options::IgnoreEndMagic.into()) {
+        Ok(r) => r,
+        Err(e) => {
+            inv.losses.push(format!("unreadable from the start: {e}"));
+            return;
+        }
+    };
+    let mut at_end = false;
+    for rec in reader {
+        let rec = match rec {
+            Ok(r) => r,
+            Err(e) => {
+                inv.losses
+                    .push(format!("the file is cut short or corrupt: {e}"));
+                break;
+            }
+        };
+        if !matches!(rec, Record::MessageIndex(_)) && w.pending.is_some() {
+            // A chunk without message indexes: its messages are counted from the chunk.
+            let indexed = w.pending_indexed;
+            if !indexed {
+                w.open_pending(true, topics, inv);
+            }
+            w.pending = None;
+        }
+        match rec {
+            Record::Header(h) => {
+                inv.profile = h.profile;
+                inv.library = h.library;
+            }
+            Record::Schema { header, .. } => {
+                w.schemas.insert(header.id, header.name);
+            }
+            Record::Channel(c) => w.add_channel(&c),
+            Record::Message { header, .. } => {
+                w.message(header.channel_id, header.log_time, topics, inv)
+            }
+            Record::Chunk { header, data } => {
+                inv.chunks += 1;
+                inv.compression.insert(if header.compression.is_empty() {
+                    "none".to_string()
+                } else {
+                    header.compression.clone()
+                });
+                w.pending = Some((header, data));
+                w.pending_indexed = false;
+            }
+            Record::MessageIndex(mi) => {
+                if !w.channels.contains_key(&mi.channel_id) {
+                    w.open_pending(false, topics, inv);
+                }
+                if w.pending.is_some() || w.pending_indexed {
+                    w.pending_indexed = true;
+                }
+                for e in &mi.records {
+                    w.message(mi.channel_id, e.log_time, topics, inv);
+                }
+            }
+            Record::Metadata(m) => inv.metadata.push((m.name, m.metadata)),
+            Record::Attachment { header, data, .. } => {
+                inv.attachments.push((header.name, data.len() as u64));
+            }
+            Record::DataEnd(_) => {
+                at_end = true;
+                break;
+            }
+            _ => {}
+        }
+    }
+    if w.pending.is_some() && !w.pending_indexed {
+        w.open_pending(true, topics, inv);
+    }
+    if !at_end && inv.losses.is_empty() {
+        inv.losses
+            .push("the file ends before its data-end record (cut short)".to_string());
+    }
+    inv.channels = w.channels.into_values().collect();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    fn write_sample(path: &Path, summary: bool) {
+        let file = std::fs::File::create(path).unwrap();
+        let opts = mcap::WriteOptions::new()
+            .chunk_size(Some(64))
+            .emit_summary_records(summary)
+            .emit_summary_offsets(summary)
+            .emit_message_indexes(true)
+            .emit_chunk_indexes(summary)
+            .emit_statistics(summary)
+            .emit_metadata_indexes(summary);
+        let mut w = opts.create(std::io::BufWriter::new(file)).unwrap();
+        let schema = w
+            .add_schema("sensor_msgs/msg/Image", "ros2msg", b"")
+            .unwrap();
+        let a = w
+            .add_channel(schema, "/ccd_a/image_raw", "cdr", &BTreeMap::new())
+            .unwrap();
+        let j = w
+            .add_channel(0, "/joint_states", "cdr", &BTreeMap::new())
+            .unwrap();
+        for k in 0..10u64 {
+            let t = 1_000_000_000 * k;
+            let h = |c| mcap::records::MessageHeader {
+                channel_id: c,
+                sequence: k as u32,
+                log_time: t,
+                publish_time: t,
+            };
+            w.write_to_known_channel(&h(a), &[0u8; 40]).unwrap();
+            if k % 2 == 0 {
+                w.write_to_known_channel(&h(j), &[1u8; 8]).unwrap();
+            }
+        }
+        let mut md = BTreeMap::new();
+        md.insert("name".to_string(), "run1".to_string());
+        w.write_metadata(&mcap::records::Metadata {
+            name: "thermrs.run".into(),
+            metadata: md,
+        })
+        .unwrap();
+        w.finish().unwrap();
+    }
+
+    fn check(inv: &Inventory) {
+        let by: BTreeMap<_, _> = inv.channels.iter().map(|c| (c.topic.as_str(), c)).collect();
+        assert_eq!(by["/ccd_a/image_raw"].messages, 10);
+        assert_eq!(by["/joint_states"].messages, 5);
+        assert_eq!(by["/ccd_a/image_raw"].schema, "sensor_msgs/msg/Image");
+        assert_eq!(inv.messages, 15);
+        assert_eq!(inv.start_ns, Some(0));
+        assert_eq!(inv.end_ns, Some(9_000_000_000));
+        let times = &inv.log_times["/ccd_a/image_raw"];
+        assert_eq!(
+            times,
+            &(0..10).map(|k| k * 1_000_000_000).collect::<Vec<u64>>()
+        );
+        assert_eq!(inv.metadata.len(), 1);
+        assert_eq!(inv.metadata[0].1["name"], "run1");
+    }
+
+    #[test]
+    fn summary_and_walk_agree_with_what_was_written() {
+        let dir = std::env::temp_dir().join(format!("thermrs-inv-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let topics = vec!["/ccd_a/image_raw".to_string()];
+        for summary in [true, false] {
+            let p = dir.join(format!("s{summary}.mcap"));
+            write_sample(&p, summary);
+            let inv = inventory(&p, &topics).unwrap();
+            assert_eq!(inv.from_summary, summary);
+            check(&inv);
+            assert!(inv.losses.is_empty(), "{:?}", inv.losses);
+        }
+        // Cut short: the walk reports the loss and keeps what came before.
+        let whole = std::fs::read(dir.join("strue.mcap")).unwrap();
+        let p = dir.join("cut.mcap");
+        std::fs::File::create(&p)
+            .unwrap()
+            .write_all(&whole[..whole.len() / 2])
+            .unwrap();
+        let inv = inventory(&p, &topics).unwrap();
+        assert!(!inv.from_summary);
+        assert!(!inv.losses.is_empty());
+        assert!(inv.messages < 15);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn not_mcap_is_a_recording_error() {
+        let p = std::env::temp_dir().join(format!("thermrs-inv-no-{}.mcap", std::process::id()));
+        std::fs::write(&p, b"hello world, not mcap").unwrap();
+        assert!(matches!(inventory(&p, &[]), Err(Error::Recording(_))));
+        std::fs::remove_file(&p).unwrap();
+    }
+}

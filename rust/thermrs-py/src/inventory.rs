@@ -1,0 +1,65 @@
+//! What a recording holds (`thermrs_core::inventory`), for `thermrs info`: a JSON document.
+
+use std::path::PathBuf;
+
+use pyo3::prelude::*;
+use serde_json::json;
+use thermrs_core::inventory as core;
+
+use crate::{panic, to_py};
+
+/// What the recording at `path` holds, read from its summary and indexes (see the core
+/// module); `topics`: those whose messages' log times are wanted. Returns JSON.
+#[pyfunction]
+#[pyo3(signature = (path, topics = Vec::new()))]
+fn inventory(py: Python<'_>, path: PathBuf, topics: Vec<String>) -> PyResult<String> {
+    let inv = py
+        .detach(|| {
+            panic::guard("reading a recording's summary", || {
+                core::inventory(&path, &topics)
+            })
+        })
+        .map_err(panic::to_py)?
+        .map_err(to_py)?;
+    let channels: Vec<_> = inv
+        .channels
+        .iter()
+        .map(|c| {
+            json!({"id": c.id, "topic": c.topic, "schema": c.schema, "encoding": c.encoding,
+                   "messages": c.messages})
+        })
+        .collect();
+    let metadata: Vec<_> = inv
+        .metadata
+        .iter()
+        .map(|(name, values)| json!({"name": name, "values": values}))
+        .collect();
+    let attachments: Vec<_> = inv
+        .attachments
+        .iter()
+        .map(|(name, bytes)| json!({"name": name, "bytes": bytes}))
+        .collect();
+    Ok(json!({
+        "bytes": inv.bytes,
+        "from_summary": inv.from_summary,
+        "profile": inv.profile,
+        "library": inv.library,
+        "start_ns": inv.start_ns,
+        "end_ns": inv.end_ns,
+        "chunks": inv.chunks,
+        "chunks_decompressed": inv.chunks_decompressed,
+        "compression": inv.compression,
+        "messages": inv.messages,
+        "channels": channels,
+        "metadata": metadata,
+        "attachments": attachments,
+        "log_times": inv.log_times,
+        "losses": inv.losses,
+    })
+    .to_string())
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(inventory, m)?)?;
+    Ok(())
+}
