@@ -122,7 +122,7 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
         out.print(f"  {v['effect']}: {_params(v['params'])}")
     from thermrs.numbers import gap_closed
 
-    gap = hf["gap_closed"]
+    gap = hf.get("gap_closed_raw", hf["gap_closed"])  # uncapped: the display says why it caps
     shown = gap_closed(gap, hf["holdout_rms_after_um"], hf.get("noise_floor_um"))
     out.print(
         f"How far: held-out rms {hf['holdout_rms_before_um']:.2f} → "

@@ -718,7 +718,9 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
         [
             "share of the gap closed",
             gap_closed(
-                hf.get("gap_closed"), hf.get("holdout_rms_after_um"), doc.get("noise_floor_um")
+                hf.get("gap_closed_raw", hf.get("gap_closed")),
+                hf.get("holdout_rms_after_um"),
+                doc.get("noise_floor_um"),
             ),
             "",
         ],
