@@ -17,7 +17,7 @@ import polars as pl
 import pytest
 import thermrs
 
-from tests.scenarios import FAST_NODES
+from tests.support.scenarios import FAST_NODES
 
 REPO = Path(__file__).resolve().parents[1]
 UR5 = REPO / "fixtures" / "rigs" / "ur5-two-cameras.toml"

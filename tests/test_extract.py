@@ -15,7 +15,7 @@ import polars as pl
 import pytest
 import thermrs
 
-from .recordings import Recording, dark_image, header, image_msg, png_bytes, spot_image
+from tests.support.recordings import Recording, dark_image, header, image_msg, png_bytes, spot_image
 
 W, H = 752, 582
 T0 = 1_750_000_000 * 10**9
