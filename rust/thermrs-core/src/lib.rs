@@ -2,6 +2,7 @@
 //!
 //! It knows nothing of Python. Modules, one idea each:
 //! - [`rig`]: rig files (SPEC §3), parsed and validated with errors naming the key;
+//! - [`config`]: strict TOML parsing shared by rig and scenario files;
 //! - [`kinematics`]: standard Denavit–Hartenberg forward kinematics with per-sample link lengths;
 //! - [`optics`]: the laser ray and its intersection with a CCD chip, in pixels (SPEC §4);
 //! - [`model`]: the thermal-expansion forward model (SPEC §4), vectorised over time series;
@@ -18,6 +19,7 @@
 
 pub mod cdr;
 pub mod centroid;
+pub mod config;
 pub mod effects;
 pub mod error;
 pub mod explain;

@@ -45,7 +45,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::effects::{Effect, EffectSpec};
-use crate::error::RigError;
+use crate::error::{FileKind, KeyError, RigError};
 use crate::heat::Rise;
 
 /// The format string every scenario file must carry.
@@ -288,8 +288,8 @@ impl Scenario {
             .iter()
             .enumerate()
             .map(|(i, e)| {
-                Effect::from_spec(e).map_err(|(key, message)| RigError {
-                    kind: "scenario",
+                Effect::from_spec(e).map_err(|KeyError { key, message }| RigError {
+                    kind: FileKind::Scenario,
                     source_name: self.name.clone().unwrap_or_else(|| "<scenario>".into()),
                     line: None,
                     key: if key.is_empty() {
@@ -305,17 +305,20 @@ impl Scenario {
 
     /// Parse and validate scenario TOML text; `source_name` names it in errors.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Scenario, RigError> {
-        crate::rig::parse_strict(text, source_name, "scenario", Scenario::validate)
+        crate::config::parse_strict(text, source_name, FileKind::Scenario, Scenario::validate)
     }
 
     /// The checks types cannot express. Returns (key, message) of the first problem.
-    pub fn validate(&self) -> Result<(), (String, String)> {
-        let fail = |k: &str, m: String| Err((k.to_string(), m));
-        let pos = |v: f64, k: &str| -> Result<(), (String, String)> {
+    pub fn validate(&self) -> Result<(), KeyError> {
+        let fail = |k: &str, m: String| Err(KeyError::new(k.to_string(), m));
+        let pos = |v: f64, k: &str| -> Result<(), KeyError> {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err((k.to_string(), format!("is {v}, expected a positive number")))
+                Err(KeyError::new(
+                    k.to_string(),
+                    format!("is {v}, expected a positive number"),
+                ))
             }
         };
         if self.format != SCENARIO_FORMAT {
@@ -432,12 +435,12 @@ impl Scenario {
                 };
                 return fail(&format!("node[{i}]"), m.into());
             };
-            if let Err((key, m)) = rise.check() {
+            if let Err(KeyError { key, message: m }) = rise.check() {
                 return fail(&format!("node[{i}].{key}"), m);
             }
         }
         for (i, e) in self.effect.iter().enumerate() {
-            if let Err((key, m)) = Effect::from_spec(e) {
+            if let Err(KeyError { key, message: m }) = Effect::from_spec(e) {
                 let k = if key.is_empty() {
                     format!("effect[{i}]")
                 } else {

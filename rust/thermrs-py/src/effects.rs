@@ -12,7 +12,7 @@ pub(crate) fn parse_list(json: &str) -> PyResult<Vec<Effect>> {
         serde_json::from_str(json).map_err(|e| InputError::new_err(format!("effects: {e}")))?;
     for e in &list {
         e.validate()
-            .map_err(|(k, m)| InputError::new_err(format!("effect {}: {k}: {m}", e.name())))?;
+            .map_err(|k| InputError::new_err(format!("effect {}: {k}", e.name())))?;
     }
     Ok(list)
 }
@@ -25,7 +25,7 @@ fn effect_check(json: &str, rig: Option<&PyRig>) -> PyResult<String> {
     let e: Effect =
         serde_json::from_str(json).map_err(|e| InputError::new_err(format!("effect: {e}")))?;
     e.validate()
-        .map_err(|(k, m)| InputError::new_err(format!("effect {}: {k}: {m}", e.name())))?;
+        .map_err(|k| InputError::new_err(format!("effect {}: {k}", e.name())))?;
     if let Some(r) = rig {
         e.check(&r.inner).map_err(to_py)?;
     }

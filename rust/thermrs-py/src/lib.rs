@@ -68,7 +68,9 @@ const SIGNAL_EVERY: std::time::Duration = std::time::Duration::from_millis(20);
 
 fn to_py(e: CoreError) -> PyErr {
     match e {
-        CoreError::Rig(r) if r.kind == "scenario" => ScenarioError::new_err(r.to_string()),
+        CoreError::Rig(r) if r.kind == thermrs_core::error::FileKind::Scenario => {
+            ScenarioError::new_err(r.to_string())
+        }
         CoreError::Rig(r) => RigError::new_err(r.to_string()),
         CoreError::Recording(m) => RecordingError::new_err(m),
         CoreError::Interrupted => pyo3::exceptions::PyKeyboardInterrupt::new_err("interrupted"),
