@@ -11,6 +11,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import polars as pl
@@ -331,6 +332,75 @@ def test_ctrl_c_stops_extract_cleanly_wherever_it_lands(
     assert proc.returncode == 130, err
     assert err.splitlines() == ["thermrs: interrupted"], err
     assert list(out.iterdir()) == []  # no table, no temporary file
+
+
+def _file_size_limit(limit: int) -> Callable[[], None]:
+    """A child's set-up: files may not grow past ``limit`` bytes (a write beyond fails with
+    EFBIG, as a full disk fails with ENOSPC), and Ctrl-C as a terminal's."""
+
+    def setup() -> None:
+        import resource
+
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # EFBIG, not death by the signal
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    return setup
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGXFSZ"), reason="needs RLIMIT_FSIZE")
+@pytest.mark.parametrize("command", ["simulate", "extract"])
+def test_a_failed_write_exits_1_with_one_line_naming_the_file(
+    data: dict[str, Path], tmp_path: Path, command: str
+) -> None:
+    """Writing fails part way (the operating system refuses to let the file grow): not bad
+    input but a failure, exit 1, one line naming the file, nothing left behind."""
+    out = tmp_path / ("o.mcap" if command == "simulate" else "o.parquet")
+    args = {
+        "simulate": ["--rig", str(data["rig"]), "--scenario", str(data["sc"]), "-o", str(out)],
+        "extract": [str(data["rec"]), "--rig", str(data["rig"]), "-o", str(out)],
+    }[command]
+    assert data["rec"].stat().st_size > 1_000  # the recording is larger than the limit
+    p = subprocess.run(
+        [sys.executable, "-m", "thermrs", command, *args],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "THERMRS_DEBUG": ""},
+        preexec_fn=_file_size_limit(1_000),
+    )
+    assert p.returncode == 1, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in p.stderr, p.stderr
+    assert str(out) in lines[0], lines
+    if command == "simulate":  # (polars' parquet writer does not pass the errno on)
+        assert "File too large" in lines[0], lines
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_failed_write_in_the_library_is_an_oserror_naming_the_file(
+    data: dict[str, Path], tmp_path: Path
+) -> None:
+    """The library raises the operating system's error with the file asked for (not the
+    temporary one), in a child process so that the file size limit stays there."""
+    out = tmp_path / "o.mcap"
+    code = (
+        "import sys, thermrs\n"
+        "try:\n"
+        f"    thermrs.simulate.simulate({str(data['rig'])!r}, {str(data['sc'])!r}, {str(out)!r})\n"
+        "except OSError as e:\n"
+        "    print(type(e).__name__, e.errno, e.filename)\n"
+    )
+    p = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        preexec_fn=_file_size_limit(1_000),
+    )
+    assert p.returncode == 0, p.stderr
+    import errno
+
+    assert p.stdout.split() == ["OSError", str(errno.EFBIG), str(out)], p.stdout
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_cli_defaults_written_out_for_a_fast_start_match_the_library() -> None:

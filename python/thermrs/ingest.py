@@ -164,8 +164,8 @@ class Extraction:
             for name, path in paths.items():
                 try:
                     getattr(self, name).write_parquet(tmps[name], metadata=meta)
-                except OSError as e:
-                    raise InputError(f"cannot write {path}: {e.strerror or e}") from None
+                except (OSError, pl.exceptions.PolarsError) as e:
+                    raise _write_failed(e, path) from None
             for name, path in paths.items():
                 publish(tmps[name], path)
                 published.append(path)
@@ -224,6 +224,15 @@ def data_loss(path: str | Path) -> list[dict[str, Any]]:
     return [x for x in losses if isinstance(x, dict)] if isinstance(losses, list) else []
 
 
+def _write_failed(e: BaseException, path: Path) -> OSError:
+    """A failed write (a full disk: not bad input, the CLI exits 1) as an ``OSError`` naming
+    ``path``: the operating system's error as it is, or polars' (which loses the errno)."""
+    if isinstance(e, OSError):
+        return OSError(e.errno, e.strerror or str(e), str(path))
+    first = str(e).strip().splitlines()
+    return OSError(f"cannot write {path}: {first[0] if first else type(e).__name__}")
+
+
 def write_parquet_atomic(
     df: pl.DataFrame, path: str | Path, *, metadata: dict[str, str] | None = None
 ) -> None:
@@ -242,7 +251,9 @@ def write_parquet_atomic(
     Raises
     ------
     InputError
-        The folder does not exist, or the file cannot be written there.
+        The folder does not exist or takes no new file.
+    OSError
+        Writing failed (a full disk, say); the message names ``path``; nothing is left behind.
 
     Examples
     --------
@@ -258,8 +269,8 @@ def write_parquet_atomic(
         _release_interrupts(held)
         try:
             df.write_parquet(tmp, metadata=metadata)
-        except OSError as e:
-            raise InputError(f"cannot write {path}: {e.strerror or e}") from None
+        except (OSError, pl.exceptions.PolarsError) as e:
+            raise _write_failed(e, path) from None
         publish(tmp, path)
     except BaseException:
         if tmp is not None:

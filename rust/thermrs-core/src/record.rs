@@ -588,6 +588,16 @@ impl fmt::Display for RecordError {
     }
 }
 
+impl RecordError {
+    /// The operating system's error behind a failed write, if that is what it was.
+    pub fn io_error(&self) -> Option<&std::io::Error> {
+        match self {
+            RecordError::Mcap(McapError::Io(e)) => Some(e),
+            _ => None,
+        }
+    }
+}
+
 impl std::error::Error for RecordError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
