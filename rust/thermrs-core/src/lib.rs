@@ -27,6 +27,7 @@ pub mod heat;
 pub mod ingest;
 pub mod kinematics;
 pub mod model;
+pub mod msg;
 pub mod optics;
 pub mod record;
 pub mod rig;
