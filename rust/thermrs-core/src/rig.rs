@@ -215,7 +215,19 @@ impl Rig {
                 format!("is {:?}, expected {RIG_FORMAT:?}", self.format),
             );
         }
-        // robot
+        self.validate_robot()?;
+        let pose_names = self.validate_laser_and_poses()?;
+        // Every topic once: joint states, cameras, thermal camera, thermometer.
+        let mut topics: HashSet<&str> = HashSet::new();
+        topics.insert(self.robot.joint_states_topic.as_str());
+        self.validate_cameras(&pose_names, &mut topics)?;
+        let temp_names = self.validate_thermal_and_ambient(&mut topics)?;
+        self.validate_expansion(&temp_names)
+    }
+
+    /// `[robot]`: model, joint names, topic, the six DH rows.
+    fn validate_robot(&self) -> Result<(), KeyError> {
+        let fail = |key: &str, message: String| Err(KeyError::new(key.to_string(), message));
         let r = &self.robot;
         if r.model.trim().is_empty() {
             return fail("robot.model", "is empty".into());
@@ -247,7 +259,14 @@ impl Rig {
                 );
             }
         }
-        // laser
+        Ok(())
+    }
+
+    /// `[laser]` and the `[[pose]]`s; returns the pose names.
+    fn validate_laser_and_poses(&self) -> Result<Vec<String>, KeyError> {
+        let fail = |key: &str, message: String| -> Result<Vec<String>, KeyError> {
+            Err(KeyError::new(key.to_string(), message))
+        };
         check_vec(&self.laser.origin_mm, "laser.origin_mm")?;
         check_unit(&self.laser.direction, "laser.direction")?;
         // poses
@@ -261,7 +280,16 @@ impl Rig {
                 check_finite(*v, &format!("pose[{i}].joints_deg[{j}]"))?;
             }
         }
-        // cameras
+        Ok(pose_names)
+    }
+
+    /// The `[[camera]]`s: names, topics (each once in `topics`), poses they refer to, chips.
+    fn validate_cameras<'a>(
+        &'a self,
+        pose_names: &[String],
+        topics: &mut HashSet<&'a str>,
+    ) -> Result<(), KeyError> {
+        let fail = |key: &str, message: String| Err(KeyError::new(key.to_string(), message));
         if self.camera.is_empty() {
             return fail(
                 "camera",
@@ -270,8 +298,6 @@ impl Rig {
         }
         let cam_names: Vec<String> = self.camera.iter().map(|c| c.name.clone()).collect();
         check_names(&cam_names, "camera")?;
-        let mut topics: HashSet<&str> = HashSet::new();
-        topics.insert(r.joint_states_topic.as_str());
         for (i, c) in self.camera.iter().enumerate() {
             let key = |k: &str| format!("camera[{i}].{k}");
             check_topic(&c.topic, &key("topic"))?;
@@ -315,7 +341,18 @@ impl Rig {
                 }
             }
         }
-        // thermal
+        Ok(())
+    }
+
+    /// `[thermal]` and `[ambient]`: topics, ROIs inside the frame; returns the temperature
+    /// names (ROIs, `ambient`).
+    fn validate_thermal_and_ambient<'a>(
+        &'a self,
+        topics: &mut HashSet<&'a str>,
+    ) -> Result<Vec<&'a str>, KeyError> {
+        let fail = |key: &str, message: String| -> Result<Vec<&str>, KeyError> {
+            Err(KeyError::new(key.to_string(), message))
+        };
         let mut temp_names: Vec<&str> = Vec::new();
         if let Some(t) = &self.thermal {
             check_topic(&t.topic, "thermal.topic")?;
@@ -367,7 +404,13 @@ impl Rig {
             }
             temp_names.push(AMBIENT);
         }
-        // expansion
+        Ok(temp_names)
+    }
+
+    /// `[expansion]`: α, the reference temperature, lengths mapped to known temperatures.
+    fn validate_expansion(&self, temp_names: &[&str]) -> Result<(), KeyError> {
+        let fail = |key: &str, message: String| Err(KeyError::new(key.to_string(), message));
+        let r = &self.robot;
         let e = &self.expansion;
         check_finite(e.alpha_per_k, "expansion.alpha_per_k")?;
         if e.alpha_per_k.abs() > 1e-3 {

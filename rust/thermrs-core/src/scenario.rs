@@ -311,6 +311,20 @@ impl Scenario {
     /// The checks types cannot express. Returns (key, message) of the first problem.
     pub fn validate(&self) -> Result<(), KeyError> {
         let fail = |k: &str, m: String| Err(KeyError::new(k.to_string(), m));
+        if self.format != SCENARIO_FORMAT {
+            return fail(
+                "format",
+                format!("is {:?}, expected {SCENARIO_FORMAT:?}", self.format),
+            );
+        }
+        self.validate_runs()?;
+        self.validate_models()?;
+        self.validate_nodes_and_effects()
+    }
+
+    /// The `[[run]]`s: names once each, speeds, durations, cycles, starts.
+    fn validate_runs(&self) -> Result<(), KeyError> {
+        let fail = |k: &str, m: String| Err(KeyError::new(k.to_string(), m));
         let pos = |v: f64, k: &str| -> Result<(), KeyError> {
             if v.is_finite() && v > 0.0 {
                 Ok(())
@@ -321,12 +335,6 @@ impl Scenario {
                 ))
             }
         };
-        if self.format != SCENARIO_FORMAT {
-            return fail(
-                "format",
-                format!("is {:?}, expected {SCENARIO_FORMAT:?}", self.format),
-            );
-        }
         if self.run.is_empty() {
             return fail("run", "no [[run]] given; at least one is needed".into());
         }
@@ -351,6 +359,23 @@ impl Scenario {
                 );
             }
         }
+        Ok(())
+    }
+
+    /// The sensor and motion models: `[ambient]`, `[camera]`, `[ir]`, `[motion]`, `[output]`.
+    // One check per key of five small tables, in file order (87 lines, flat).
+    fn validate_models(&self) -> Result<(), KeyError> {
+        let fail = |k: &str, m: String| Err(KeyError::new(k.to_string(), m));
+        let pos = |v: f64, k: &str| -> Result<(), KeyError> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(KeyError::new(
+                    k.to_string(),
+                    format!("is {v}, expected a positive number"),
+                ))
+            }
+        };
         let a = &self.ambient;
         for (k, v) in [
             ("ambient.start_c", a.start_c),
@@ -424,6 +449,22 @@ impl Scenario {
                 ),
             );
         }
+        Ok(())
+    }
+
+    /// The `[[node]]`s (time constant, one steady rise) and `[[effect]]`s (SPEC §6 values).
+    fn validate_nodes_and_effects(&self) -> Result<(), KeyError> {
+        let fail = |k: &str, m: String| Err(KeyError::new(k.to_string(), m));
+        let pos = |v: f64, k: &str| -> Result<(), KeyError> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(KeyError::new(
+                    k.to_string(),
+                    format!("is {v}, expected a positive number"),
+                ))
+            }
+        };
         for (i, n) in self.node.iter().enumerate() {
             pos(n.tau_min, &format!("node[{i}].tau_min"))?;
             let Some(rise) = n.rise() else {
