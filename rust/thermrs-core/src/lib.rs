@@ -8,6 +8,8 @@
 //! - [`model`]: the thermal-expansion forward model (SPEC §4), vectorised over time series;
 //! - [`effects`]: the unmodelled effects of SPEC §6, their parameters, validation and action;
 //! - [`explain`]: a rig checked and explained pose by pose (`thermrs rig`);
+//! - [`error`]: every error of the core, typed by cause;
+//! - [`msg`]: the ROS 2 message types, shared by the decoder and the encoder;
 //! - [`cdr`]: zero-copy ROS 2 CDR decoding of the recorded message types;
 //! - [`centroid`]: laser-spot detection and sub-pixel centroids on CCD frames;
 //! - [`thermal`]: thermal ROI maxima in °C;

@@ -49,6 +49,9 @@ pub(super) fn scan_reach(k: usize, min_sigma_px: f64) -> f64 {
     }
 }
 
+// Long (~200 lines) on purpose for now: the scan, candidate runs and blob choice share the
+// per-frame thresholds and the sample buffer in one hot loop that the benchmark
+// (`bench_find_spot`) times; splitting it is tracked in ARCHITECTURE.md.
 pub(super) fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
     let (w, h) = (f.width, f.height);
     let k = scan_stride(p.min_sigma_px).min(h.max(1));

@@ -41,6 +41,53 @@ pub(super) fn render_ccd(
     if path.is_empty() {
         return;
     }
+    let Some(Window {
+        x0,
+        x1,
+        y0,
+        y1,
+        nx,
+        signal,
+    }) = spot_electrons(w, h, path, weight, cam, gain)
+    else {
+        return;
+    };
+    let read = Normal::new(0.0, read_e.max(1e-12)).expect("finite");
+    for (j, row) in (y0..=y1).enumerate() {
+        for (i, col) in (x0..=x1).enumerate() {
+            let lam = signal[j * nx + i] + bg_e;
+            let e = if lam > 0.0 {
+                Poisson::new(lam).map(|p| p.sample(rng)).unwrap_or(lam)
+            } else {
+                0.0
+            };
+            let dn = (e + read.sample(rng)) * gain;
+            put(out, row as usize * w + col as usize, dn);
+        }
+    }
+}
+
+/// The box around the spot's path (clipped to the frame) and the expected signal electrons
+/// per pixel in it, row-major `nx` wide.
+struct Window {
+    x0: i64,
+    x1: i64,
+    y0: i64,
+    y1: i64,
+    nx: usize,
+    signal: Vec<f64>,
+}
+
+/// The spot's pixel-integrated Gaussian at each point of its path, `weight` of the signal
+/// each; `None` when the box misses the frame.
+fn spot_electrons(
+    w: usize,
+    h: usize,
+    path: &[(f64, f64)],
+    weight: f64,
+    cam: &crate::scenario::CameraModel,
+    gain: f64,
+) -> Option<Window> {
     // The spot's Gaussian at each point of its path, `weight` of the signal each.
     let s = cam.sigma_px;
     let r = (5.0 * s).ceil() as i64;
@@ -63,7 +110,7 @@ pub(super) fn render_ccd(
         (ymax.round() as i64 + r).min(h as i64 - 1),
     );
     if x0 > x1 || y0 > y1 {
-        return;
+        return None;
     }
     let total_e = weight * cam.peak_dn * 2.0 * std::f64::consts::PI * s * s / gain;
     let k = 1.0 / (s * std::f64::consts::SQRT_2);
@@ -81,19 +128,14 @@ pub(super) fn render_ccd(
             }
         }
     }
-    let read = Normal::new(0.0, read_e.max(1e-12)).expect("finite");
-    for (j, row) in (y0..=y1).enumerate() {
-        for (i, col) in (x0..=x1).enumerate() {
-            let lam = signal[j * nx + i] + bg_e;
-            let e = if lam > 0.0 {
-                Poisson::new(lam).map(|p| p.sample(rng)).unwrap_or(lam)
-            } else {
-                0.0
-            };
-            let dn = (e + read.sample(rng)) * gain;
-            put(out, row as usize * w + col as usize, dn);
-        }
-    }
+    Some(Window {
+        x0,
+        x1,
+        y0,
+        y1,
+        nx,
+        signal,
+    })
 }
 
 /// An IR frame in °C: ambient, a hot Gaussian region per ROI peaking at its node's surface

@@ -13,7 +13,7 @@ use super::trajectory::{self, Segment};
 use super::{LOG_DELAY_NS, MAX_SMEAR_SAMPLES, T0_NS};
 use crate::error::{Error, Result};
 use crate::record::{ImageFields, RecordingWriter};
-use crate::rig::LengthRef;
+use crate::rig::{LengthRef, Thermal};
 use crate::scenario::Run;
 
 /// Where one cycle is in the scenario.
@@ -199,6 +199,27 @@ pub(super) fn ccd_frames<W: Write + Seek>(
     Ok(())
 }
 
+/// An IR frame in °C as the camera sends it: `32FC1` floats, or `16UC1` counts through the
+/// rig's scale and offset.
+fn ir_payload(img: &[f64], th: &Thermal, encoding: &str) -> (&'static str, Vec<u8>) {
+    if encoding == "32FC1" {
+        (
+            "32FC1",
+            img.iter().flat_map(|v| (*v as f32).to_le_bytes()).collect(),
+        )
+    } else {
+        (
+            "16UC1",
+            img.iter()
+                .flat_map(|v| {
+                    (((v - th.offset_c) / th.scale).round().clamp(0.0, 65535.0) as u16)
+                        .to_le_bytes()
+                })
+                .collect(),
+        )
+    }
+}
+
 /// The thermal camera and the thermometer close the cycle, seeing the temperatures of their
 /// own time (the state stepped from the cycle's start to `t_ir`); the truth sample with every
 /// expanded length.
@@ -235,22 +256,7 @@ pub(super) fn thermal<W: Write + Seek>(
             .collect();
         let img = render_ir(setup.rig, sc, ambient, &roi_c, &mut st.ir_rng);
         let (w, h) = (th.size_px[0] as u32, th.size_px[1] as u32);
-        let (encoding, data): (&str, Vec<u8>) = if sc.ir.encoding == "32FC1" {
-            (
-                "32FC1",
-                img.iter().flat_map(|v| (*v as f32).to_le_bytes()).collect(),
-            )
-        } else {
-            (
-                "16UC1",
-                img.iter()
-                    .flat_map(|v| {
-                        (((v - th.offset_c) / th.scale).round().clamp(0.0, 65535.0) as u16)
-                            .to_le_bytes()
-                    })
-                    .collect(),
-            )
-        };
+        let (encoding, data) = ir_payload(&img, th, &sc.ir.encoding);
         let fields = ImageFields {
             stamp_ns: ti,
             frame_id: "thermal",
