@@ -157,6 +157,7 @@ def test_at_least_thirty_wrong_invocations() -> None:
     assert len(WRONG) >= 30
 
 
+@pytest.mark.slow
 def test_data_loss_survives_quiet_and_stays_with_the_tables(
     data: dict[str, Path], tmp_path: Path
 ) -> None:

@@ -23,6 +23,9 @@ from thermrs.predict import noise_um
 
 from tests.support.effects import EFFECTS, implied, run
 
+#: Simulations and campaigns of minutes: skipped by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def baseline(tmp_path_factory: pytest.TempPathFactory) -> dict[str, float]:

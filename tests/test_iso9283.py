@@ -19,6 +19,9 @@ from thermrs.simulate import simulate
 
 from tests.support.scenarios import FAST_NODES, WARM_UP_90_MIN
 
+#: Simulations and campaigns of minutes: skipped by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 
 def points_table(
     u: np.ndarray, v: np.ndarray, *, camera: str = "A", run: str = "r", dt_s: float = 60.0
