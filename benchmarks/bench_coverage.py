@@ -125,7 +125,7 @@ def synthetic(args: argparse.Namespace) -> list[dict[str, object]]:
     from thermrs.fit import fit_alpha
     from thermrs.stats import lstsq_qr
 
-    from tests.coverage import geometries, random_rig, visit_tables
+    from tests.support.coverage import geometries, random_rig, visit_tables
 
     rng = np.random.default_rng(args.first_seed)
     rigs: dict[str, list[object]] = {k: [v] for k, v in geometries().items()}

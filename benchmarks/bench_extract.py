@@ -42,7 +42,7 @@ def messages(frames: int, spot_fraction: float):  # type: ignore[no-untyped-def]
     """The benchmark recording's messages, generated lazily (constant memory)."""
     import thermrs
 
-    from tests.recordings import dark_image, header, image_msg, spot_image
+    from tests.support.recordings import dark_image, header, image_msg, spot_image
 
     rig = thermrs.load_rig()
     rng = np.random.default_rng(0)
@@ -97,7 +97,7 @@ def messages(frames: int, spot_fraction: float):  # type: ignore[no-untyped-def]
 
 
 def make(path: Path, frames: int, spot_fraction: float, compression: str) -> None:
-    from tests.recordings import write_messages
+    from tests.support.recordings import write_messages
 
     tmp = path.with_suffix(".tmp")
     with open(tmp, "wb") as fh:

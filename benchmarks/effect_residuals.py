@@ -20,7 +20,7 @@ def main() -> None:
     import thermrs
     from thermrs.fit import fit_alpha
 
-    from tests.test_effect_residuals import EFFECTS, implied, run
+    from tests.support.effects import EFFECTS, implied, run
 
     rig = thermrs.load_rig()
     with tempfile.TemporaryDirectory() as d:

@@ -11,13 +11,14 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import polars as pl
 import pytest
 import thermrs
 
-from tests.scenarios import FAST_NODES
+from tests.support.scenarios import FAST_NODES
 
 REPO = Path(__file__).resolve().parents[1]
 UR5 = REPO / "fixtures" / "rigs" / "ur5-two-cameras.toml"
@@ -156,6 +157,7 @@ def test_at_least_thirty_wrong_invocations() -> None:
     assert len(WRONG) >= 30
 
 
+@pytest.mark.slow
 def test_data_loss_survives_quiet_and_stays_with_the_tables(
     data: dict[str, Path], tmp_path: Path
 ) -> None:
@@ -282,24 +284,124 @@ def test_ctrl_c_stops_simulate_at_once(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []  # no recording, no temporary file left
 
 
+def _mapped(pid: int, needle: str) -> bool:
+    """Whether process ``pid`` has a file whose path contains ``needle`` mapped or open."""
+    try:
+        if needle in Path(f"/proc/{pid}/maps").read_text():
+            return True
+        return any(needle in os.readlink(fd) for fd in Path(f"/proc/{pid}/fd").iterdir())
+    except OSError:  # it has exited, or closed the file while we looked
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="needs Linux /proc")
+@pytest.mark.parametrize("phase", ["started", "extracting", "writing"])
 def test_ctrl_c_stops_extract_cleanly_wherever_it_lands(
+    data: dict[str, Path], tmp_path: Path, phase: str
+) -> None:
+    """Ctrl-C at a point of the run this test observes, not after a guessed delay (which a
+    loaded machine turns into a different point): ``started`` once the command has loaded the
+    Rust extension (its work all ahead: it must be interrupted), ``extracting`` once the
+    recording is mapped, ``writing`` once a temporary output exists. A phase the command has
+    already left when the signal lands may finish instead (exit 0, complete output); either
+    way: exit 130 with one line and nothing left behind, or exit 0."""
+    out = tmp_path / "out"
+    out.mkdir()
+    args = ["extract", str(data["rec"]), "--rig", str(data["rig"]), "-o",
+            str(out / "o.parquet")]  # fmt: skip
+    proc = _start(args, tmp_path)
+    rec = str(data["rec"].resolve())
+    seen = {
+        "started": lambda: _mapped(proc.pid, "_native"),
+        "extracting": lambda: _mapped(proc.pid, rec),
+        "writing": lambda: any(out.iterdir()),  # the first table's temporary file
+    }[phase]
+    landed = False
+    while proc.poll() is None:
+        if seen():
+            proc.send_signal(signal.SIGINT)
+            landed = True
+            break
+        time.sleep(0.001)
+    _, err = proc.communicate(timeout=60)
+    if phase == "started":
+        assert landed
+    if proc.returncode == 0:  # finished before the signal mattered: complete output
+        assert phase != "started", err
+        assert (out / "o.parquet").exists()
+        return
+    assert proc.returncode == 130, err
+    assert err.splitlines() == ["thermrs: interrupted"], err
+    assert list(out.iterdir()) == []  # no table, no temporary file
+
+
+def _file_size_limit(limit: int) -> Callable[[], None]:
+    """A child's set-up: files may not grow past ``limit`` bytes (a write beyond fails with
+    EFBIG, as a full disk fails with ENOSPC), and Ctrl-C as a terminal's."""
+
+    def setup() -> None:
+        import resource
+
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # EFBIG, not death by the signal
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    return setup
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGXFSZ"), reason="needs RLIMIT_FSIZE")
+@pytest.mark.parametrize("command", ["simulate", "extract"])
+def test_a_failed_write_exits_1_with_one_line_naming_the_file(
+    data: dict[str, Path], tmp_path: Path, command: str
+) -> None:
+    """Writing fails part way (the operating system refuses to let the file grow): not bad
+    input but a failure, exit 1, one line naming the file, nothing left behind."""
+    out = tmp_path / ("o.mcap" if command == "simulate" else "o.parquet")
+    args = {
+        "simulate": ["--rig", str(data["rig"]), "--scenario", str(data["sc"]), "-o", str(out)],
+        "extract": [str(data["rec"]), "--rig", str(data["rig"]), "-o", str(out)],
+    }[command]
+    assert data["rec"].stat().st_size > 1_000  # the recording is larger than the limit
+    p = subprocess.run(
+        [sys.executable, "-m", "thermrs", command, *args],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "THERMRS_DEBUG": ""},
+        preexec_fn=_file_size_limit(1_000),
+    )
+    assert p.returncode == 1, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in p.stderr, p.stderr
+    assert str(out) in lines[0], lines
+    if command == "simulate":  # (polars' parquet writer does not pass the errno on)
+        assert "File too large" in lines[0], lines
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_failed_write_in_the_library_is_an_oserror_naming_the_file(
     data: dict[str, Path], tmp_path: Path
 ) -> None:
-    args = ["extract", str(data["rec"]), "--rig", str(data["rig"]), "-o",
-            str(tmp_path / "o.parquet")]  # fmt: skip
-    interrupted = 0
-    for delay in (0.3, 0.5, 0.7, 0.9, 1.1):
-        proc = _start(args, tmp_path)
-        time.sleep(delay)
-        proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=30)
-        if proc.returncode == 0:  # finished before the signal
-            continue
-        interrupted += 1
-        assert proc.returncode == 130, err
-        assert err.splitlines() == ["thermrs: interrupted"], err
-        assert list(tmp_path.iterdir()) == []  # no table, no temporary file
-    assert interrupted > 0
+    """The library raises the operating system's error with the file asked for (not the
+    temporary one), in a child process so that the file size limit stays there."""
+    out = tmp_path / "o.mcap"
+    code = (
+        "import sys, thermrs\n"
+        "try:\n"
+        f"    thermrs.simulate.simulate({str(data['rig'])!r}, {str(data['sc'])!r}, {str(out)!r})\n"
+        "except OSError as e:\n"
+        "    print(type(e).__name__, e.errno, e.filename)\n"
+    )
+    p = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        preexec_fn=_file_size_limit(1_000),
+    )
+    assert p.returncode == 0, p.stderr
+    import errno
+
+    assert p.stdout.split() == ["OSError", str(errno.EFBIG), str(out)], p.stdout
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_cli_defaults_written_out_for_a_fast_start_match_the_library() -> None:

@@ -17,6 +17,9 @@ from thermrs.diagnose import diagnose
 from thermrs.diagnose.bench import make_runs
 from thermrs.effects import SensorDrift, ThermalLag
 
+#: Simulations and campaigns of minutes: skipped by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def rig() -> thermrs.Rig:

@@ -66,13 +66,15 @@ def test_pchip_follows_a_first_order_warm_up() -> None:
     assert np.max(np.abs(interpolate(t, st, f(st)) - f(t))) < 2e-3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2])
 def test_recovers_the_simulated_alpha(tmp_path: Path, paper_rig: thermrs.Rig, seed: int) -> None:
     """A simulated 15-hour run at 30 % (thermal frames every 30 min): with the measured spots
     and the true link temperatures, α lies inside its 95 % interval. With the measured ROI
-    maxima it comes out 0.5–1.5 % high: the maximum of noisy pixels reads 0.10–0.15 K high
-    while a link's hot region is still flat and 0.04–0.09 K once it has formed, which
-    compresses the measured ΔT (see the fit module and the closing note)."""
+    maxima it lies within 2 % of the truth. (It tends to come out 0.5–1.5 % high, a known
+    bias, documented and not made the pass condition: the maximum of noisy pixels reads
+    0.10–0.15 K high while a link's hot region is still flat and 0.04–0.09 K once it has
+    formed, which compresses the measured ΔT; see the fit module and the closing note.)"""
     p = tmp_path / "s.toml"
     p.write_text(SCENARIO.format(seed=seed))
     sim = simulate(paper_rig, p, tmp_path / "s.mcap")
@@ -89,7 +91,8 @@ def test_recovers_the_simulated_alpha(tmp_path: Path, paper_rig: thermrs.Rig, se
     assert f.ci95[0] <= 23.2e-6 <= f.ci95[1], f
     assert f.rms_um < 1.0
     measured = fit_alpha([table], paper_rig)
-    assert 1.0 < measured.alpha_per_k / 23.2e-6 < 1.02
+    # Accuracy, not the known bias: within 2 % either way of the simulated truth.
+    assert abs(measured.alpha_per_k / 23.2e-6 - 1) < 0.02
     # The paper's start/end estimator on the same data: consistent with the truth, and its
     # interval wider than the time-series estimator's (it uses two visits of the run).
     se = fit_alpha_start_end(true_t, paper_rig)
@@ -100,6 +103,7 @@ def test_recovers_the_simulated_alpha(tmp_path: Path, paper_rig: thermrs.Rig, se
         assert clo <= 23.2e-6 <= chi, (cam, a)
 
 
+@pytest.mark.slow
 def test_cli_fit_json_contract(tmp_path: Path, paper_rig: thermrs.Rig) -> None:
     p = tmp_path / "s.toml"
     p.write_text(SCENARIO.format(seed=3).replace("duration_min = 900", "duration_min = 300"))
@@ -129,6 +133,7 @@ def test_cli_fit_json_contract(tmp_path: Path, paper_rig: thermrs.Rig) -> None:
     assert doc["rms_um"] > 0
 
 
+@pytest.mark.slow
 def test_interval_coverage_over_a_small_seeded_batch(
     tmp_path: Path, paper_rig: thermrs.Rig
 ) -> None:
@@ -159,6 +164,7 @@ start = "ambient"
     assert covered >= len(trials) - 1, covered
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("geometry", ["paper", "ur5", "random"])
 def test_interval_is_honest_on_three_geometries(geometry: str) -> None:
     """Issue #9: synthetic visit series with known α (tests/coverage.py: forward-model spots
@@ -168,7 +174,7 @@ def test_interval_is_honest_on_three_geometries(geometry: str) -> None:
     0.7–2× the true spread (1.96 × std of α̂ − α over trials). Before the fix (pinv of the
     normal matrix at the default cutoff, iid residuals) coverage was 50–70 % and the width
     0.35–0.46× (BENCHMARKS.md). The full table is benchmarks/bench_coverage.py."""
-    from tests.coverage import UR5, random_rig, visit_tables
+    from tests.support.coverage import UR5, random_rig, visit_tables
 
     rng = np.random.default_rng({"paper": 11, "ur5": 12, "random": 13}[geometry])
     if geometry == "random":

@@ -18,7 +18,10 @@ from thermrs.fit import run_table
 from thermrs.heating import CURVE_SCHEMA, fit_curve, heating_curves, temperature_curves
 from thermrs.simulate import Simulation, simulate
 
-from tests.scenarios import FAST_NODES, WARM_UP_90_MIN
+from tests.support.scenarios import FAST_NODES, WARM_UP_90_MIN
+
+#: Simulations and campaigns of minutes: skipped by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
 
 T_S = np.arange(0.0, 5400.0, 60.0)  # 90 min, one sample a minute
 

@@ -17,7 +17,8 @@ import thermrs
 from mcap.records import Channel, Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 
-from .recordings import header
+from tests.support.recordings import header
+
 from .test_extract import cli_extract, scenario
 
 W, H = 752, 582
@@ -160,7 +161,7 @@ def png_bomb(w: int, h: int) -> bytes:
 def worst_cases(d: Path) -> list[Path]:
     """Files built to make a reader allocate: PNG headers and bombs far larger than the rig's
     frame, chunks claiming 2^40 and 2^63 bytes, record lengths of 2^63."""
-    from .recordings import Recording
+    from tests.support.recordings import Recording
 
     rec = Recording()
     t0 = 1_750_000_000 * 10**9

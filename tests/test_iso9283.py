@@ -17,7 +17,10 @@ from thermrs.fit import run_table
 from thermrs.iso9283 import LABEL, SUMMARY_SCHEMA, WINDOW_SCHEMA, iso9283, rp
 from thermrs.simulate import simulate
 
-from tests.scenarios import FAST_NODES, WARM_UP_90_MIN
+from tests.support.scenarios import FAST_NODES, WARM_UP_90_MIN
+
+#: Simulations and campaigns of minutes: skipped by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
 
 
 def points_table(

@@ -112,17 +112,29 @@ def test_cli_paper_tables_render() -> None:
 
 
 def test_forward_model_generalisation(paper_rig: thermrs.Rig) -> None:
-    """The forward model on the paper's data: α per camera explains Run 1 exactly, and the
-    geometry claim printed by `thermrs paper` holds (link 3 moves the spot along chip x)."""
+    """The forward model on the paper's data, checked against what lies outside it: the fit
+    rests on the model being linear in α (stated by ``forward_model_table``); the two cameras
+    see one structure, so their α agree as closely as the paper's own two do (Table 6: 21.87
+    and 21.63, 1.1 % apart); α fitted on Run 1 predicts Runs 2 and 3 with the sign of the
+    drift measured there (Table 4); and the geometry claim printed by `thermrs paper` holds
+    (link 3 moves the spot along chip x)."""
     a, t = paper.forward_model_table(paper_rig)
     assert t.height == 8
-    # Refit check: α_A reproduces Run 1's 131 µm on camera A through the model itself.
-    m = thermrs.ForwardModel(paper_rig, alpha_per_k=a["A"])
     q = paper_rig.camera_pose("A").joints_rad
-    s = m.spots("A", q, temperatures={"link2": [23.40, 28.10], "link3": [23.35, 30.10]})
-    assert s.v_um[1] - s.v_um[0] == pytest.approx(131.0, abs=1e-6)
+    temps = {"link2": [23.40, 28.10], "link3": [23.35, 30.10]}
+    drift = [
+        (lambda s: s.v_um[1] - s.v_um[0])(
+            thermrs.ForwardModel(paper_rig, alpha_per_k=alpha).spots("A", q, temperatures=temps)
+        )
+        for alpha in (a["A"], 2 * a["A"])
+    ]
+    assert drift[1] == pytest.approx(2 * drift[0], abs=0.01)  # linear in α to 0.01 µm
+    paper_spread = abs(TABLE6["A"] / TABLE6["B"] - 1)
+    assert abs(a["A"] / a["B"] - 1) <= paper_spread
+    for row in t.iter_rows(named=True):
+        assert row["predicted_um"] * row["measured_um"] > 0, row
     # Heating link 3 alone moves the spot along chip x (u) far more than along y (v).
+    m = thermrs.ForwardModel(paper_rig, alpha_per_k=a["A"])
     s3 = m.spots("A", q, temperatures={"link2": [23.0, 23.0], "link3": [23.0, 33.0]})
     du, dv = s3.u_um[1] - s3.u_um[0], s3.v_um[1] - s3.v_um[0]
     assert abs(du) > 10 * abs(dv)
-    assert 40e-6 < a["mean"] < 50e-6

@@ -17,6 +17,9 @@ from thermrs.fit import fit_alpha, load_run_table, run_table
 from thermrs.predict import noise_um, predict, prediction_table
 from thermrs.simulate import simulate
 
+#: Simulations and campaigns of minutes: skipped by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 SCENARIO = """format = "thermrs-scenario/1"
 seed = {seed}
 [[run]]

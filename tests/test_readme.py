@@ -100,6 +100,7 @@ def test_every_effect_of_the_spec_is_documented() -> None:
         assert f"| `{name}` |" in doc, name
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "name", sorted(p.name for p in (REPO / "fixtures" / "scenarios").glob("*.toml"))
 )

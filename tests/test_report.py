@@ -29,7 +29,10 @@ import thermrs
 from thermrs.report import find_chromium, load_run, write_report
 from thermrs.report.document import SECTION_IDS
 
-from tests.scenarios import FAST_NODES, WARM_UP_90_MIN
+from tests.support.scenarios import FAST_NODES, WARM_UP_90_MIN
+
+#: Simulations and campaigns of minutes: skipped by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
 
 REPO = Path(__file__).resolve().parents[1]
 ARTEFACTS = REPO / "bench-out" / "report"

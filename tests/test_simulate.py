@@ -15,6 +15,9 @@ import thermrs
 from thermrs.fit import interpolate
 from thermrs.simulate import simulate
 
+#: Simulations and campaigns of minutes: skipped by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 REPO = Path(__file__).resolve().parents[1]
 SHORT = """
 format = "thermrs-scenario/1"

@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import tempfile
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -154,13 +156,16 @@ class Extraction:
         # Ctrl-C on the way removes what this call wrote.
         tmps: dict[str, Path] = {}
         published: list[Path] = []
+        held = _hold_interrupts()  # no Ctrl-C between creating a temporary and knowing it
         try:
             for name, path in paths.items():
                 tmps[name] = atomic_tmp(path)
+            _release_interrupts(held)  # a Ctrl-C pending since lands here, inside the try
+            for name, path in paths.items():
                 try:
                     getattr(self, name).write_parquet(tmps[name], metadata=meta)
-                except OSError as e:
-                    raise InputError(f"cannot write {path}: {e.strerror or e}") from None
+                except (OSError, pl.exceptions.PolarsError) as e:
+                    raise _write_failed(e, path) from None
             for name, path in paths.items():
                 publish(tmps[name], path)
                 published.append(path)
@@ -170,6 +175,8 @@ class Extraction:
             for p in published:
                 p.unlink(missing_ok=True)
             raise
+        finally:
+            _release_interrupts(held)
         return paths
 
 
@@ -217,6 +224,15 @@ def data_loss(path: str | Path) -> list[dict[str, Any]]:
     return [x for x in losses if isinstance(x, dict)] if isinstance(losses, list) else []
 
 
+def _write_failed(e: BaseException, path: Path) -> OSError:
+    """A failed write (a full disk: not bad input, the CLI exits 1) as an ``OSError`` naming
+    ``path``: the operating system's error as it is, or polars' (which loses the errno)."""
+    if isinstance(e, OSError):
+        return OSError(e.errno, e.strerror or str(e), str(path))
+    first = str(e).strip().splitlines()
+    return OSError(f"cannot write {path}: {first[0] if first else type(e).__name__}")
+
+
 def write_parquet_atomic(
     df: pl.DataFrame, path: str | Path, *, metadata: dict[str, str] | None = None
 ) -> None:
@@ -235,7 +251,9 @@ def write_parquet_atomic(
     Raises
     ------
     InputError
-        The folder does not exist, or the file cannot be written there.
+        The folder does not exist or takes no new file.
+    OSError
+        Writing failed (a full disk, say); the message names ``path``; nothing is left behind.
 
     Examples
     --------
@@ -244,16 +262,22 @@ def write_parquet_atomic(
     >>> write_parquet_atomic(pl.DataFrame({"x": [1]}), "out/x.parquet")  # doctest: +SKIP
     """
     path = Path(path)
-    tmp = atomic_tmp(path)
+    held = _hold_interrupts()
+    tmp: Path | None = None
     try:
+        tmp = atomic_tmp(path)
+        _release_interrupts(held)
         try:
             df.write_parquet(tmp, metadata=metadata)
-        except OSError as e:
-            raise InputError(f"cannot write {path}: {e.strerror or e}") from None
+        except (OSError, pl.exceptions.PolarsError) as e:
+            raise _write_failed(e, path) from None
         publish(tmp, path)
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
         raise
+    finally:
+        _release_interrupts(held)
 
 
 def check_writable(path: str | Path, *, what: str = "output") -> Path:
@@ -293,7 +317,13 @@ def check_writable(path: str | Path, *, what: str = "output") -> Path:
         raise InputError(f"{what} {path}: folder {parent} does not exist (create it first)")
     if not parent.is_dir():
         raise InputError(f"{what} {path}: {parent} is not a folder")
-    atomic_tmp(path, what=what).unlink()
+    # An unnamed file (O_TMPFILE where the filesystem has it): nothing is left behind when
+    # Ctrl-C lands here, as it could between creating and removing a named one.
+    try:
+        with tempfile.TemporaryFile(dir=parent):
+            pass
+    except OSError as e:
+        raise InputError(f"{what} {path}: {e.strerror or e} (in {parent})") from None
     return path
 
 
@@ -313,6 +343,47 @@ def atomic_tmp(path: Path, *, what: str = "cannot write") -> Path:
         raise InputError(f"{what} {path}: {e.strerror or e} (in {path.parent})") from None
     os.close(fd)
     return Path(tmp)
+
+
+class _Held:
+    """SIGINT deferred: the handler to restore and whether one arrived meanwhile."""
+
+    def __init__(self, previous: Any) -> None:
+        self.previous = previous
+        self.pending = False
+        self.active = True
+
+    def defer(self, signum: int, frame: object) -> None:
+        self.pending = True
+
+
+def _hold_interrupts() -> _Held | None:
+    """Defer Ctrl-C (in the main thread, where Python runs signal handlers).
+
+    Between creating a temporary file and entering the ``try`` that removes it, a Ctrl-C would
+    leave it behind: creation happens with SIGINT deferred, and :func:`_release_interrupts`
+    inside the ``try`` raises a deferred one where the cleanup sees it. (Blocking the signal
+    in this thread would not do: the kernel hands a process-directed SIGINT to another thread,
+    and Python still runs the handler here.)"""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    previous = signal.getsignal(signal.SIGINT)
+    if not callable(previous):  # ignored or default: nothing of Python's to defer
+        return None
+    held = _Held(previous)
+    signal.signal(signal.SIGINT, held.defer)
+    return held
+
+
+def _release_interrupts(held: _Held | None) -> None:
+    """Restore the handler :func:`_hold_interrupts` replaced and deliver a deferred Ctrl-C to
+    it (idempotent)."""
+    if held is None or not held.active:
+        return
+    held.active = False
+    signal.signal(signal.SIGINT, held.previous)
+    if held.pending:
+        held.previous(signal.SIGINT, None)
 
 
 def publish(tmp: Path, path: Path) -> None:

@@ -80,6 +80,9 @@ def simulate(
         The scenario file cannot be read; ``out``'s folder does not exist or cannot be
         written; the scenario does not fit the rig (e.g. an effect names a camera it does
         not have); ``seed`` is out of range.
+    OSError
+        The recording cannot be written (a full disk, say): the message names ``out``; nothing
+        is left behind.
     KeyboardInterrupt
         Ctrl-C (checked every few milliseconds); nothing is left behind.
 
@@ -111,9 +114,12 @@ def simulate(
     _check_default_nodes(text, scenario, rig)
     tmp = atomic_tmp(out)
     try:
-        cols, sc_json = _native.simulate(
-            rig._native, text, str(tmp), source_name=str(scenario), seed=seed
-        )
+        try:
+            cols, sc_json = _native.simulate(
+                rig._native, text, str(tmp), source_name=str(scenario), seed=seed
+            )
+        except OSError as e:  # a failed write: name the file asked for, not the temporary
+            raise OSError(e.errno, e.strerror or str(e), str(out)) from None
         publish(tmp, out)
     except BaseException:
         tmp.unlink(missing_ok=True)

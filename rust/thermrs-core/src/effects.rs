@@ -125,14 +125,14 @@ pub struct EffectSpec {
 }
 
 /// A problem with an effect: the key (relative to the effect) and what is wrong.
-pub type KeyError = (String, String);
+pub use crate::error::KeyError;
 
 fn finite_within(key: &str, v: f64, bound: f64, unit: &str) -> std::result::Result<(), KeyError> {
     if v.is_finite() && v.abs() <= bound {
         Ok(())
     } else {
-        Err((
-            key.into(),
+        Err(KeyError::new(
+            key,
             format!("is {v}, expected a finite value with |value| ≤ {bound} {unit}"),
         ))
     }
@@ -142,8 +142,8 @@ fn time_constant(key: &str, v: f64) -> std::result::Result<(), KeyError> {
     if v.is_finite() && v > 0.0 && v <= bounds::TAU_MIN_MAX {
         Ok(())
     } else {
-        Err((
-            key.into(),
+        Err(KeyError::new(
+            key,
             format!(
                 "is {v}, expected a time constant 0 < τ ≤ {} min",
                 bounds::TAU_MIN_MAX
@@ -154,7 +154,7 @@ fn time_constant(key: &str, v: f64) -> std::result::Result<(), KeyError> {
 
 fn nonempty(key: &str, v: &str) -> std::result::Result<(), KeyError> {
     if v.trim().is_empty() {
-        Err((key.into(), "is empty".into()))
+        Err(KeyError::new(key, "is empty"))
     } else {
         Ok(())
     }
@@ -194,8 +194,8 @@ impl Effect {
     /// ([`Effect::validate`]); the error names the key.
     pub fn from_spec(s: &EffectSpec) -> std::result::Result<Effect, KeyError> {
         let Some((required, optional)) = Effect::keys(&s.name) else {
-            return Err((
-                "name".into(),
+            return Err(KeyError::new(
+                "name",
                 format!(
                     "{:?} is not a SPEC §6 effect ({})",
                     s.name,
@@ -206,15 +206,18 @@ impl Effect {
         let present = s.present_keys();
         for r in required {
             if !present.contains(r) {
-                return Err((String::new(), format!("effect {:?} needs `{r}`", s.name)));
+                return Err(KeyError::new(
+                    String::new(),
+                    format!("effect {:?} needs `{r}`", s.name),
+                ));
             }
         }
         for p in &present {
             if !required.contains(p) && !optional.contains(p) {
                 let mut takes: Vec<&str> = required.to_vec();
                 takes.extend_from_slice(optional);
-                return Err((
-                    (*p).into(),
+                return Err(KeyError::new(
+                    *p,
                     format!(
                         "is not a parameter of {:?} (it takes {})",
                         s.name,
@@ -268,7 +271,7 @@ impl Effect {
         match self {
             Effect::AlphaPerLink { alpha_per_k } => {
                 if alpha_per_k.is_empty() {
-                    return Err(("alpha_per_k".into(), "names no temperature".into()));
+                    return Err(KeyError::new("alpha_per_k", "names no temperature"));
                 }
                 for (k, v) in alpha_per_k {
                     nonempty("alpha_per_k", k)?;
@@ -281,8 +284,8 @@ impl Effect {
                 temperature,
             } => {
                 if LengthRef::parse(length).is_none() {
-                    return Err((
-                        "length".into(),
+                    return Err(KeyError::new(
+                        "length",
                         format!("{length:?} is not a DH length (a1..a6, d1..d6)"),
                     ));
                 }
@@ -487,7 +490,7 @@ impl Effects {
         let mut seen: Vec<String> = Vec::new();
         for e in effects {
             e.validate()
-                .map_err(|(k, m)| Error::Input(format!("effect {}: {k}: {m}", e.name())))?;
+                .map_err(|k| Error::Input(format!("effect {}: {k}", e.name())))?;
             e.check(rig)?;
             // One of each, except where several instances are distinct mechanisms.
             let key = match e {
@@ -566,7 +569,7 @@ impl Effects {
     /// A surface temperature series (times `t_s`, seconds) as the structure sees it.
     pub fn structure_series(&self, t_s: &[f64], x: &[f64]) -> Result<Vec<f64>> {
         match self.lag_tau_s {
-            Some(tau) => crate::heat::first_order_lag(t_s, x, tau).map_err(Error::Input),
+            Some(tau) => Ok(crate::heat::first_order_lag(t_s, x, tau)?),
             None => Ok(x.to_vec()),
         }
     }
@@ -688,7 +691,7 @@ mod tests {
         ];
         for (j, key) in bad {
             let e: Effect = serde_json::from_str(j).unwrap();
-            let (k, m) = e.validate().unwrap_err();
+            let KeyError { key: k, message: m } = e.validate().unwrap_err();
             assert_eq!(k, key, "{j}: {m}");
         }
     }
@@ -737,21 +740,21 @@ mod tests {
             um: Some([1.0, 2.0]),
             ..Default::default()
         };
-        assert_eq!(Effect::from_spec(&s).unwrap_err().0, "um");
+        assert_eq!(Effect::from_spec(&s).unwrap_err().key, "um");
         let s = EffectSpec {
             name: "thermal_lag".into(),
             ..Default::default()
         };
         assert!(Effect::from_spec(&s)
             .unwrap_err()
-            .1
+            .message
             .contains("needs `tau_min`"));
         let s = EffectSpec {
             name: "thermal_lag".into(),
             tau_min: Some(-1.0),
             ..Default::default()
         };
-        assert_eq!(Effect::from_spec(&s).unwrap_err().0, "tau_min");
+        assert_eq!(Effect::from_spec(&s).unwrap_err().key, "tau_min");
     }
 
     #[test]

@@ -2,11 +2,14 @@
 //!
 //! It knows nothing of Python. Modules, one idea each:
 //! - [`rig`]: rig files (SPEC §3), parsed and validated with errors naming the key;
+//! - [`config`]: strict TOML parsing shared by rig and scenario files;
 //! - [`kinematics`]: standard Denavit–Hartenberg forward kinematics with per-sample link lengths;
 //! - [`optics`]: the laser ray and its intersection with a CCD chip, in pixels (SPEC §4);
 //! - [`model`]: the thermal-expansion forward model (SPEC §4), vectorised over time series;
 //! - [`effects`]: the unmodelled effects of SPEC §6, their parameters, validation and action;
 //! - [`explain`]: a rig checked and explained pose by pose (`thermrs rig`);
+//! - [`error`]: every error of the core, typed by cause;
+//! - [`msg`]: the ROS 2 message types, shared by the decoder and the encoder;
 //! - [`cdr`]: zero-copy ROS 2 CDR decoding of the recorded message types;
 //! - [`centroid`]: laser-spot detection and sub-pixel centroids on CCD frames;
 //! - [`thermal`]: thermal ROI maxima in °C;
@@ -19,6 +22,7 @@
 
 pub mod cdr;
 pub mod centroid;
+pub mod config;
 pub mod effects;
 pub mod error;
 pub mod explain;
@@ -27,6 +31,7 @@ pub mod ingest;
 pub mod inventory;
 pub mod kinematics;
 pub mod model;
+pub mod msg;
 pub mod optics;
 pub mod record;
 pub mod rig;

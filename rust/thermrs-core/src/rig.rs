@@ -10,7 +10,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, RigError};
+use crate::error::{Error, FileKind, KeyError, RigError};
 
 /// The format string every rig file must carry.
 pub const RIG_FORMAT: &str = "thermrs-rig/1";
@@ -190,56 +190,6 @@ where
     })
 }
 
-fn line_of(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())].matches('\n').count() + 1
-}
-
-fn one_line(message: &str) -> String {
-    message.split_whitespace().collect::<Vec<_>>().join(" ")
-}
-
-/// Parse TOML strictly into `T` and validate it: every error one line naming the file, the
-/// line where the parser can tell, and the key (`kind` is `rig` or `scenario`). Shared by rig
-/// and scenario files.
-pub(crate) fn parse_strict<T: serde::de::DeserializeOwned>(
-    text: &str,
-    source_name: &str,
-    kind: &'static str,
-    validate: impl Fn(&T) -> Result<(), (String, String)>,
-) -> Result<T, RigError> {
-    let err = |line: Option<usize>, key: String, message: String| RigError {
-        kind,
-        source_name: source_name.to_string(),
-        line,
-        key,
-        message,
-    };
-    let de = toml::Deserializer::parse(text).map_err(|e| {
-        let line = e.span().map(|s| line_of(text, s.start));
-        // Name the key of a "duplicate key" (the span covers it).
-        let key = match e.span() {
-            Some(s) if e.message().contains("duplicate") => text
-                .get(s)
-                .map(|k| k.trim().trim_matches(['[', ']']).trim().to_string())
-                .unwrap_or_default(),
-            _ => String::new(),
-        };
-        err(line, key, one_line(e.message()))
-    })?;
-    let value: T = serde_path_to_error::deserialize(de).map_err(|e| {
-        let path = e.path().to_string();
-        let inner = e.into_inner();
-        let key = if path == "." { String::new() } else { path };
-        err(
-            inner.span().map(|s| line_of(text, s.start)),
-            key,
-            one_line(inner.message()),
-        )
-    })?;
-    validate(&value).map_err(|(key, message)| err(None, key, message))?;
-    Ok(value)
-}
-
 impl Rig {
     /// Read and validate a rig file.
     pub fn from_path(path: impl AsRef<Path>) -> Result<Rig, Error> {
@@ -253,19 +203,31 @@ impl Rig {
 
     /// Parse and validate rig TOML text; `source_name` names it in errors.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Rig, RigError> {
-        parse_strict(text, source_name, "rig", Rig::validate)
+        crate::config::parse_strict(text, source_name, FileKind::Rig, Rig::validate)
     }
 
     /// The checks types cannot express. Returns (key, message) of the first problem.
-    pub fn validate(&self) -> Result<(), (String, String)> {
-        let fail = |key: &str, message: String| Err((key.to_string(), message));
+    pub fn validate(&self) -> Result<(), KeyError> {
+        let fail = |key: &str, message: String| Err(KeyError::new(key.to_string(), message));
         if self.format != RIG_FORMAT {
             return fail(
                 "format",
                 format!("is {:?}, expected {RIG_FORMAT:?}", self.format),
             );
         }
-        // robot
+        self.validate_robot()?;
+        let pose_names = self.validate_laser_and_poses()?;
+        // Every topic once: joint states, cameras, thermal camera, thermometer.
+        let mut topics: HashSet<&str> = HashSet::new();
+        topics.insert(self.robot.joint_states_topic.as_str());
+        self.validate_cameras(&pose_names, &mut topics)?;
+        let temp_names = self.validate_thermal_and_ambient(&mut topics)?;
+        self.validate_expansion(&temp_names)
+    }
+
+    /// `[robot]`: model, joint names, topic, the six DH rows.
+    fn validate_robot(&self) -> Result<(), KeyError> {
+        let fail = |key: &str, message: String| Err(KeyError::new(key.to_string(), message));
         let r = &self.robot;
         if r.model.trim().is_empty() {
             return fail("robot.model", "is empty".into());
@@ -297,7 +259,14 @@ impl Rig {
                 );
             }
         }
-        // laser
+        Ok(())
+    }
+
+    /// `[laser]` and the `[[pose]]`s; returns the pose names.
+    fn validate_laser_and_poses(&self) -> Result<Vec<String>, KeyError> {
+        let fail = |key: &str, message: String| -> Result<Vec<String>, KeyError> {
+            Err(KeyError::new(key.to_string(), message))
+        };
         check_vec(&self.laser.origin_mm, "laser.origin_mm")?;
         check_unit(&self.laser.direction, "laser.direction")?;
         // poses
@@ -311,7 +280,16 @@ impl Rig {
                 check_finite(*v, &format!("pose[{i}].joints_deg[{j}]"))?;
             }
         }
-        // cameras
+        Ok(pose_names)
+    }
+
+    /// The `[[camera]]`s: names, topics (each once in `topics`), poses they refer to, chips.
+    fn validate_cameras<'a>(
+        &'a self,
+        pose_names: &[String],
+        topics: &mut HashSet<&'a str>,
+    ) -> Result<(), KeyError> {
+        let fail = |key: &str, message: String| Err(KeyError::new(key.to_string(), message));
         if self.camera.is_empty() {
             return fail(
                 "camera",
@@ -320,8 +298,6 @@ impl Rig {
         }
         let cam_names: Vec<String> = self.camera.iter().map(|c| c.name.clone()).collect();
         check_names(&cam_names, "camera")?;
-        let mut topics: HashSet<&str> = HashSet::new();
-        topics.insert(r.joint_states_topic.as_str());
         for (i, c) in self.camera.iter().enumerate() {
             let key = |k: &str| format!("camera[{i}].{k}");
             check_topic(&c.topic, &key("topic"))?;
@@ -365,7 +341,18 @@ impl Rig {
                 }
             }
         }
-        // thermal
+        Ok(())
+    }
+
+    /// `[thermal]` and `[ambient]`: topics, ROIs inside the frame; returns the temperature
+    /// names (ROIs, `ambient`).
+    fn validate_thermal_and_ambient<'a>(
+        &'a self,
+        topics: &mut HashSet<&'a str>,
+    ) -> Result<Vec<&'a str>, KeyError> {
+        let fail = |key: &str, message: String| -> Result<Vec<&str>, KeyError> {
+            Err(KeyError::new(key.to_string(), message))
+        };
         let mut temp_names: Vec<&str> = Vec::new();
         if let Some(t) = &self.thermal {
             check_topic(&t.topic, "thermal.topic")?;
@@ -417,7 +404,13 @@ impl Rig {
             }
             temp_names.push(AMBIENT);
         }
-        // expansion
+        Ok(temp_names)
+    }
+
+    /// `[expansion]`: α, the reference temperature, lengths mapped to known temperatures.
+    fn validate_expansion(&self, temp_names: &[&str]) -> Result<(), KeyError> {
+        let fail = |key: &str, message: String| Err(KeyError::new(key.to_string(), message));
+        let r = &self.robot;
         let e = &self.expansion;
         check_finite(e.alpha_per_k, "expansion.alpha_per_k")?;
         if e.alpha_per_k.abs() > 1e-3 {
@@ -517,32 +510,35 @@ impl Rig {
     }
 }
 
-fn check_finite(v: f64, key: &str) -> Result<(), (String, String)> {
+fn check_finite(v: f64, key: &str) -> Result<(), KeyError> {
     if v.is_finite() {
         Ok(())
     } else {
-        Err((key.to_string(), format!("is {v}, expected a finite number")))
+        Err(KeyError::new(
+            key.to_string(),
+            format!("is {v}, expected a finite number"),
+        ))
     }
 }
 
-fn check_vec(v: &[f64; 3], key: &str) -> Result<(), (String, String)> {
+fn check_vec(v: &[f64; 3], key: &str) -> Result<(), KeyError> {
     for (k, x) in v.iter().enumerate() {
         check_finite(*x, &format!("{key}[{k}]"))?;
     }
     Ok(())
 }
 
-fn check_unit(v: &[f64; 3], key: &str) -> Result<(), (String, String)> {
+fn check_unit(v: &[f64; 3], key: &str) -> Result<(), KeyError> {
     check_vec(v, key)?;
     let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
     if norm == 0.0 {
-        return Err((
+        return Err(KeyError::new(
             key.to_string(),
-            "is a zero-length vector, expected a unit vector".into(),
+            "is a zero-length vector, expected a unit vector",
         ));
     }
     if (norm - 1.0).abs() > UNIT_TOLERANCE {
-        return Err((
+        return Err(KeyError::new(
             key.to_string(),
             format!("has length {norm:.9}, expected a unit vector (within {UNIT_TOLERANCE:e})"),
         ));
@@ -550,14 +546,17 @@ fn check_unit(v: &[f64; 3], key: &str) -> Result<(), (String, String)> {
     Ok(())
 }
 
-fn check_topic(topic: &str, key: &str) -> Result<(), (String, String)> {
+fn check_topic(topic: &str, key: &str) -> Result<(), KeyError> {
     if topic.trim().is_empty() {
-        return Err((key.to_string(), "is empty, expected a topic name".into()));
+        return Err(KeyError::new(
+            key.to_string(),
+            "is empty, expected a topic name",
+        ));
     }
     Ok(())
 }
 
-fn check_names(names: &[String], key: &str) -> Result<(), (String, String)> {
+fn check_names(names: &[String], key: &str) -> Result<(), KeyError> {
     let mut seen = HashSet::new();
     for (i, n) in names.iter().enumerate() {
         let k = if key.starts_with("robot.") {
@@ -566,10 +565,10 @@ fn check_names(names: &[String], key: &str) -> Result<(), (String, String)> {
             format!("{key}[{i}].name")
         };
         if n.trim().is_empty() {
-            return Err((k, "is empty".into()));
+            return Err(KeyError::new(k, "is empty"));
         }
         if !seen.insert(n.as_str()) {
-            return Err((k, format!("{n:?} is used twice")));
+            return Err(KeyError::new(k, format!("{n:?} is used twice")));
         }
     }
     Ok(())

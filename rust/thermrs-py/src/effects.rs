@@ -2,17 +2,19 @@
 
 use pyo3::prelude::*;
 use thermrs_core::effects::{Effect, EFFECT_NAMES};
+use thermrs_core::error::Error as CoreError;
 
-use crate::{to_py, InputError, PyRig};
+use crate::guard::call;
+use crate::rig::PyRig;
 
 /// A JSON list of effects (`[{"name": …, key: value, …}, …]`), each one's values validated;
 /// the error names the effect and the key.
-pub(crate) fn parse_list(json: &str) -> PyResult<Vec<Effect>> {
+pub(crate) fn parse_list(json: &str) -> Result<Vec<Effect>, CoreError> {
     let list: Vec<Effect> =
-        serde_json::from_str(json).map_err(|e| InputError::new_err(format!("effects: {e}")))?;
+        serde_json::from_str(json).map_err(|e| CoreError::Input(format!("effects: {e}")))?;
     for e in &list {
         e.validate()
-            .map_err(|(k, m)| InputError::new_err(format!("effect {}: {k}: {m}", e.name())))?;
+            .map_err(|k| CoreError::Input(format!("effect {}: {k}", e.name())))?;
     }
     Ok(list)
 }
@@ -22,14 +24,16 @@ pub(crate) fn parse_list(json: &str) -> PyResult<Vec<Effect>> {
 #[pyfunction]
 #[pyo3(signature = (json, rig = None))]
 fn effect_check(json: &str, rig: Option<&PyRig>) -> PyResult<String> {
-    let e: Effect =
-        serde_json::from_str(json).map_err(|e| InputError::new_err(format!("effect: {e}")))?;
-    e.validate()
-        .map_err(|(k, m)| InputError::new_err(format!("effect {}: {k}: {m}", e.name())))?;
-    if let Some(r) = rig {
-        e.check(&r.inner).map_err(to_py)?;
-    }
-    Ok(serde_json::to_string(&e).expect("effects serialise"))
+    call("checking an effect", || {
+        let e: Effect =
+            serde_json::from_str(json).map_err(|e| CoreError::Input(format!("effect: {e}")))?;
+        e.validate()
+            .map_err(|k| CoreError::Input(format!("effect {}: {k}", e.name())))?;
+        if let Some(r) = rig {
+            e.check(&r.inner)?;
+        }
+        Ok(serde_json::to_string(&e).expect("effects serialise"))
+    })
 }
 
 /// The SPEC §6 effect names, in the SPEC's order.

@@ -6,21 +6,18 @@ use pyo3::prelude::*;
 use serde_json::json;
 use thermrs_core::inventory as core;
 
-use crate::{panic, to_py};
+use crate::guard;
 
 /// What the recording at `path` holds, read from its summary and indexes (see the core
 /// module); `topics`: those whose messages' log times are wanted. Returns JSON.
 #[pyfunction]
 #[pyo3(signature = (path, topics = Vec::new()))]
 fn inventory(py: Python<'_>, path: PathBuf, topics: Vec<String>) -> PyResult<String> {
-    let inv = py
-        .detach(|| {
-            panic::guard("reading a recording's summary", || {
-                core::inventory(&path, &topics)
-            })
+    let inv = py.detach(|| {
+        guard::call("reading a recording's summary", || {
+            core::inventory(&path, &topics)
         })
-        .map_err(panic::to_py)?
-        .map_err(to_py)?;
+    })?;
     let channels: Vec<_> = inv
         .channels
         .iter()

@@ -22,7 +22,7 @@ import polars as pl
 import thermrs
 from thermrs import ForwardModel
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 UR5 = REPO / "fixtures" / "rigs" / "ur5-two-cameras.toml"
 
 

@@ -8,7 +8,8 @@ use std::panic::{self, AssertUnwindSafe};
 use pyo3::create_exception;
 use pyo3::prelude::*;
 
-use crate::ThermrsError;
+use crate::errors::{to_py as core_to_py, ThermrsError};
+use thermrs_core::error::Error as CoreError;
 
 create_exception!(
     thermrs._native,
@@ -33,6 +34,12 @@ pub fn guard<R>(what: &str, f: impl FnOnce() -> R) -> Result<R, String> {
 /// The Python exception for a message from [`guard`].
 pub fn to_py(msg: String) -> PyErr {
     InternalError::new_err(msg)
+}
+
+/// Run the core call `f` under [`guard`] and map its error: a panic becomes
+/// [`InternalError`], a core error its Python class ([`crate::errors::to_py`]).
+pub fn call<T>(what: &str, f: impl FnOnce() -> Result<T, CoreError>) -> PyResult<T> {
+    guard(what, f).map_err(to_py)?.map_err(core_to_py)
 }
 
 /// Print panics only with `THERMRS_DEBUG` set; they surface as [`InternalError`] anyway.

@@ -1,0 +1,303 @@
+//! Detection: a sparse row scan for runs above the threshold, each verified on the rows
+//! around it and on its 3×3 neighbourhood, the best blob chosen; then measured.
+
+use super::*;
+
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Run {
+    pub(super) scan_idx: usize,
+    pub(super) y: usize,
+    pub(super) x0: usize,
+    pub(super) x1: usize,
+    /// The brightest pixel of the rows around the stretch that passes the blob test.
+    pub(super) peak: u32,
+    pub(super) peak_x: usize,
+    pub(super) peak_y: usize,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Blob {
+    pub(super) peak: u32,
+    pub(super) x: usize,
+    pub(super) y: usize,
+}
+
+/// Row stride of the sparse scan for a minimum spot σ: `floor(2σ)`, so that a spot's centre
+/// is never more than `σ` rows from a scanned row.
+pub(super) fn scan_stride(min_sigma_px: f64) -> usize {
+    let k = (2.0 * min_sigma_px).floor();
+    if k.is_finite() && k >= 1.0 {
+        (k as usize).min(64)
+    } else {
+        1
+    }
+}
+
+/// The least fraction of a Gaussian spot's peak (σ ≥ `min_sigma_px`) that the nearest of
+/// the rows scanned every `k` shows: `exp(−(k/2)² / 2σ²)` (1 when every row is scanned).
+/// Pixel integration only broadens the spot, which raises the fraction.
+pub(super) fn scan_reach(k: usize, min_sigma_px: f64) -> f64 {
+    if k <= 1 {
+        return 1.0;
+    }
+    let d = k as f64 / 2.0;
+    let r = (-d * d / (2.0 * min_sigma_px * min_sigma_px)).exp();
+    if r.is_finite() {
+        r.clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
+}
+
+// Long (~200 lines) on purpose for now: the scan, candidate runs and blob choice share the
+// per-frame thresholds and the sample buffer in one hot loop that the benchmark
+// (`bench_find_spot`) times; splitting it is tracked in ARCHITECTURE.md.
+pub(super) fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
+    let (w, h) = (f.width, f.height);
+    let k = scan_stride(p.min_sigma_px).min(h.max(1));
+    let sat = p.saturation_dn.unwrap_or(P::MAX);
+
+    // Rows to scan: (k−1)/2, +k, …, and the last row if the stride leaves it uncovered.
+    let first = ((k - 1) / 2).min(h - 1);
+    let n_scan = (h - 1 - first) / k + 1;
+    let last = first + (n_scan - 1) * k;
+    let extra = h - 1 - last > (k - 1) / 2;
+    let scan_row = |i: usize| if i < n_scan { first + i * k } else { h - 1 };
+    let n_rows = n_scan + extra as usize;
+
+    // 1. Row maxima of the scanned rows, and a background sample from some of them.
+    let sample_every = (n_rows / SAMPLE_GRID).max(1);
+    let col_step = (w / SAMPLE_GRID).max(1);
+    let col_first = col_step / 2;
+    let mut samples: Vec<u16> = Vec::with_capacity((n_rows / sample_every + 1) * (SAMPLE_GRID + 1));
+    let mut row_max: Vec<u32> = Vec::with_capacity(n_rows);
+    for i in 0..n_rows {
+        let row = f.row(scan_row(i));
+        row_max.push(P::max_of(row));
+        if i % sample_every == 0 {
+            let mut x = col_first;
+            while x < w {
+                samples.push(P::get(row, x) as u16);
+                x += col_step;
+            }
+        }
+    }
+    let (bg, noise) = robust_stats(&samples);
+    let excess = (p.detect_sigmas * noise.max(0.5)).max(p.min_peak_dn);
+    let thr_f = bg + if excess.is_finite() { excess } else { 0.0 };
+    // A spot whose peak is above T shows at least `reach` of its excess on a scanned row.
+    let scan_f = bg + scan_reach(k, p.min_sigma_px) * (thr_f - bg);
+    let best = row_max.iter().copied().max().unwrap_or(0);
+    let detectable = thr_f < P::MAX as f64 && scan_f <= thr_f; // false for NaN
+    if !detectable || (best as f64) <= scan_f {
+        return Spot::none(bg, noise, best as f64 - bg, 0);
+    }
+    let thr = thr_f.floor() as u32; // pixel > thr  ⇔  pixel > thr_f
+    let scan_thr = scan_f.floor() as u32;
+    let half_thr = (bg + 0.5 * (thr_f - bg)).floor() as u32;
+
+    // 2. Candidates in the bright scanned rows: stretches of pixels above the scan threshold
+    //    (gaps of ≤ 2 px bridged). Each is checked on the rows around it (up to the next
+    //    scanned rows): it is kept as a run if a pixel there is above T and passes the blob
+    //    test, and the brightest such pixel is its peak.
+    let mut runs: Vec<Run> = Vec::new();
+    let keep = |r: Run, runs: &mut Vec<Run>| {
+        if let Some(r) = verify_run::<P>(f, r, k, thr, half_thr) {
+            runs.push(r);
+        }
+    };
+    for (i, &m) in row_max.iter().enumerate() {
+        if m <= scan_thr || runs.len() >= MAX_RUNS {
+            continue;
+        }
+        let y = scan_row(i);
+        let row = f.row(y);
+        let mut cur: Option<Run> = None;
+        let mut x0 = 0usize;
+        while x0 < w {
+            let x1 = (x0 + 32).min(w);
+            if P::max_of(&row[x0 * P::BPP..x1 * P::BPP]) > scan_thr {
+                for x in x0..x1 {
+                    let v = P::get(row, x);
+                    if v <= scan_thr {
+                        continue;
+                    }
+                    match cur.as_mut() {
+                        Some(r) if x <= r.x1 + 3 => {
+                            r.x1 = x;
+                            if v > r.peak {
+                                r.peak = v;
+                                r.peak_x = x;
+                            }
+                        }
+                        _ => {
+                            if let Some(r) = cur.take() {
+                                keep(r, &mut runs);
+                            }
+                            cur = Some(Run {
+                                scan_idx: i,
+                                y,
+                                x0: x,
+                                x1: x,
+                                peak: v,
+                                peak_x: x,
+                                peak_y: y,
+                            });
+                        }
+                    }
+                }
+            }
+            x0 = x1;
+        }
+        if let Some(r) = cur {
+            keep(r, &mut runs);
+        }
+    }
+    if runs.is_empty() {
+        return Spot::none(bg, noise, best as f64 - bg, 0);
+    }
+
+    // Union–find of runs overlapping (± k px) between neighbouring scanned rows.
+    let mut parent: Vec<usize> = (0..runs.len()).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let mut prev_start = 0usize; // first run of the previous scanned row
+    let mut cur_start = 0usize; // first run of the current scanned row
+    for i in 0..runs.len() {
+        if i > 0 && runs[i].scan_idx != runs[i - 1].scan_idx {
+            prev_start = if runs[i].scan_idx == runs[i - 1].scan_idx + 1 {
+                cur_start
+            } else {
+                i // no runs on the previous scanned row
+            };
+            cur_start = i;
+        }
+        for j in prev_start..cur_start {
+            let (a, b) = (&runs[i], &runs[j]);
+            if a.x0 <= b.x1 + k + 1 && b.x0 <= a.x1 + k + 1 {
+                let (ra, rb) = (root(&mut parent, i), root(&mut parent, j));
+                if ra != rb {
+                    parent[ra] = rb;
+                }
+            }
+        }
+    }
+    let mut blobs: Vec<Blob> = Vec::new();
+    let mut blob_of_root = vec![usize::MAX; runs.len()];
+    for (i, run) in runs.iter().enumerate() {
+        let r = root(&mut parent, i);
+        let here = Blob {
+            peak: run.peak,
+            x: run.peak_x,
+            y: run.peak_y,
+        };
+        match blobs.get_mut(blob_of_root[r]) {
+            Some(b) => {
+                if run.peak > b.peak {
+                    *b = here;
+                }
+            }
+            None => {
+                blob_of_root[r] = blobs.len();
+                blobs.push(here);
+            }
+        }
+    }
+    let mut primary = 0usize;
+    for (i, b) in blobs.iter().enumerate() {
+        if b.peak > blobs[primary].peak {
+            primary = i;
+        }
+    }
+    let seed = blobs[primary];
+
+    // 3. Measurement in a window.
+    let m = match measure::<P>(f, p, seed, k, bg, noise, sat) {
+        Some(m) => m,
+        None => return Spot::none(bg, noise, best as f64 - bg, blobs.len()),
+    };
+    let margin = p.ring_px as f64;
+    let far = blobs.iter().enumerate().any(|(i, b)| {
+        i != primary
+            && ((b.x as f64 - m.x).abs() > m.hx as f64 + margin
+                || (b.y as f64 - m.y).abs() > m.hy as f64 + margin)
+    });
+    let status = if far {
+        SpotStatus::Multiple
+    } else if m.cut {
+        SpotStatus::AtBorder
+    } else if m.elongation > p.streak_elongation || m.elongation.is_nan() {
+        SpotStatus::Streak
+    } else if m.saturated {
+        SpotStatus::Saturated
+    } else {
+        SpotStatus::Ok
+    };
+    Spot {
+        status,
+        x_px: m.x,
+        y_px: m.y,
+        peak: m.amp,
+        signal: m.signal,
+        size_px: m.size,
+        background: m.bg,
+        noise: m.noise,
+        elongation: m.elongation,
+        blobs: blobs.len(),
+        iterations: m.iterations,
+    }
+}
+
+/// Check a candidate stretch of a scanned row on the rows around it (up to the scanned
+/// rows `k` above and below; its columns ± 2): the brightest pixel above `thr` that passes
+/// [`is_blob`] becomes the run's peak; `None` if there is none.
+pub(super) fn verify_run<P: Px>(
+    f: &FrameView,
+    mut r: Run,
+    k: usize,
+    thr: u32,
+    half_thr: u32,
+) -> Option<Run> {
+    let reach = k.saturating_sub(1);
+    let (y0, y1) = (r.y.saturating_sub(reach), (r.y + reach).min(f.height - 1));
+    let (x0, x1) = (r.x0.saturating_sub(2), (r.x1 + 2).min(f.width - 1));
+    let mut best: Option<(u32, usize, usize)> = None;
+    for y in y0..=y1 {
+        let row = f.row(y);
+        if P::max_of(&row[x0 * P::BPP..(x1 + 1) * P::BPP]) <= thr.max(best.map_or(0, |b| b.0)) {
+            continue;
+        }
+        for x in x0..=x1 {
+            let v = P::get(row, x);
+            if v > thr && best.is_none_or(|b| v > b.0) && is_blob::<P>(f, x, y, half_thr) {
+                best = Some((v, x, y));
+            }
+        }
+    }
+    let (peak, x, y) = best?;
+    (r.peak, r.peak_x, r.peak_y) = (peak, x, y);
+    Some(r)
+}
+
+/// Is the 3×3 neighbourhood of (x, y) mostly (its median) above `half_thr`?
+#[inline]
+pub(super) fn is_blob<P: Px>(f: &FrameView, x: usize, y: usize, half_thr: u32) -> bool {
+    let (x0, x1) = (x.saturating_sub(1), (x + 1).min(f.width - 1));
+    let (y0, y1) = (y.saturating_sub(1), (y + 1).min(f.height - 1));
+    let mut n = 0usize;
+    let mut above = 0usize;
+    for yy in y0..=y1 {
+        let row = f.row(yy);
+        for xx in x0..=x1 {
+            n += 1;
+            above += (P::get(row, xx) > half_thr) as usize;
+        }
+    }
+    // ≥ 5 of 9 inside the frame, proportionally fewer at an edge or corner.
+    above * 9 >= 5 * n
+}

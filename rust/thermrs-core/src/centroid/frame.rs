@@ -1,0 +1,220 @@
+//! Frame access: a borrowed, possibly padded, 8- or 16-bit frame ([`FrameView`]) and
+//! pixel reads specialised per format ([`Px`]) so that the row loops vectorise.
+
+/// Why bytes are not a frame of the given shape. `Display` is one line.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum FrameError {
+    #[error("bytes_per_px must be 1 or 2, got {0}")]
+    BytesPerPixel(usize),
+    #[error("{0} overflows")]
+    Overflow(&'static str),
+    #[error("step {step} is smaller than width * bytes_per_px = {row_bytes}")]
+    StepTooSmall { step: usize, row_bytes: usize },
+    #[error("data has {have} bytes, a {width}x{height} frame with step {step} needs {need}")]
+    TooShort {
+        have: usize,
+        width: usize,
+        height: usize,
+        step: usize,
+        need: usize,
+    },
+}
+
+/// Where a frame's problem is reported as text (a skipped message's reason).
+impl From<FrameError> for String {
+    fn from(e: FrameError) -> String {
+        e.to_string()
+    }
+}
+
+/// A borrowed, possibly padded, 8- or 16-bit single-channel frame.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameView<'a> {
+    /// Pixel bytes, row after row, `step` bytes apart.
+    pub data: &'a [u8],
+    /// Pixels per row.
+    pub width: usize,
+    /// Rows.
+    pub height: usize,
+    /// Bytes from the start of one row to the next (≥ `width * bytes_per_px`).
+    pub step: usize,
+    /// 1 (8-bit) or 2 (16-bit).
+    pub bytes_per_px: usize,
+    /// Byte order of 16-bit pixels (ignored for 8-bit).
+    pub big_endian: bool,
+}
+
+impl<'a> FrameView<'a> {
+    /// Checks `bytes_per_px ∈ {1, 2}`, `step ≥ width·bytes_per_px` and
+    /// `data.len() ≥ step·(height − 1) + width·bytes_per_px`. A frame with no pixels is
+    /// valid (and holds no spot).
+    pub fn new(
+        data: &'a [u8],
+        width: usize,
+        height: usize,
+        step: usize,
+        bytes_per_px: usize,
+        big_endian: bool,
+    ) -> Result<Self, FrameError> {
+        let view = FrameView {
+            data,
+            width,
+            height,
+            step,
+            bytes_per_px,
+            big_endian,
+        };
+        view.check()?;
+        Ok(view)
+    }
+
+    /// A tightly packed 8-bit frame (`step = width`).
+    pub fn mono8(data: &'a [u8], width: usize, height: usize) -> Result<Self, FrameError> {
+        Self::new(data, width, height, width, 1, false)
+    }
+
+    pub(super) fn check(&self) -> Result<(), FrameError> {
+        if self.bytes_per_px != 1 && self.bytes_per_px != 2 {
+            return Err(FrameError::BytesPerPixel(self.bytes_per_px));
+        }
+        let row_bytes = self
+            .width
+            .checked_mul(self.bytes_per_px)
+            .ok_or(FrameError::Overflow("width * bytes_per_px"))?;
+        if self.step < row_bytes {
+            return Err(FrameError::StepTooSmall {
+                step: self.step,
+                row_bytes,
+            });
+        }
+        if self.width == 0 || self.height == 0 {
+            return Ok(());
+        }
+        let need = self
+            .step
+            .checked_mul(self.height - 1)
+            .and_then(|v| v.checked_add(row_bytes))
+            .ok_or(FrameError::Overflow("frame size"))?;
+        if self.data.len() < need {
+            return Err(FrameError::TooShort {
+                have: self.data.len(),
+                width: self.width,
+                height: self.height,
+                step: self.step,
+                need,
+            });
+        }
+        Ok(())
+    }
+
+    /// The pixel bytes of row `y` (without padding). Caller guarantees `y < height` on a
+    /// checked view.
+    #[inline]
+    pub(super) fn row(&self, y: usize) -> &'a [u8] {
+        let start = y * self.step;
+        &self.data[start..start + self.width * self.bytes_per_px]
+    }
+}
+
+// Pixel access, specialised per format so that the row loops vectorise.
+
+pub(super) trait Px {
+    const BPP: usize;
+    const MAX: u32;
+    /// Pixel `i` of a row's bytes.
+    fn get(row: &[u8], i: usize) -> u32;
+    /// Maximum over a run of whole pixels (`bytes.len()` a multiple of `BPP`).
+    fn max_of(bytes: &[u8]) -> u32;
+    /// Sum over a run of whole pixels.
+    fn sum_of(bytes: &[u8]) -> u64;
+    /// `out[i] = pixel(i) − b` for the pixels of `bytes`.
+    fn to_f32(bytes: &[u8], b: f32, out: &mut [f32]);
+}
+
+pub(super) struct U8;
+pub(super) struct U16Le;
+pub(super) struct U16Be;
+
+impl Px for U8 {
+    const BPP: usize = 1;
+    const MAX: u32 = 255;
+    #[inline(always)]
+    fn get(row: &[u8], i: usize) -> u32 {
+        row[i] as u32
+    }
+    #[inline]
+    fn max_of(bytes: &[u8]) -> u32 {
+        if bytes.len() < 32 {
+            return bytes.iter().fold(0u8, |m, &v| m.max(v)) as u32;
+        }
+        // 32 independent lanes; the ragged end is covered by one overlapping last chunk.
+        let mut acc = [0u8; 32];
+        let lanes = |acc: &mut [u8; 32], c: &[u8]| {
+            for (a, &v) in acc.iter_mut().zip(c) {
+                *a = (*a).max(v);
+            }
+        };
+        for c in bytes.chunks_exact(32) {
+            lanes(&mut acc, c);
+        }
+        lanes(&mut acc, &bytes[bytes.len() - 32..]);
+        acc.iter().fold(0u8, |m, &v| m.max(v)) as u32
+    }
+    #[inline]
+    fn sum_of(bytes: &[u8]) -> u64 {
+        bytes.iter().map(|&v| v as u64).sum()
+    }
+    #[inline]
+    fn to_f32(bytes: &[u8], b: f32, out: &mut [f32]) {
+        for (o, &v) in out.iter_mut().zip(bytes) {
+            *o = v as f32 - b;
+        }
+    }
+}
+
+macro_rules! impl_u16 {
+    ($t:ident, $conv:ident) => {
+        impl Px for $t {
+            const BPP: usize = 2;
+            const MAX: u32 = 65535;
+            #[inline(always)]
+            fn get(row: &[u8], i: usize) -> u32 {
+                u16::$conv([row[2 * i], row[2 * i + 1]]) as u32
+            }
+            #[inline]
+            fn max_of(bytes: &[u8]) -> u32 {
+                let px = |p: &[u8]| u16::$conv([p[0], p[1]]);
+                if bytes.len() < 32 {
+                    return bytes.chunks_exact(2).fold(0u16, |m, p| m.max(px(p))) as u32;
+                }
+                let mut acc = [0u16; 16];
+                let lanes = |acc: &mut [u16; 16], c: &[u8]| {
+                    for (a, p) in acc.iter_mut().zip(c.chunks_exact(2)) {
+                        *a = (*a).max(px(p));
+                    }
+                };
+                for c in bytes.chunks_exact(32) {
+                    lanes(&mut acc, c);
+                }
+                let end = bytes.len() & !1;
+                lanes(&mut acc, &bytes[end - 32..end]);
+                acc.iter().fold(0u16, |m, &v| m.max(v)) as u32
+            }
+            #[inline]
+            fn sum_of(bytes: &[u8]) -> u64 {
+                bytes
+                    .chunks_exact(2)
+                    .map(|p| u16::$conv([p[0], p[1]]) as u64)
+                    .sum()
+            }
+            #[inline]
+            fn to_f32(bytes: &[u8], b: f32, out: &mut [f32]) {
+                for (o, p) in out.iter_mut().zip(bytes.chunks_exact(2)) {
+                    *o = u16::$conv([p[0], p[1]]) as f32 - b;
+                }
+            }
+        }
+    };
+}
+impl_u16!(U16Le, from_le_bytes);
+impl_u16!(U16Be, from_be_bytes);

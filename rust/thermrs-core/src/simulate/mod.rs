@@ -1,0 +1,133 @@
+//! The simulator: a rig at work under a scenario, written as a real recording (SPEC §2).
+//!
+//! Per run and cycle the robot visits every camera's pose in turn: it moves (joint states),
+//! dwells (joint states with repeatability noise, CCD frames of that camera), then the thermal
+//! camera and the ambient thermometer report. Temperatures come from the lumped thermal model
+//! ([`crate::heat`]) stepped exactly cycle by cycle; the structure may lag the surface
+//! (`thermal_lag`); the spot comes from the one forward model ([`crate::model`]) with every
+//! geometric effect, plus the chip shifts (`fixture_drift`, `sensor_drift`). Frames are made
+//! and written one at a time (memory does not grow with the run), and every random draw comes
+//! from one seeded generator, so the same seed gives byte-identical files.
+//!
+//! CCD frames: a pixel-integrated Gaussian spot (erf differences) of σ `sigma_px` and peak
+//! `peak_dn` above background; within ±5σ of the spot every pixel gets Poisson shot noise on
+//! signal + background electrons plus Gaussian read noise; elsewhere the background's Poisson
+//! noise (mean ≥ 16 e⁻ by default) is drawn as its Gaussian equivalent for speed. Rounded and
+//! clipped to 8 or 16 bits. IR frames: ambient plus a Gaussian hot region per ROI whose peak is
+//! the node's surface temperature, a hot distractor outside every ROI, Gaussian noise.
+//!
+//! Files: [`setup`] (effects, model, nodes, writer), [`trajectory`] (a cycle's moves and
+//! dwells), [`render`] (CCD and IR pixels), [`sensors`] (one cycle's messages and truth),
+//! [`state`] (clock, temperatures, random streams); this file runs the runs and cycles.
+
+use std::io::{Seek, Write};
+
+use crate::error::{Error, Result};
+use crate::rig::Rig;
+use crate::scenario::Scenario;
+
+mod render;
+mod sensors;
+mod setup;
+mod state;
+mod trajectory;
+
+use sensors::Cycle;
+use setup::{write_error, Setup};
+use state::State;
+
+/// Transport delay between a message's stamp and its log time.
+const LOG_DELAY_NS: i64 = 2_000_000;
+/// The epoch the first run starts at (2025-06-15T15:06:40Z), like the sample recording.
+pub const T0_NS: i64 = 1_750_000_000_000_000_000;
+
+/// Most sub-exposure samples of a spot that moves during a frame (its smear).
+const MAX_SMEAR_SAMPLES: usize = 4096;
+
+/// Ground truth of a simulation, column by column.
+#[derive(Debug, Default, Clone)]
+pub struct Truth {
+    /// Per CCD frame: camera index, stamp, run index, true spot (px, SPEC §4).
+    pub frame_camera: Vec<u32>,
+    pub frame_t_ns: Vec<i64>,
+    pub frame_run: Vec<u32>,
+    pub frame_x_px: Vec<f64>,
+    pub frame_y_px: Vec<f64>,
+    /// Per thermal sample (one per IR frame): stamp, run, ambient, then per node the surface
+    /// and structure temperatures (`node_names` order, row-major N × nodes).
+    pub sample_t_ns: Vec<i64>,
+    pub sample_run: Vec<u32>,
+    pub sample_ambient_c: Vec<f64>,
+    pub node_names: Vec<String>,
+    pub surface_c: Vec<f64>,
+    pub structure_c: Vec<f64>,
+    /// Per thermal sample the true length (mm) of every expanding DH length (`length_names`
+    /// order, row-major N × lengths), from the structure temperatures with every effect.
+    pub length_names: Vec<String>,
+    pub lengths_mm: Vec<f64>,
+}
+
+/// Simulate `scenario` on `rig`, writing the recording to `out`; returns the truth.
+pub fn simulate<W: Write + Seek>(rig: &Rig, sc: &Scenario, out: W) -> Result<(W, Truth)> {
+    simulate_cancellable(rig, sc, out, &|| false)
+}
+
+/// [`simulate`], asking `cancel` before every cycle and every CCD frame: once it returns
+/// `true` the simulation stops with [`Error::Interrupted`] (how the bindings honour Ctrl-C).
+/// A failed write is [`Error::Write`].
+pub fn simulate_cancellable<W: Write + Seek>(
+    rig: &Rig,
+    sc: &Scenario,
+    out: W,
+    cancel: &dyn Fn() -> bool,
+) -> Result<(W, Truth)> {
+    let setup = Setup::new(rig, sc)?;
+    let mut wr = setup.writer(out)?;
+    let mut st = State::new(&setup);
+    for (ri, run) in sc.run.iter().enumerate() {
+        st.idle_before(&setup, ri, run);
+        let run_start_s = st.t_s;
+        let speed = run.speed_pct / 100.0;
+        let cycles = (run.duration_min * 60.0 / run.cycle_s).floor() as usize;
+        let slot = run.cycle_s / (rig.camera.len() as f64 + 1.0);
+        for _ in 0..cycles {
+            if cancel() {
+                return Err(Error::Interrupted);
+            }
+            let cycle_t = st.t_s;
+            let segs = trajectory::plan_cycle(rig, sc, cycle_t, speed, &mut st.q_cur, &mut st.rng);
+            let t_ir = cycle_t + rig.camera.len() as f64 * slot;
+            let t = trajectory::end_of(&segs);
+            if t > t_ir {
+                return Err(Error::Input(format!(
+                    "run {:?}: moves and dwells take {:.1} s, more than the {:.1} s of the cycle \
+                     before the thermal frame (lengthen cycle_s or shorten motion.dwell_s)",
+                    run.name,
+                    t - cycle_t,
+                    t_ir - cycle_t
+                )));
+            }
+            let c = Cycle {
+                ri,
+                run,
+                speed,
+                run_start_s,
+                cycle_t,
+                t_ir,
+                segs,
+            };
+            sensors::joint_states(&setup, &mut wr, &c)?;
+            sensors::ccd_frames(&setup, &mut st, &mut wr, &c, cancel)?;
+            sensors::thermal(&setup, &mut st, &mut wr, &c)?;
+            // Advance the thermal state over the cycle (running at the run's speed).
+            let a_mid = state::ambient_at(&sc.ambient, cycle_t + run.cycle_s / 2.0);
+            st.step_nodes(&setup, a_mid, Some(speed), run.cycle_s);
+            st.t_s = cycle_t + run.cycle_s;
+        }
+        let stamp = |t: f64| T0_NS + (t * 1e9).round() as i64;
+        wr.write_run_marker(&run.name, stamp(run_start_s), stamp(st.t_s))
+            .map_err(write_error)?;
+    }
+    let out = wr.finish().map_err(write_error)?;
+    Ok((out, st.truth))
+}

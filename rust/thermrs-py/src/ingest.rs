@@ -1,0 +1,134 @@
+//! Extraction of recordings for Python: `extract` (tables as numpy columns, the report as
+//! JSON), `decompress_chunks` (for benchmarks), `status_names`.
+
+use std::path::PathBuf;
+
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use thermrs_core::ingest;
+
+use crate::convert::{array, columns, rows};
+use crate::guard::call;
+use crate::progress::Pending;
+use crate::rig::PyRig;
+
+/// Extract a recording: returns (frames, thermal, joints, ambient) column dicts of numpy arrays
+/// (handed over without copying) and the report as JSON. Runs without the GIL; `progress` is
+/// called as progress(bytes_done, bytes_total, frames_done); Ctrl-C stops it.
+#[pyfunction]
+#[pyo3(signature = (path, rig, *, progress = None, min_sigma_px = None, threshold_sigma = None, verify_crc = true))]
+fn extract<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    rig: &PyRig,
+    progress: Option<Py<PyAny>>,
+    min_sigma_px: Option<f64>,
+    threshold_sigma: Option<f64>,
+    verify_crc: bool,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let mut opts = ingest::ExtractOptions {
+        verify_crc,
+        ..ingest::ExtractOptions::default()
+    };
+    if let Some(v) = min_sigma_px {
+        opts.spot.min_sigma_px = v;
+    }
+    if let Some(v) = threshold_sigma {
+        opts.spot.detect_sigmas = v;
+    }
+    let pending = Pending::default();
+    let cb = |done: u64, total: u64, frames: u64| -> bool {
+        pending.attach(|py| {
+            py.check_signals()?;
+            match &progress {
+                Some(f) => f.call1(py, (done, total, frames)).map(|_| ()),
+                None => Ok(()),
+            }
+        })
+    };
+    let inner = &rig.inner;
+    let res = py.detach(|| {
+        call(&format!("reading {}", path.display()), || {
+            ingest::extract(&path, inner, &opts, &cb)
+        })
+    });
+    if let Some(e) = pending.take() {
+        return Err(e);
+    }
+    let (t, report) = res?;
+    let f = t.frames;
+    let frames = columns(
+        py,
+        vec![
+            ("camera", array(py, f.camera)),
+            ("t_ns", array(py, f.t_ns)),
+            ("x_px", array(py, f.x_px)),
+            ("y_px", array(py, f.y_px)),
+            ("peak", array(py, f.peak)),
+            ("signal", array(py, f.signal)),
+            ("size_px", array(py, f.size_px)),
+            ("background", array(py, f.background)),
+            ("noise", array(py, f.noise)),
+            ("status", array(py, f.status)),
+        ],
+    )?;
+    let th = t.thermal;
+    let thermal = columns(
+        py,
+        vec![
+            ("t_ns", array(py, th.t_ns)),
+            ("roi", array(py, th.roi)),
+            ("max_c", array(py, th.max_c)),
+            ("peak_c", array(py, th.peak_c)),
+            ("x_px", array(py, th.x_px)),
+            ("y_px", array(py, th.y_px)),
+        ],
+    )?;
+    let n = t.joints.t_ns.len();
+    let joints = columns(
+        py,
+        vec![
+            ("t_ns", array(py, t.joints.t_ns)),
+            ("position", rows(py, t.joints.position, (n, 6))),
+        ],
+    )?;
+    let ambient = columns(
+        py,
+        vec![
+            ("t_ns", array(py, t.ambient.t_ns)),
+            ("temperature_c", array(py, t.ambient.temperature_c)),
+        ],
+    )?;
+    let report = serde_json::to_string(&report).expect("report serialises");
+    PyTuple::new(
+        py,
+        [
+            frames.into_any(),
+            thermal.into_any(),
+            joints.into_any(),
+            ambient.into_any(),
+            report.into_pyobject(py)?.into_any(),
+        ],
+    )
+}
+
+/// Decompress every chunk on one thread, nothing else (the decompressor's own speed; for
+/// benchmarks). Returns (chunks, compressed bytes, uncompressed bytes).
+#[pyfunction]
+fn decompress_chunks(py: Python<'_>, path: PathBuf) -> PyResult<(u64, u64, u64)> {
+    let s = py.detach(|| call("decompressing chunks", || ingest::decompress_chunks(&path)))?;
+    Ok((s.chunks, s.compressed_bytes, s.uncompressed_bytes))
+}
+
+/// Names of the frame status codes, in code order.
+#[pyfunction]
+fn status_names() -> Vec<&'static str> {
+    ingest::STATUS_NAMES.to_vec()
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(extract, m)?)?;
+    m.add_function(wrap_pyfunction!(status_names, m)?)?;
+    m.add_function(wrap_pyfunction!(decompress_chunks, m)?)?;
+    Ok(())
+}
