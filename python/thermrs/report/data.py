@@ -278,6 +278,9 @@ class ReportData:
     #: With an identified effect: the held-out runs predicted by the nominal model and by the
     #: diagnosed one (:func:`thermrs.compensate.shrink_table`), else None.
     diagnosed_prediction: pl.DataFrame | None = None
+    #: With an ambiguous diagnosis: the experiment that settles it (:mod:`.design_section`).
+    design_section: Any | None = None
+    design_note: str | None = None
     notes: list[str] = field(default_factory=list)
 
     def run(self, name: str) -> RunInput:
@@ -437,6 +440,7 @@ def gather(
             model = None
         if model is not None and model.effects:
             diagnosed = shrink_table(predict_series(ho, rig, model))
+    design_sec, design_note = _design(tr, ho, rig, diag, say) if diag is not None else (None, None)
 
     return ReportData(
         rig=rig,
@@ -457,9 +461,31 @@ def gather(
         diagnosis=diag,
         diagnosis_note=note,
         diagnosed_prediction=diagnosed,
+        design_section=design_sec,
+        design_note=design_note,
         title=title or f"Thermal drift of {rig.name or rig.model}",
         paper_reference=paper_reference,
     )
+
+
+def _design(
+    train: list[pl.DataFrame],
+    holdout: list[pl.DataFrame],
+    rig: Rig,
+    diag: Any,
+    say: Callable[[str], object],
+) -> tuple[Any | None, str | None]:
+    """For an ambiguous diagnosis, the experiment that settles it (or why there is none)."""
+    doc = diagnosis_json(diag)
+    if (doc.get("verdict") or {}).get("status") != "ambiguous":
+        return None, None
+    from thermrs.report.design_section import section_for
+
+    say("designing the experiment that settles it")
+    try:
+        return section_for(train, holdout, rig, diagnosis=doc), None
+    except ThermrsError as e:
+        return None, f"No experiment could be designed: {e}"
 
 
 def diagnosis_json(diag: Any) -> dict[str, Any]:

@@ -689,13 +689,37 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
     b = doc.get("baseline") or {}
     hf = doc.get("how_far") or {}
     status = v.get("status", "none")
-    verdict = {
-        "identified": f"identified: {v.get('effect')} ({_params(v.get('params'))})",
-        "ambiguous": f"ambiguous: {v.get('effect')} or {_join(list(v.get('confounded_with', [])))}",
-        "unexplained": "unexplained: no effect of the library closes the gap",
-        "none": "none: the nominal model explains the runs to the noise",
-    }.get(status, str(status))
-    s.blocks.append(Paragraph(f"Verdict — {verdict}. {v.get('reason', '')}".strip()))
+    # The reason names the effects already: the verdict is said once.
+    params = f" ({_params(v.get('params'))})" if status == "identified" and v.get("params") else ""
+    s.blocks.append(Paragraph(f"Verdict — {status}{params}: {v.get('reason', '')}".strip()))
+    floor = doc.get("noise_floor") or {}
+    parts = floor.get("parts") or {}
+    if parts:
+        cmax = floor.get("correlation_time_max_min")
+        s.blocks.append(
+            Table(
+                "The noise floor, part by part (what is noise by physics; anything slower than "
+                f"{fmt(cmax, 1)} min, a tenth of the shortest thermal time constant, is gap)",
+                ["part", "µm", "how it was estimated"],
+                [
+                    ["centroid (frames within a visit)", fmt(parts.get("centroid_um"), 3),
+                     str(parts.get("centroid", ""))],
+                    ["visit repeatability, white", fmt(parts.get("visit_white_um"), 3),
+                     str(parts.get("visit_white", ""))],
+                    ["pose error correlated over "
+                     f"{fmt(parts.get('pose_correlation_time_min'), 1)} min",
+                     fmt(parts.get("pose_correlated_um"), 3),
+                     str(parts.get("pose_correlated", ""))],
+                    ["joint states", fmt(parts.get("joints_um"), 3), str(parts.get("joints", ""))],
+                    *[[f"floor of run {r}", fmt(x, 3), "the run's series pooled"]
+                      for r, x in (floor.get("per_run_um") or {}).items()],
+                    ["thermal time constants (min)",
+                     ", ".join(f"{k} {fmt(x, 0)}" for k, x in
+                               (floor.get("thermal_time_constants_min") or {}).items()),
+                     str(floor.get("thermal_time_constants", ""))],
+                ],
+            )
+        )  # fmt: skip
     alpha = b.get("alpha_per_k") or {}
     rows = [
         ["noise floor (visit to visit)", fmt(doc.get("noise_floor_um"), 3), ""],
@@ -826,8 +850,9 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
     if conf:
         s.blocks.append(
             Table(
-                "Confounded candidates and the measurement that would separate them",
-                ["effects", "similarity (cos)", "separate by"],
+                "Confounded candidates: how alike their signatures are on these runs, and where "
+                "the runs tell them apart best",
+                ["effects", "similarity (cos)", "on these runs"],
                 [
                     [" / ".join(c["effects"]), fmt(c.get("cos"), 3), c.get("separate_by", "")]
                     for c in conf
@@ -848,6 +873,10 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
         )
     else:
         s.blocks.append(Missing("The diagnosis carries no per-visit residuals: no figure."))
+    if d.design_section is not None:
+        s.subsections.append(d.design_section)
+    elif d.design_note:
+        s.blocks.append(Missing(d.design_note))
     return s
 
 
