@@ -501,3 +501,15 @@ def test_the_overview_puts_runs_side_by_side(d: dict[str, Path]) -> None:
     )
     # A panel per run and row, each run's own hours from 0.
     assert svg.count('id="axes_') == 6
+
+
+def test_list_options_take_several_values_like_the_runs() -> None:
+    # `--exclude A B` and `--between E1 E2 …` (as the issues write them) read like `--train A B`.
+    from thermrs.cli.app import _expand_multi
+
+    assert _expand_multi(["design", "--between", "a", "b", "c", "-o", "D"]) == [
+        "design", "--between", "a", "--between", "b", "--between", "c", "-o", "D",
+    ]  # fmt: skip
+    assert _expand_multi(["diagnose", "--exclude", "x", "y", "--json", "j"]) == [
+        "diagnose", "--exclude", "x", "--exclude", "y", "--json", "j",
+    ]  # fmt: skip

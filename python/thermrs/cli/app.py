@@ -39,8 +39,17 @@ def cli() -> None:
 
 
 #: Options that take several values (``--train A B``) as well as repeats (``--train A
-#: --train B``), as SPEC §7 writes them.
-MULTI_VALUE_OPTIONS = ("--train", "--holdout", "--run")
+#: --train B``), as SPEC §7 and the issues write them (``--between E1 E2 …``).
+MULTI_VALUE_OPTIONS = (
+    "--train",
+    "--holdout",
+    "--run",
+    "--exclude",
+    "--between",
+    "--effect",
+    "--world",
+    "--snr",
+)
 
 
 def _expand_multi(argv: list[str]) -> list[str]:

@@ -195,7 +195,8 @@ def render_paper(doc: dict[str, Any]) -> None:
     "--exclude",
     "exclude",
     multiple=True,
-    help="Effects the diagnoser may not name (SPEC §6 names).",
+    help="Effects removed from the library (SPEC §6 names; --exclude A B or repeats): "
+    "never named, never rivals.",
 )
 @click.option("--paper", "paper", is_flag=True, help="Diagnose the paper's own Table 4 numbers.")
 @click.option(
