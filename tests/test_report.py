@@ -420,8 +420,7 @@ def test_diagnosis_section_renders(campaign: dict[str, Any], paper_rig: thermrs.
     sec = html[html.index('<section id="diagnosis">') : html.index('<section id="extraction">')]
     text = visible_text(sec)
     for s in (
-        "identified: thermal_lag",
-        "tau_min = 24.5",
+        "identified thermal_lag (tau_min = 24.5)",
         "4.567",
         "0.321",
         "93.0 %",

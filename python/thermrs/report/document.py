@@ -689,9 +689,13 @@ def _diagnosis(d: ReportData, colours: Mapping[str, str]) -> Section:
     b = doc.get("baseline") or {}
     hf = doc.get("how_far") or {}
     status = v.get("status", "none")
-    # The reason names the effects already: the verdict is said once.
-    params = f" ({_params(v.get('params'))})" if status == "identified" and v.get("params") else ""
-    s.blocks.append(Paragraph(f"Verdict — {status}{params}: {v.get('reason', '')}".strip()))
+    # Said once: the effect is named here only where the reason does not name it already.
+    reason = str(v.get("reason", ""))
+    what = ""
+    if status == "identified" and v.get("effect"):
+        params = f" ({_params(v.get('params'))})" if v.get("params") else ""
+        what = (f" {v['effect']}" if str(v["effect"]) not in reason else "") + params
+    s.blocks.append(Paragraph(f"Verdict — {status}{what}: {reason}".strip()))
     floor = doc.get("noise_floor") or {}
     parts = floor.get("parts") or {}
     if parts:

@@ -11,8 +11,9 @@ use crate::guard;
 /// What the recording at `path` holds, read from its summary and indexes (see the core
 /// module); `topics`: those whose messages' log times are wanted. Returns JSON.
 #[pyfunction]
-#[pyo3(signature = (path, topics = Vec::new()))]
-fn inventory(py: Python<'_>, path: PathBuf, topics: Vec<String>) -> PyResult<String> {
+#[pyo3(signature = (path, topics = None))]
+fn inventory(py: Python<'_>, path: PathBuf, topics: Option<Vec<String>>) -> PyResult<String> {
+    let topics = topics.unwrap_or_default();
     let inv = py.detach(|| {
         guard::call("reading a recording's summary", || {
             core::inventory(&path, &topics)
