@@ -6,7 +6,9 @@ profiled on its grid by the training residual, scored by the drop of the held-ou
 A family is significant when its gain on the data exceeds the (1 − level) quantile of the
 largest gain any family reaches in the null world; the most significant plausible one is added
 (its non-linear parameters profiled jointly with the model so far), and the next step starts
-from the new model. Selection stops when nothing is significant or three effects are in.
+from the new model. Selection stops when nothing is significant, when what is left is no longer
+a gap (at the floor and white at the thermal time scales against the first step's gap-free
+world), or when three effects are in.
 
 Rivals of a selected effect A are the other significant, plausible effects B (one family per
 effect name) that the data cannot reject as the truth: in a world where B (fitted) is the
@@ -303,9 +305,17 @@ def forward_selection(
             plausible=plausible,
         )
         steps.append(st)
-        if st.chosen is None or len(model) + 1 > max_effects:
+        # After the first step an effect is added only while what is left is still a gap:
+        # above the floor or slow at the thermal time scales, judged against the gap-free
+        # world of the first step (past that, a significant gain is the nuisances' own).
+        gap_left = len(steps) == 1 or (
+            quantile_above(steps[0].null_hold_ms, st.hold_ms) < level
+            or quantile_above(steps[0].null_low, st.low) < level
+        )
+        if st.chosen is None or len(model) + 1 > max_effects or not gap_left:
             if st.chosen is not None:
-                st.chosen = None  # the limit: stop here, the step still tests the model
+                st.chosen = None  # stop here; the step still tests the model
+                st.rivals = []
             break
         model = [*model, st.chosen]
     return steps

@@ -114,10 +114,14 @@ def decide(
             rivals,
         )
     if rivals:
-        everyone = [chosen[0].effect, *rivals]
+        groups = [
+            english_list([s.chosen.effect, *s.rivals], conj="or")
+            for s in steps
+            if s.chosen is not None and s.rivals
+        ]
         return (
             "ambiguous",
-            f"{english_list(everyone, conj='or')} explain the held-out runs about equally well "
+            f"{'; and '.join(groups)} explain the held-out runs about equally well "
             "(the data cannot reject any of them as the truth)",
             rivals,
         )
