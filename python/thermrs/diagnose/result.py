@@ -45,9 +45,15 @@ class Diagnosis:
 
     @property
     def status(self) -> str:
-        """The verdict: ``identified``, ``ambiguous``, ``partially explained``,
-        ``unexplained`` or ``none``."""
+        """The verdict (SPEC §7): ``identified``, ``ambiguous``, ``unexplained`` (a partial
+        explanation included: see :attr:`outcome`) or ``none``."""
         return str(self.verdict["status"])
+
+    @property
+    def outcome(self) -> str:
+        """:attr:`status`, with a partial explanation told apart: ``partially explained``
+        where effects were found but what they leave is still a gap."""
+        return str(self.verdict.get("outcome", self.verdict["status"]))
 
     def to_json(self) -> dict[str, Any]:
         """The SPEC §7 ``thermrs diagnose --json`` document (extended)."""
@@ -207,7 +213,11 @@ def assemble(
     how_far = _how_far(base, after, fl, final is not None)
     first = selected[0] if selected else None
     verdict_doc = {
-        "status": status,
+        # SPEC §7's four statuses; a partial explanation is `unexplained` there (what is left
+        # is still a gap) and says so in `outcome` and `partially_explained`.
+        "status": "unexplained" if status == "partially explained" else status,
+        "outcome": status,
+        "partially_explained": status == "partially explained",
         # The effect that explains the gap: none does where what is left is still a gap
         # ("partially explained": the effects that explain a part are in `effects`).
         "effect": None

@@ -114,7 +114,9 @@ def _summary(doc: dict[str, Any]) -> dict[str, Any]:
     v = doc.get("verdict", {})
     hf = doc.get("how_far", {})
     return {
-        "status": v.get("status"),
+        # The diagnoser's outcome (a partial explanation told apart from `unexplained`).
+        "status": v.get("outcome", v.get("status")),
+        "spec_status": v.get("status"),
         "effect": v.get("effect"),
         "confounded_with": v.get("confounded_with") or [],
         "selected": [s.get("effect") for s in doc.get("selected") or []],
