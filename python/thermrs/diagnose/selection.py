@@ -7,7 +7,8 @@ A family is significant when its gain on the data exceeds the (1 − level) quan
 largest gain any family reaches in the null world; the most significant plausible one is added
 (its non-linear parameters profiled jointly with the model so far), and the next step starts
 from the new model. Selection stops when nothing is significant, when what is left is no longer
-a gap (:func:`left_is_noise`), or when three effects are in.
+a gap (at the floor and white at the thermal time scales against the first step's gap-free
+world), or when three effects are in.
 
 Rivals of a selected effect A are the other significant, plausible effects B (one family per
 effect name) that the data cannot reject as the truth: in a world where B (fitted) is the
@@ -92,28 +93,6 @@ class Step:
     null_hold_ms: FloatArray = field(default_factory=lambda: np.zeros(0))
     low: float = 0.0
     null_low: FloatArray = field(default_factory=lambda: np.zeros(0))
-
-
-def left_is_noise(first: Step, last: Step, level: float) -> tuple[bool, bool, float, float]:
-    """Whether what the model of ``last`` leaves is noise: (at the floor, white at the thermal
-    time scales, and their p-values).
-
-    Each against the model's own null world (is the residual what this model, were it true,
-    would leave?), and the model must be able to reach the floor at all: the median of its own
-    null no higher than the (1 − level) quantile of the first step's gap-free world. A model
-    whose parameters are too uncertain for that (its own estimation error as large as a gap)
-    does not take the residual to the floor, whatever its own null allows.
-    """
-    hold_ok = float(np.median(last.null_hold_ms)) <= float(
-        np.quantile(first.null_hold_ms, 1.0 - level)
-    )
-    low_ok = float(np.median(last.null_low)) <= float(np.quantile(first.null_low, 1.0 - level))
-    return (
-        last.p_at_floor >= level and hold_ok,
-        last.p_low >= level and low_ok,
-        last.p_at_floor if hold_ok else 0.0,
-        last.p_low if low_ok else 0.0,
-    )
 
 
 def build_grids(families: list[Family], visits: VisitSet, design: Design) -> list[FamilyGrid]:
@@ -326,10 +305,13 @@ def forward_selection(
             plausible=plausible,
         )
         steps.append(st)
-        # After the first step an effect is added only while what is left is still a gap
-        # (:func:`left_is_noise`; past that, a significant gain is the nuisances' own).
-        at_floor, white, _, _ = left_is_noise(steps[0], st, level)
-        gap_left = len(steps) == 1 or not (at_floor and white)
+        # After the first step an effect is added only while what is left is still a gap:
+        # above the floor or slow at the thermal time scales, judged against the gap-free
+        # world of the first step (past that, a significant gain is the nuisances' own).
+        gap_left = len(steps) == 1 or (
+            quantile_above(steps[0].null_hold_ms, st.hold_ms) < level
+            or quantile_above(steps[0].null_low, st.low) < level
+        )
         if st.chosen is None or len(model) + 1 > max_effects or not gap_left:
             if st.chosen is not None:
                 st.chosen = None  # stop here; the step still tests the model

@@ -7,9 +7,8 @@
     the null's best does (a candidate clearly below the floor proves the floor wrong).
 ``identified``
     one or more effects selected, none with a rival the data cannot reject, and what is left
-    at the floor and white at the thermal time scales (:func:`.selection.left_is_noise`: against
-    the model's own null world, and only if the model can reach the floor at all — the median
-    of its own null no higher than the gap-free world's upper quantile).
+    at the floor and white at the thermal time scales — judged against the gap-free world of
+    the nominal model (the selected effects' own estimation error counts as gap, not noise).
 ``ambiguous``
     as identified, but a selected effect has rivals (named) the data cannot reject.
 ``partially explained``
@@ -28,7 +27,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from thermrs.diagnose.selection import Step, left_is_noise
+from thermrs.diagnose.null import quantile_above
+from thermrs.diagnose.selection import Step
 
 __all__ = ["decide", "english_list", "format_params", "summary"]
 
@@ -65,7 +65,12 @@ def decide(
     lvl = level / 3.0
     first, last = steps[0], steps[-1]
     chosen = [s.chosen for s in steps if s.chosen is not None]
-    at_floor, white, p_floor, p_low = left_is_noise(first, last, lvl)
+    # What is left is judged against the gap-free world of the first step (the nominal model
+    # and noise): the selected effects' own estimation error is not noise to hide behind.
+    p_floor = quantile_above(first.null_hold_ms, last.hold_ms)
+    p_low = quantile_above(first.null_low, last.low)
+    at_floor = p_floor >= lvl
+    white = p_low >= lvl
     if not chosen:
         contradicted = first.p_floor_contradicted < lvl
         if first.p_at_floor >= lvl and first.p_low >= lvl and not contradicted:
