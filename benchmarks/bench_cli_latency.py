@@ -9,7 +9,7 @@
   recording, and to ``thermrs extract`` of the recording that simulation would write (here a
   short one); the time from the signal to the process's exit, its exit code and stderr.
 
-Run:  python benchmarks/bench_cli_latency.py [--runs 30] [--baseline /tmp/old-python]
+Run:  python benchmarks/bench_cli_latency.py [--runs 30] [--baseline OLD/python]
 """
 
 from __future__ import annotations

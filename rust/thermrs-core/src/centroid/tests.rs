@@ -232,12 +232,17 @@ fn accuracy_vs_cramer_rao() {
 
 /// The independent sample recording: frames of `kr15-sample.mcap` decoded to raw files
 /// named `{camera}_{t_ns}_{w}x{h}_{step}_{encoding}.raw` (directory from
-/// `THERMRS_CENTROID_FRAMES`, default `/tmp/dev-centroid/frames`), truth from
+/// `THERMRS_CENTROID_FRAMES`, default `dev-centroid/frames` in the temporary folder), truth from
 /// `kr15-sample.truth.csv` (`THERMRS_SAMPLE_TRUTH`). Skipped when either is missing.
 #[test]
 fn sample_recording_frames() {
-    let dir = std::env::var("THERMRS_CENTROID_FRAMES")
-        .unwrap_or_else(|_| "/tmp/dev-centroid/frames".to_string());
+    let dir = std::env::var("THERMRS_CENTROID_FRAMES").unwrap_or_else(|_| {
+        std::env::temp_dir()
+            .join("dev-centroid")
+            .join("frames")
+            .to_string_lossy()
+            .into_owned()
+    });
     let truth_path = std::env::var("THERMRS_SAMPLE_TRUTH").unwrap_or_else(|_| {
         // The shared folder beside the repository (SPEC's `samples/`).
         concat!(

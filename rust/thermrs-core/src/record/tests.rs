@@ -245,9 +245,11 @@ fn encoders_match_python_reference_bytes() {
 /// (so the literals above can be checked against a fresh Python run).
 #[test]
 fn encoders_match_python_reference_file() {
-    let path = "/tmp/dev-record/cdr_reference.json";
-    let Ok(text) = std::fs::read_to_string(path) else {
-        eprintln!("skipped: {path} absent");
+    let path = std::env::temp_dir()
+        .join("dev-record")
+        .join("cdr_reference.json");
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        eprintln!("skipped: {} absent", path.display());
         return;
     };
     // A flat {"name": "hex", ...} object: the quoted strings alternate.
