@@ -8,7 +8,10 @@ machine load), file in the page cache:
 - ``checked``: ``thermrs.extract(path, rig)`` (chunk CRC-32s verified, the default);
 - ``unchecked``: ``thermrs.extract(path, rig, verify_crc=False)``;
 - ``core checked`` / ``core unchecked``: the Rust core's extraction alone
-  (``thermrs._native.extract``: the tables as numpy columns, before polars, visits and runs).
+  (``thermrs._native.extract``: the tables as numpy columns, before polars, visits and runs);
+- ``crc only``: every chunk's CRC-32 computed in place through the map and nothing else
+  (``thermrs._native.checksum_chunks``): the floor of a checked extraction, which must touch
+  every byte at least once.
 
 Prints the median of ``--repeats`` (≥ 5) times of each route and the speed ratios
 ``read time / extract time`` (≥ 1: extraction as fast as reading the file once), and the
@@ -28,6 +31,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import thermrs
+from thermrs import _native
 
 
 def read_once(path: Path, buf: bytearray) -> int:
@@ -44,8 +48,6 @@ def read_once(path: Path, buf: bytearray) -> int:
 
 def core(path: Path, rig: thermrs.Rig, crc: bool) -> object:
     """The Rust core's extraction alone (no polars tables, visits or runs)."""
-    from thermrs import _native
-
     return _native.extract(
         str(path),
         rig._native,
@@ -71,6 +73,7 @@ def main() -> None:
             "unchecked": lambda p=path: thermrs.extract(p, rig, verify_crc=False),
             "core checked": lambda p=path: core(p, rig, True),
             "core unchecked": lambda p=path: core(p, rig, False),
+            "crc only": lambda p=path: _native.checksum_chunks(str(p)),
         }
         names = list(routes)
         for name in names:  # warm: page cache, first-call costs

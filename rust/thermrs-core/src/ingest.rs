@@ -3,7 +3,7 @@
 //! The file is memory-mapped and walked record by record at the top level; message payloads
 //! are never copied. Uncompressed chunks reach the detector by the faster of two routes,
 //! chosen as the file is read (`RouteChooser`): in place from the mapping (the chunk's pages
-//! mapped in with one `MADV_POPULATE_READ` and dropped right after), or copied with `pread`
+//! mapped in by the walk's own page faults and dropped right after), or copied with `pread`
 //! record by record through a cache-sized per-thread buffer, each record checksummed and
 //! interpreted right after its copy; which is faster depends on how the page cache holds the
 //! file (large folios: mapping; 4 KB folios: the copy). Compressed chunks (zstd or lz4) are read
@@ -44,12 +44,14 @@ use crate::thermal::{roi_maxima, ThermalFormat, ThermalView};
 
 mod chunk;
 mod dispatch;
+mod floor;
 mod png;
 mod recovery;
 mod report;
 mod source;
 mod tables;
 use chunk::{decompress, partial_chunk, walk, walk_read, CHUNK_BUF, INPUT_BUF};
+pub use floor::{checksum_chunks, ChecksumScan};
 pub use png::decode_png;
 pub use recovery::MAX_CHUNK_BYTES;
 pub use report::{Loss, MetadataRecord, Report};

@@ -94,6 +94,35 @@ impl<'a> ThermalView<'a> {
         })
     }
 
+    /// Append the raw values of pixels `x0..x1` of `row` to `out` (as [`Self::raw`]), the
+    /// format chosen once for the row rather than per pixel.
+    fn decode_into(&self, row: &[u8], x0: usize, x1: usize, out: &mut Vec<f64>) {
+        let n = self.format.bytes_per_px();
+        let bytes = &row[x0 * n..x1 * n];
+        match (self.format, self.big_endian) {
+            (ThermalFormat::U16, false) => out.extend(
+                bytes
+                    .chunks_exact(2)
+                    .map(|b| f64::from(u16::from_le_bytes([b[0], b[1]]))),
+            ),
+            (ThermalFormat::U16, true) => out.extend(
+                bytes
+                    .chunks_exact(2)
+                    .map(|b| f64::from(u16::from_be_bytes([b[0], b[1]]))),
+            ),
+            (ThermalFormat::F32, false) => out.extend(
+                bytes
+                    .chunks_exact(4)
+                    .map(|b| f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]]))),
+            ),
+            (ThermalFormat::F32, true) => out.extend(
+                bytes
+                    .chunks_exact(4)
+                    .map(|b| f64::from(f32::from_be_bytes([b[0], b[1], b[2], b[3]]))),
+            ),
+        }
+    }
+
     /// The raw value of pixel (x, y) as f64 (counts for U16, °C for F32).
     #[inline]
     fn raw(&self, row: &[u8], x: usize) -> f64 {
@@ -213,8 +242,7 @@ pub fn roi_maxima(
             let (w, h) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
             let mut vals = Vec::with_capacity(w * h);
             for y in y0..y1 {
-                let row = &view.data[y * view.step..];
-                vals.extend((x0..x1).map(|x| view.raw(row, x)));
+                view.decode_into(&view.data[y * view.step..], x0, x1, &mut vals);
             }
             let mut best_raw = f64::NEG_INFINITY;
             for (k, &v) in vals.iter().enumerate() {
@@ -236,12 +264,10 @@ pub fn roi_maxima(
             // sums of three row sums. The values are u16 counts or f32 readings held in f64,
             // where nine-term sums are exact (f32 values within 2^29 of each other), so the
             // order of the additions does not change which centre wins.
-            let rows3: Vec<f64> = (0..h)
-                .flat_map(|r| {
-                    let v = &vals[r * w..(r + 1) * w];
-                    (1..w - 1).map(move |c| v[c - 1] + v[c] + v[c + 1])
-                })
-                .collect();
+            let mut rows3: Vec<f64> = Vec::with_capacity(h * (w - 2));
+            for v in vals.chunks_exact(w) {
+                rows3.extend(v.windows(3).map(|t| t[0] + t[1] + t[2]));
+            }
             let w3 = w - 2;
             let mut centre = None;
             let mut best_sum = f64::NEG_INFINITY;

@@ -1,5 +1,5 @@
 //! Extraction of recordings for Python: `extract` (tables as numpy columns, the report as
-//! JSON), `decompress_chunks` (for benchmarks), `status_names`.
+//! JSON), `decompress_chunks` and `checksum_chunks` (for benchmarks), `status_names`.
 
 use std::path::PathBuf;
 
@@ -120,6 +120,14 @@ fn decompress_chunks(py: Python<'_>, path: PathBuf) -> PyResult<(u64, u64, u64)>
     Ok((s.chunks, s.compressed_bytes, s.uncompressed_bytes))
 }
 
+/// CRC-32 of every chunk in place through the map, nothing else (the floor of a checked
+/// extraction; for benchmarks). Returns (chunks, bytes checksummed, last chunk's CRC).
+#[pyfunction]
+fn checksum_chunks(py: Python<'_>, path: PathBuf) -> PyResult<(u64, u64, u32)> {
+    let s = py.detach(|| call("checksumming chunks", || ingest::checksum_chunks(&path)))?;
+    Ok((s.chunks, s.bytes, s.last_crc))
+}
+
 /// Names of the frame status codes, in code order.
 #[pyfunction]
 fn status_names() -> Vec<&'static str> {
@@ -130,5 +138,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(extract, m)?)?;
     m.add_function(wrap_pyfunction!(status_names, m)?)?;
     m.add_function(wrap_pyfunction!(decompress_chunks, m)?)?;
+    m.add_function(wrap_pyfunction!(checksum_chunks, m)?)?;
     Ok(())
 }

@@ -71,7 +71,15 @@ pub(super) fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
     let col_first = col_step / 2;
     let mut samples: Vec<u16> = Vec::with_capacity((n_rows / sample_every + 1) * (SAMPLE_GRID + 1));
     let mut row_max: Vec<u32> = Vec::with_capacity(n_rows);
+    // Rows are asked for `AHEAD` scanned rows before they are read (see `frame::prefetch`).
+    const AHEAD: usize = 4;
+    for i in 0..AHEAD.min(n_rows) {
+        prefetch(f.row(scan_row(i)));
+    }
     for i in 0..n_rows {
+        if i + AHEAD < n_rows {
+            prefetch(f.row(scan_row(i + AHEAD)));
+        }
         let row = f.row(scan_row(i));
         row_max.push(P::max_of(row));
         if i % sample_every == 0 {

@@ -248,7 +248,10 @@ impl<'r> Context<'r> {
                             let route = self.routes.pick();
                             timed = Some(route);
                             match route {
-                                Route::Map => src.populate(data),
+                                // Mapped in by the faults of the walk itself: one
+                                // `MADV_POPULATE_READ` for the chunk costs more here (it
+                                // maps page by page; a fault maps a folio's pages at once).
+                                Route::Map => {}
                                 Route::Read => streamed = Some(src),
                             }
                         }

@@ -41,8 +41,9 @@ impl Source<'_> {
 /// How the body of an uncompressed chunk reaches the detector.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Route {
-    /// Read in place from the mapping (pages mapped in, then dropped): no copy, but the
-    /// kernel pays per page cache folio to map and unmap it.
+    /// Read in place from the mapping (pages mapped in by the walk's faults, then dropped):
+    /// no copy, and only the bytes the detector asks for cross the memory bus, but the kernel
+    /// pays per page to map and unmap them.
     Map,
     /// Copied with `pread` record by record through a per-thread buffer of a few hundred KiB
     /// (`chunk::walk_read`): one copy, each record checksummed and read by the detector while
@@ -51,9 +52,10 @@ pub(super) enum Route {
 }
 
 /// Picks the faster [`Route`] for uncompressed chunks as the file is read. Which one wins
-/// depends on the page cache, not on the file: mapping costs next to nothing for pages held
-/// in large folios (2 MB: one page-table entry each) and about 0.5 µs per page for 4 KB
-/// folios, where the copy is 2–3× faster (measured in BENCHMARKS.md). Each chunk's
+/// depends on the page cache and the machine, not on the file: mapping is paid per page
+/// (cheaper where a fault maps a large folio's pages at once), the copy per byte; on the
+/// machine of BENCHMARKS.md the mapped route, mapped in by its own faults, ran at 1.07× one
+/// read and the copy at 0.7×, but earlier page caches there favoured the copy. Each chunk's
 /// processing time per byte is recorded for its route (a running mean); chunks take the
 /// faster route, and one in [`RouteChooser::PROBE`] the other, so that a change (the page
 /// cache of a long file need not be uniform) is noticed. Outputs never depend on the route.
