@@ -30,11 +30,10 @@
 //! Pages already processed are released from the mapping, so the resident set does not grow
 //! with the file.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::path::Path;
 
 use mcap::records::{op, ChunkHeader, MessageHeader, Record};
-use rayon::prelude::*;
 
 use crate::cdr;
 use crate::centroid::{self, FrameView, SpotParams};
@@ -50,7 +49,9 @@ mod recovery;
 mod report;
 mod source;
 mod tables;
-use chunk::{decompress, partial_chunk, walk, walk_read, CHUNK_BUF, INPUT_BUF};
+mod walk;
+mod work;
+use chunk::{decompress, walk, walk_read, CHUNK_BUF, INPUT_BUF};
 pub use floor::{checksum_chunks, ChecksumScan};
 pub use png::decode_png;
 pub use recovery::MAX_CHUNK_BYTES;
@@ -59,6 +60,7 @@ pub use source::Source;
 use source::{Route, RouteChooser};
 use tables::{invalid_frame, status_code};
 pub use tables::{AmbientTable, FrameTable, JointTable, Tables, ThermalTable, STATUS_NAMES};
+use walk::Walk;
 
 const MAGIC: &[u8] = b"\x89MCAP0\r\n";
 const IMAGE: &str = "sensor_msgs/msg/Image";
@@ -311,283 +313,17 @@ fn extract_in(
     }
     let mut ctx = Context::new(rig, opts.spot.clone(), source, route);
     ctx.verify_crc = opts.verify_crc;
-    let ctx = ctx;
-    let mut report = Report {
-        file_bytes: buf.len() as u64,
-        ..Report::default()
-    };
-    let mut reg = Registry::default();
-    let mut chunk_index = Vec::new();
-    if let Ok(Some(summary)) = mcap::read::Summary::read(buf) {
-        report.used_summary = true;
-        chunk_index = summary.chunk_indexes;
-        for (id, s) in &summary.schemas {
-            reg.schemas.insert(*id, s.name.clone());
-        }
-        for (id, c) in &summary.channels {
-            reg.channels.insert(
-                *id,
-                ChannelInfo {
-                    topic: c.topic.clone(),
-                    schema_id: c.schema.as_ref().map(|s| s.id).unwrap_or(0),
-                    encoding: c.message_encoding.clone(),
-                },
-            );
-        }
-    }
-    let mut tables = Tables::default();
-    let body = &buf[MAGIC.len()..];
-    let mut window: Vec<Work<'_>> = Vec::new();
-    let mut window_bytes = 0usize;
-    let mut window_start = 0usize;
-    let mut loose: Vec<(MessageHeader, &[u8])> = Vec::new();
-    let mut frames_done = 0u64;
-    // Where the summary's index says chunks start (offsets in `body`).
-    let mut chunk_starts: Vec<usize> = chunk_index
-        .iter()
-        .filter_map(|c| {
-            usize::try_from(c.chunk_start_offset)
-                .ok()?
-                .checked_sub(MAGIC.len())
-        })
-        .collect();
-    chunk_starts.sort_unstable();
-    chunk_starts.dedup();
-
-    let mut flush = |window: &mut Vec<Work<'_>>,
-                     reg: &mut Registry,
-                     tables: &mut Tables,
-                     report: &mut Report,
-                     upto: usize|
-     -> bool {
-        let parts: Vec<Part> = window.par_iter().map(|w| ctx.run(reg, w)).collect();
-        let mut retry = Vec::new();
-        let mut done: Vec<Option<Part>> = Vec::with_capacity(parts.len());
-        for (i, p) in parts.into_iter().enumerate() {
-            reg.merge(&p.registry);
-            if p.retry {
-                retry.push(i);
-                done.push(None);
-            } else {
-                done.push(Some(p));
-            }
-        }
-        let again: Vec<(usize, Part)> = retry
-            .par_iter()
-            .map(|&i| (i, ctx.run(reg, &window[i])))
-            .collect();
-        for (i, mut p) in again {
-            if p.retry {
-                // Still unknown: count the chunk's messages as skipped rather than loop
-                // (loose messages are counted one by one).
-                if matches!(window[i], Work::Chunk { .. }) {
-                    p.report
-                        .skip("?", "message on a channel the file never defines");
-                }
-                p.retry = false;
-            }
-            done[i] = Some(p);
-        }
-        for p in done.into_iter().flatten() {
-            frames_done += p.tables.frames.t_ns.len() as u64;
-            tables.append(&p.tables);
-            report.merge(&p.report);
-        }
-        window.clear();
-        if let Some(src) = source {
-            src.release(MAGIC.len() + window_start.min(upto), MAGIC.len() + upto);
-        }
-        window_start = upto;
-        progress((upto + MAGIC.len()) as u64, buf.len() as u64, frames_done)
-    };
-
-    // Top-level walk. A damaged stretch (bad opcode, a length past the end of a complete
-    // file, a chunk that does not parse) is skipped to the next intact record; a record
-    // running past the end of a file without its closing magic is where the file was cut.
-    let closed = recovery::closed(body);
-    let mut pos = 0usize;
-    let mut cut: Option<usize> = None;
-    // Message index records follow their chunk: counted per chunk (file offset), so that a
-    // lost chunk's messages can be told by topic where there is no summary.
-    let mut last_chunk: Option<u64> = None;
-    let mut indexed: HashMap<u64, BTreeMap<u16, u64>> = HashMap::new();
-    while pos < body.len() {
-        let at = (pos + MAGIC.len()) as u64;
-        let rec = recovery::record_at(body, pos);
-        let mut damage = match rec {
-            None if body.len() - pos < 9 => Some("an incomplete record header".to_string()),
-            None => Some(format!(
-                "a record whose length ({} bytes) runs past the end of the file",
-                u64::from_le_bytes(body[pos + 1..pos + 9].try_into().expect("8 bytes"))
-            )),
-            Some((o, _, _)) if !(recovery::valid_opcode(o) || o == op::HEADER && pos == 0) => {
-                Some(format!("a record with the invalid opcode 0x{o:02x}"))
-            }
-            Some(_) => None,
-        };
-        if let Some((opcode, from, end)) = rec.filter(|_| damage.is_none()) {
-            let rec = &body[from..end];
-            match opcode {
-                op::SCHEMA | op::CHANNEL => {
-                    if let Ok(r) = mcap::read::parse_record(opcode, rec) {
-                        reg.absorb(&r);
-                    }
-                }
-                op::MESSAGE => {
-                    last_chunk = None;
-                    if let Ok(Record::Message {
-                        header,
-                        data: std::borrow::Cow::Borrowed(data),
-                    }) = mcap::read::parse_record(opcode, rec)
-                    {
-                        window_bytes += data.len();
-                        loose.push((header, data));
-                        if loose.len() >= 256 {
-                            window.push(Work::Loose(std::mem::take(&mut loose)));
-                        }
-                    }
-                }
-                op::CHUNK => match mcap::read::parse_record(opcode, rec) {
-                    Ok(Record::Chunk {
-                        header,
-                        data: std::borrow::Cow::Borrowed(data),
-                    }) => {
-                        last_chunk = Some(at);
-                        window_bytes += data.len();
-                        window.push(Work::Chunk {
-                            offset: at,
-                            bytes: (end - pos) as u64,
-                            header,
-                            data,
-                            partial: false,
-                        });
-                    }
-                    Ok(_) => {}
-                    Err(e) => damage = Some(format!("a chunk record that does not parse ({e})")),
-                },
-                op::METADATA => {
-                    if let Ok(Record::Metadata(m)) = mcap::read::parse_record(opcode, rec) {
-                        report.metadata.push(MetadataRecord {
-                            name: m.name,
-                            values: m.metadata,
-                        });
-                    }
-                }
-                op::MESSAGE_INDEX => {
-                    if let (Some(c), Some((ch, n))) =
-                        (last_chunk, recovery::message_index_count(rec))
-                    {
-                        *indexed.entry(c).or_default().entry(ch).or_insert(0) += n;
-                    }
-                }
-                op::DATA_END | op::FOOTER => break,
-                _ => {}
-            }
-            if damage.is_none() {
-                pos = end;
-            }
-        }
-        if let Some(why) = damage {
-            let is_chunk = body[pos] == op::CHUNK;
-            // A file cut inside a chunk: decode what is there (below), nothing follows.
-            let cut_chunk = !closed
-                && rec.is_none()
-                && is_chunk
-                && body.len() - pos > 9
-                && partial_chunk(&body[pos + 9..]).is_some();
-            let next = if cut_chunk {
-                None
-            } else {
-                recovery::resync(body, pos, &chunk_starts)
-            };
-            match next {
-                None if !closed && rec.is_none() => {
-                    cut = Some(pos);
-                    break;
-                }
-                next => {
-                    let to = next.unwrap_or(body.len());
-                    let to_at = (to + MAGIC.len()) as u64;
-                    let mut loss = Loss::new(
-                        if is_chunk {
-                            "corrupt_chunk"
-                        } else {
-                            "corrupt_record"
-                        },
-                        at,
-                        to_at - at,
-                        format!(
-                            "bytes {at}..{to_at} skipped: {why} at byte {at}; {}",
-                            match next {
-                                Some(_) if chunk_starts.binary_search(&to).is_ok() =>
-                                    "reading resumed at the next chunk of the summary's index",
-                                Some(_) => "reading resumed at the next intact record",
-                                None => "nothing intact after it",
-                            }
-                        ),
-                    );
-                    loss.channels_lost = recovery::indexed_losses(buf, &chunk_index, at, to_at);
-                    report.losses.push(loss);
-                    last_chunk = Some(at);
-                    match next {
-                        Some(n) => pos = n,
-                        None => break,
-                    }
-                }
-            }
-        }
-        if window_bytes >= opts.window_bytes
-            || window.len() >= 16 * rayon::current_num_threads().max(1)
-        {
-            if !loose.is_empty() {
-                window.push(Work::Loose(std::mem::take(&mut loose)));
-            }
-            window_bytes = 0;
-            if !flush(
-                &mut window,
-                &mut reg,
-                &mut tables,
-                &mut report,
-                pos.min(body.len()),
-            ) {
-                return Err(Error::Interrupted);
-            }
-        }
-    }
-    if let Some(pos) = cut {
-        let rest = &body[pos..];
-        let offset = (pos + MAGIC.len()) as u64;
-        let mut detail = format!(
-            "the file is cut short: the record at byte {offset} is incomplete ({} of its bytes present, bytes {offset}..{} lost)",
-            rest.len(),
-            offset + rest.len() as u64
-        );
-        if rest.first() == Some(&op::CHUNK) && rest.len() > 9 {
-            if let Some((header, data)) = partial_chunk(&rest[9..]) {
-                window.push(Work::Chunk {
-                    offset,
-                    bytes: rest.len() as u64,
-                    header,
-                    data,
-                    partial: true,
-                });
-                detail.push_str("; complete messages in the cut chunk are recovered");
-            }
-        }
-        report
-            .losses
-            .push(Loss::new("truncated", offset, rest.len() as u64, detail));
-    }
-    if !loose.is_empty() {
-        window.push(Work::Loose(std::mem::take(&mut loose)));
-    }
-    // Always: the last call reports the whole file done.
-    if !flush(&mut window, &mut reg, &mut tables, &mut report, body.len()) {
+    let mut walk = Walk::new(buf, &ctx, opts.window_bytes, progress);
+    if !walk.run() {
         return Err(Error::Interrupted);
     }
-    recovery::name_losses(&mut report, &indexed, &reg);
     // A recording with none of the rig's topics is an error naming them.
-    let present: Vec<&str> = reg.channels.values().map(|c| c.topic.as_str()).collect();
+    let present: Vec<&str> = walk
+        .reg
+        .channels
+        .values()
+        .map(|c| c.topic.as_str())
+        .collect();
     let wanted = ctx.rig_topics();
     if !wanted.iter().any(|t| present.contains(t)) {
         let mut have: Vec<&str> = present.clone();
@@ -603,7 +339,7 @@ fn extract_in(
             }
         )));
     }
-    Ok((tables, report))
+    Ok((walk.tables, walk.report))
 }
 
 /// What [`decompress_chunks`] did.

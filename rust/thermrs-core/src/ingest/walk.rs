@@ -1,0 +1,379 @@
+//! The top-level walk of a recording: records read in file order, chunks and loose messages
+//! gathered into windows that run in parallel ([`Walk::flush`]), damaged stretches skipped to
+//! the next intact record and reported ([`Walk::skip_damage`]), a file cut short decoded as far
+//! as it goes ([`Walk::finish_cut`]).
+
+use std::collections::{BTreeMap, HashMap};
+
+use mcap::records::{op, ChunkIndex, MessageHeader, Record};
+use rayon::prelude::*;
+
+use super::chunk::partial_chunk;
+use super::{
+    recovery, ChannelInfo, Context, Loss, MetadataRecord, Part, ProgressFn, Registry, Report,
+    Tables, Work, MAGIC,
+};
+
+/// Loose messages batched into one unit of work.
+const LOOSE_BATCH: usize = 256;
+
+/// The state of a walk over the bytes after the magic (`body`) of a recording (`buf`).
+pub(super) struct Walk<'b, 'c> {
+    buf: &'b [u8],
+    body: &'b [u8],
+    ctx: &'c Context<'c>,
+    progress: &'c ProgressFn<'c>,
+    /// Compressed bytes of chunks per parallel window.
+    window_limit: usize,
+    pub(super) reg: Registry,
+    pub(super) report: Report,
+    pub(super) tables: Tables,
+    chunk_index: Vec<ChunkIndex>,
+    /// Where the summary's index says chunks start (offsets in `body`).
+    chunk_starts: Vec<usize>,
+    window: Vec<Work<'b>>,
+    window_bytes: usize,
+    /// Offset in `body` where the current window's bytes start.
+    window_start: usize,
+    loose: Vec<(MessageHeader, &'b [u8])>,
+    frames_done: u64,
+    /// The last chunk met (file offset), whose message index records follow it.
+    last_chunk: Option<u64>,
+    /// Messages per channel that each chunk's message index records count (by file offset),
+    /// so that a lost chunk's messages can be told by topic where there is no summary.
+    indexed: HashMap<u64, BTreeMap<u16, u64>>,
+}
+
+impl<'b, 'c> Walk<'b, 'c> {
+    /// A walk over `buf` (which starts with the magic), with the channels, schemas and chunk
+    /// index of the file's summary where it has one.
+    pub(super) fn new(
+        buf: &'b [u8],
+        ctx: &'c Context<'c>,
+        window_limit: usize,
+        progress: &'c ProgressFn<'c>,
+    ) -> Self {
+        let mut walk = Walk {
+            buf,
+            body: &buf[MAGIC.len()..],
+            ctx,
+            progress,
+            window_limit,
+            reg: Registry::default(),
+            report: Report {
+                file_bytes: buf.len() as u64,
+                ..Report::default()
+            },
+            tables: Tables::default(),
+            chunk_index: Vec::new(),
+            chunk_starts: Vec::new(),
+            window: Vec::new(),
+            window_bytes: 0,
+            window_start: 0,
+            loose: Vec::new(),
+            frames_done: 0,
+            last_chunk: None,
+            indexed: HashMap::new(),
+        };
+        walk.read_summary();
+        walk
+    }
+
+    fn read_summary(&mut self) {
+        let Ok(Some(summary)) = mcap::read::Summary::read(self.buf) else {
+            return;
+        };
+        self.report.used_summary = true;
+        for (id, s) in &summary.schemas {
+            self.reg.schemas.insert(*id, s.name.clone());
+        }
+        for (id, c) in &summary.channels {
+            self.reg.channels.insert(
+                *id,
+                ChannelInfo {
+                    topic: c.topic.clone(),
+                    schema_id: c.schema.as_ref().map(|s| s.id).unwrap_or(0),
+                    encoding: c.message_encoding.clone(),
+                },
+            );
+        }
+        self.chunk_index = summary.chunk_indexes;
+        let mut starts: Vec<usize> = self
+            .chunk_index
+            .iter()
+            .filter_map(|c| {
+                usize::try_from(c.chunk_start_offset)
+                    .ok()?
+                    .checked_sub(MAGIC.len())
+            })
+            .collect();
+        starts.sort_unstable();
+        starts.dedup();
+        self.chunk_starts = starts;
+    }
+
+    /// Walk every record. `Ok(false)`: the caller asked to stop.
+    pub(super) fn run(&mut self) -> bool {
+        let closed = recovery::closed(self.body);
+        let mut pos = 0usize;
+        while pos < self.body.len() {
+            let rec = recovery::record_at(self.body, pos);
+            let mut damage = self.damage_at(pos, rec);
+            if let Some((opcode, from, end)) = rec.filter(|_| damage.is_none()) {
+                match opcode {
+                    op::DATA_END | op::FOOTER => break,
+                    _ => damage = self.record(pos, opcode, from, end),
+                }
+                if damage.is_none() {
+                    pos = end;
+                }
+            }
+            if let Some(why) = damage {
+                match self.skip_damage(pos, rec.is_some(), closed, &why) {
+                    Some(next) => pos = next,
+                    None => break,
+                }
+            }
+            if self.window_full() && !self.flush(pos.min(self.body.len())) {
+                return false;
+            }
+        }
+        if !self.loose.is_empty() {
+            self.window
+                .push(Work::Loose(std::mem::take(&mut self.loose)));
+        }
+        // Always: the last call reports the whole file done.
+        if !self.flush(self.body.len()) {
+            return false;
+        }
+        recovery::name_losses(&mut self.report, &self.indexed, &self.reg);
+        true
+    }
+
+    /// Why the record at `pos` cannot be read, if it cannot.
+    fn damage_at(&self, pos: usize, rec: Option<(u8, usize, usize)>) -> Option<String> {
+        let body = self.body;
+        match rec {
+            None if body.len() - pos < 9 => Some("an incomplete record header".to_string()),
+            None => Some(format!(
+                "a record whose length ({} bytes) runs past the end of the file",
+                u64::from_le_bytes(body[pos + 1..pos + 9].try_into().expect("8 bytes"))
+            )),
+            Some((o, _, _)) if !(recovery::valid_opcode(o) || o == op::HEADER && pos == 0) => {
+                Some(format!("a record with the invalid opcode 0x{o:02x}"))
+            }
+            Some(_) => None,
+        }
+    }
+
+    /// Take in one intact record (body `from..end` of the record at `pos`); a chunk that does
+    /// not parse is damage.
+    fn record(&mut self, pos: usize, opcode: u8, from: usize, end: usize) -> Option<String> {
+        let at = (pos + MAGIC.len()) as u64;
+        let rec = &self.body[from..end];
+        match opcode {
+            op::SCHEMA | op::CHANNEL => {
+                if let Ok(r) = mcap::read::parse_record(opcode, rec) {
+                    self.reg.absorb(&r);
+                }
+            }
+            op::MESSAGE => {
+                self.last_chunk = None;
+                if let Ok(Record::Message {
+                    header,
+                    data: std::borrow::Cow::Borrowed(data),
+                }) = mcap::read::parse_record(opcode, rec)
+                {
+                    self.window_bytes += data.len();
+                    self.loose.push((header, data));
+                    if self.loose.len() >= LOOSE_BATCH {
+                        self.window
+                            .push(Work::Loose(std::mem::take(&mut self.loose)));
+                    }
+                }
+            }
+            op::CHUNK => match mcap::read::parse_record(opcode, rec) {
+                Ok(Record::Chunk {
+                    header,
+                    data: std::borrow::Cow::Borrowed(data),
+                }) => {
+                    self.last_chunk = Some(at);
+                    self.window_bytes += data.len();
+                    self.window.push(Work::Chunk {
+                        offset: at,
+                        bytes: (end - pos) as u64,
+                        header,
+                        data,
+                        partial: false,
+                    });
+                }
+                Ok(_) => {}
+                Err(e) => return Some(format!("a chunk record that does not parse ({e})")),
+            },
+            op::METADATA => {
+                if let Ok(Record::Metadata(m)) = mcap::read::parse_record(opcode, rec) {
+                    self.report.metadata.push(MetadataRecord {
+                        name: m.name,
+                        values: m.metadata,
+                    });
+                }
+            }
+            op::MESSAGE_INDEX => {
+                if let (Some(c), Some((ch, n))) =
+                    (self.last_chunk, recovery::message_index_count(rec))
+                {
+                    *self.indexed.entry(c).or_default().entry(ch).or_insert(0) += n;
+                }
+            }
+            _ => {}
+        }
+        None
+    }
+
+    /// A damaged stretch at `pos` (`why`): skipped to the next intact record and reported.
+    /// Returns where the walk goes on, or `None` where it ends (nothing intact after it, or
+    /// the file was cut there: then the cut is decoded and reported).
+    fn skip_damage(&mut self, pos: usize, whole: bool, closed: bool, why: &str) -> Option<usize> {
+        let body = self.body;
+        let at = (pos + MAGIC.len()) as u64;
+        let is_chunk = body[pos] == op::CHUNK;
+        // A file cut inside a chunk: decode what is there, nothing follows.
+        let cut_chunk = !closed
+            && !whole
+            && is_chunk
+            && body.len() - pos > 9
+            && partial_chunk(&body[pos + 9..]).is_some();
+        let next = if cut_chunk {
+            None
+        } else {
+            recovery::resync(body, pos, &self.chunk_starts)
+        };
+        if next.is_none() && !closed && !whole {
+            // A record running past the end of a file without its closing magic: the cut.
+            self.finish_cut(pos);
+            return None;
+        }
+        let to = next.unwrap_or(body.len());
+        let to_at = (to + MAGIC.len()) as u64;
+        let resumed = match next {
+            Some(_) if self.chunk_starts.binary_search(&to).is_ok() => {
+                "reading resumed at the next chunk of the summary's index"
+            }
+            Some(_) => "reading resumed at the next intact record",
+            None => "nothing intact after it",
+        };
+        let mut loss = Loss::new(
+            if is_chunk {
+                "corrupt_chunk"
+            } else {
+                "corrupt_record"
+            },
+            at,
+            to_at - at,
+            format!("bytes {at}..{to_at} skipped: {why} at byte {at}; {resumed}"),
+        );
+        loss.channels_lost = recovery::indexed_losses(self.buf, &self.chunk_index, at, to_at);
+        self.report.losses.push(loss);
+        self.last_chunk = Some(at);
+        next
+    }
+
+    /// The file is cut inside the record at `pos`: the complete messages of a cut chunk are
+    /// decoded, and the cut is reported.
+    fn finish_cut(&mut self, pos: usize) {
+        let rest = &self.body[pos..];
+        let offset = (pos + MAGIC.len()) as u64;
+        let mut detail = format!(
+            "the file is cut short: the record at byte {offset} is incomplete ({} of its bytes present, bytes {offset}..{} lost)",
+            rest.len(),
+            offset + rest.len() as u64
+        );
+        if rest.first() == Some(&op::CHUNK) && rest.len() > 9 {
+            if let Some((header, data)) = partial_chunk(&rest[9..]) {
+                self.window.push(Work::Chunk {
+                    offset,
+                    bytes: rest.len() as u64,
+                    header,
+                    data,
+                    partial: true,
+                });
+                detail.push_str("; complete messages in the cut chunk are recovered");
+            }
+        }
+        self.report
+            .losses
+            .push(Loss::new("truncated", offset, rest.len() as u64, detail));
+    }
+
+    /// The window holds enough to run (its bytes, or its units for the pool); loose messages
+    /// gathered so far join it.
+    fn window_full(&mut self) -> bool {
+        let full = self.window_bytes >= self.window_limit
+            || self.window.len() >= 16 * rayon::current_num_threads().max(1);
+        if full {
+            if !self.loose.is_empty() {
+                self.window
+                    .push(Work::Loose(std::mem::take(&mut self.loose)));
+            }
+            self.window_bytes = 0;
+        }
+        full
+    }
+
+    /// Run the window's units in parallel and take in their parts in file order; a unit that
+    /// met a channel defined by another unit of the window runs again once the window's
+    /// channels are known. Pages before `upto` are released. Returns what the progress
+    /// callback returns (false: stop).
+    fn flush(&mut self, upto: usize) -> bool {
+        let ctx = self.ctx;
+        let reg = &self.reg;
+        let parts: Vec<Part> = self.window.par_iter().map(|w| ctx.run(reg, w)).collect();
+        let mut retry = Vec::new();
+        let mut done: Vec<Option<Part>> = Vec::with_capacity(parts.len());
+        for (i, p) in parts.into_iter().enumerate() {
+            self.reg.merge(&p.registry);
+            if p.retry {
+                retry.push(i);
+                done.push(None);
+            } else {
+                done.push(Some(p));
+            }
+        }
+        let reg = &self.reg;
+        let window = &self.window;
+        let again: Vec<(usize, Part)> = retry
+            .par_iter()
+            .map(|&i| (i, ctx.run(reg, &window[i])))
+            .collect();
+        for (i, mut p) in again {
+            if p.retry {
+                // Still unknown: count the chunk's messages as skipped rather than loop
+                // (loose messages are counted one by one).
+                if matches!(self.window[i], Work::Chunk { .. }) {
+                    p.report
+                        .skip("?", "message on a channel the file never defines");
+                }
+                p.retry = false;
+            }
+            done[i] = Some(p);
+        }
+        for p in done.into_iter().flatten() {
+            self.frames_done += p.tables.frames.t_ns.len() as u64;
+            self.tables.append(&p.tables);
+            self.report.merge(&p.report);
+        }
+        self.window.clear();
+        if let Some(src) = ctx.source {
+            src.release(
+                MAGIC.len() + self.window_start.min(upto),
+                MAGIC.len() + upto,
+            );
+        }
+        self.window_start = upto;
+        (self.progress)(
+            (upto + MAGIC.len()) as u64,
+            self.buf.len() as u64,
+            self.frames_done,
+        )
+    }
+}
