@@ -173,6 +173,39 @@ def test_one_recording_runs_in_process(recordings: list[Path], tmp_path: Path) -
     check_against_single_files(res, recordings[:1])
 
 
+def test_workers_without_the_dataset_folder_send_their_tables(
+    recordings: list[Path], client: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Workers that do not see the dataset's staging folder (a cluster without shared storage:
+    here the token they look for is not where they look) send the tables back as Arrow, and the
+    client writes them: the dataset is the same as each recording's own extraction."""
+    from thermrs.campaigns import staging
+
+    seen: list[str] = []
+    real_commit = thermrs.campaigns.dataset.Dataset.commit
+
+    def commit(self: Any, row: Any, tables: Any = None, *, staged: Any = None) -> None:
+        seen.append("tables" if tables is not None else "staged")
+        real_commit(self, row, tables, staged=staged)
+
+    monkeypatch.setattr(thermrs.campaigns.dataset.Dataset, "commit", commit)
+    monkeypatch.setattr(staging, "new_token", lambda root: "campaign-nowhere")
+    root = tmp_path / "ds"
+    root.mkdir()
+    res = thermrs.campaign(recordings[:3], root, client=client)
+    assert seen == ["tables"] * 3
+    check_against_single_files(res, recordings[:3])
+    assert not (root / ".staging").exists()
+    # With the token where workers look, they write the partitions themselves.
+    monkeypatch.undo()
+    monkeypatch.setattr(thermrs.campaigns.dataset.Dataset, "commit", commit)
+    seen.clear()
+    res = thermrs.campaign(recordings[:3], tmp_path / "ds2", client=client)
+    assert seen == ["staged"] * 3
+    check_against_single_files(res, recordings[:3])
+    assert not (tmp_path / "ds2" / ".staging").exists()
+
+
 def test_cli_campaign_on_a_scheduler(recordings: list[Path], client: Any, tmp_path: Path) -> None:
     out = tmp_path / "ds"
     pattern = str(recordings[0].parent / "r[12].mcap")

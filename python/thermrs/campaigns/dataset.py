@@ -21,21 +21,18 @@ single-recording tables of ``thermrs extract`` do.
 from __future__ import annotations
 
 import shutil
-import urllib.parse
-import uuid
 from pathlib import Path
 from typing import Any
 
 import polars as pl
 
+from thermrs.campaigns.staging import NULL_PARTITION, write_stage
+from thermrs.campaigns.staging import enc as _enc
 from thermrs.campaigns.task import TABLES
 from thermrs.errors import InputError
 from thermrs.ingest import LOSS_KEY, write_parquet_atomic
 
 __all__ = ["CATALOG_SCHEMA", "NULL_PARTITION", "Dataset"]
-
-#: Hive's name of the partition of null values (polars reads it back as null).
-NULL_PARTITION = "__HIVE_DEFAULT_PARTITION__"
 
 CATALOG_SCHEMA: dict[str, Any] = {
     "recording": pl.String,
@@ -60,10 +57,6 @@ CATALOG_SCHEMA: dict[str, Any] = {
     "options": pl.String,
     "extracted_at": pl.String,
 }
-
-
-def _enc(value: str | None) -> str:
-    return NULL_PARTITION if value is None else urllib.parse.quote(value, safe="")
 
 
 class Dataset:
@@ -154,7 +147,13 @@ class Dataset:
         for table in TABLES:
             shutil.rmtree(self.root / table / f"recording={_enc(rid)}", ignore_errors=True)
 
-    def commit(self, row: dict[str, Any], tables: dict[str, Any]) -> None:
+    def commit(
+        self,
+        row: dict[str, Any],
+        tables: dict[str, Any] | None = None,
+        *,
+        staged: str | Path | None = None,
+    ) -> None:
         """Write one recording's tables and catalog row (see the module docs for the steps).
 
         Parameters
@@ -162,16 +161,21 @@ class Dataset:
         row
             Its catalog row (:data:`CATALOG_SCHEMA`).
         tables
-            Table name → Arrow table with a ``run`` column (null: no run covers the row).
+            Table name → Arrow table with a ``run`` column (null: no run covers the row);
+            written into the staging folder here.
+        staged
+            Or: the folder a worker already wrote them into
+            (:func:`thermrs.campaigns.staging.write_stage`).
         """
         rid = str(row["recording"])
         meta = {LOSS_KEY: str(row.get("loss_detail") or "[]")}
-        stage = self.root / ".staging" / f"{rid}.{uuid.uuid4().hex}"
+        stage: Path | None = Path(staged) if staged is not None else None
         try:
-            for name, tab in tables.items():
-                self._write_partitions(stage / name, pl.from_arrow(tab), meta)  # type: ignore[arg-type]
+            if stage is None:
+                frames = {k: pl.from_arrow(v) for k, v in (tables or {}).items()}
+                stage = write_stage(self.root / ".staging", rid, frames, meta)  # type: ignore[arg-type]
             self.uncommit(rid)
-            for name in tables:
+            for name in sorted(p.name for p in stage.iterdir()):
                 dest = self.root / name / f"recording={_enc(rid)}"
                 dest.parent.mkdir(exist_ok=True)
                 (stage / name).rename(dest)
@@ -184,7 +188,20 @@ class Dataset:
                 f"dataset {self.root}: cannot write {rid}: {e.strerror or e}"
             ) from None
         finally:
-            shutil.rmtree(stage, ignore_errors=True)
+            if stage is not None:
+                shutil.rmtree(stage, ignore_errors=True)
+
+    def open_staging(self) -> tuple[Path, str]:
+        """The staging folder (absolute) and a new token for workers to find it by."""
+        from thermrs.campaigns.staging import new_token
+
+        root = (self.root / ".staging").resolve()
+        return root, new_token(root)
+
+    def close_staging(self) -> None:
+        """Remove the staging folder: what is left in it was never committed (a job that ran
+        twice because its worker died, an interrupted write)."""
+        shutil.rmtree(self.root / ".staging", ignore_errors=True)
 
     def touch(self, rid: str, updates: dict[str, Any]) -> None:
         """Update a committed recording's catalog row (e.g. the path and modification time of a
@@ -200,16 +217,3 @@ class Dataset:
         path = self.root / "catalog.parquet"
         write_parquet_atomic(self.catalog(), path)
         return path
-
-    @staticmethod
-    def _write_partitions(folder: Path, df: pl.DataFrame, meta: dict[str, str]) -> None:
-        """``df`` split by ``run`` into ``folder/run=<run>/part-0.parquet`` (without the
-        column); an empty table as one empty file, so that its columns are known."""
-        if df.height == 0:
-            groups = [(None, df)]
-        else:
-            groups = [(k[0], g) for k, g in df.group_by("run", maintain_order=True)]
-        for run, g in groups:
-            d = folder / f"run={_enc(run)}"
-            d.mkdir(parents=True)
-            g.drop("run").write_parquet(d / "part-0.parquet", metadata=meta)

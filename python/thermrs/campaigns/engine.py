@@ -147,8 +147,19 @@ def run_campaign(
     total = len(sources)
     if progress is not None:
         progress(done, total, "")
+    stage, token = ds.open_staging()
     jobs = [
-        Job(str(s.path), text, r.source, rig_hash, version, options, frozenset(by_hash))
+        Job(
+            str(s.path),
+            text,
+            r.source,
+            rig_hash,
+            version,
+            options,
+            frozenset(by_hash),
+            stage=str(stage),
+            token=token,
+        )
         for s in todo
     ]
     stat = {str(s.path): s for s in todo}
@@ -161,6 +172,7 @@ def run_campaign(
             if progress is not None:
                 progress(done, total, res["path"])
         result.dashboard = dashboard
+    ds.close_staging()
     ds.consolidate()
     result.seconds = time.perf_counter() - t0
     return result
@@ -183,7 +195,7 @@ def _absorb(
         result.unchanged.append(path)
     else:
         row = dict(res["row"], mtime_ns=s.mtime_ns, size_bytes=s.size_bytes)
-        ds.commit(row, res["tables"])
+        ds.commit(row, res.get("tables"), staged=res.get("staged"))
         result.extracted.append(path)
 
 

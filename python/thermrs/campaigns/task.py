@@ -1,11 +1,13 @@
 """One recording of a campaign, extracted where a worker runs it.
 
 :func:`run_job` is what the engine maps over the recordings (on Dask workers or in process): it
-hashes the file, extracts it (the Rust core releases the GIL) and returns its tables as Arrow
-tables and its catalog row as plain values, never polars frames, so that nothing but Arrow
-buffers and builtins crosses between processes. It has no side effect: a job run twice (its
-worker died and the scheduler ran it again) returns the same thing, and only the caller
-writes.
+hashes the file, extracts it (the Rust core releases the GIL), writes its tables into the
+dataset's staging folder where the worker sees it (:mod:`thermrs.campaigns.staging`) and
+returns its catalog row as plain values; where the worker does not see the folder, it returns
+the tables as Arrow tables instead, never polars frames, so that nothing but Arrow buffers and
+builtins crosses between processes. Its only side effect is a staged folder that nothing reads
+until the client commits it: a job run twice (its worker died and the scheduler ran it again)
+leaves an orphan, removed at the campaign's end, and only the client commits.
 """
 
 from __future__ import annotations
@@ -13,12 +15,14 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from datetime import UTC, datetime
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import polars as pl
 
 from thermrs.campaigns.sources import content_hash, recording_id
+from thermrs.campaigns.staging import reachable, write_stage
 from thermrs.errors import ThermrsError
 
 __all__ = ["TABLES", "Job", "run_job", "run_stats"]
@@ -45,6 +49,9 @@ class Job:
     known
         Content hashes already extracted with this rig, version and options: a file holding
         one of them is not extracted again.
+    stage, token
+        The dataset's staging folder and the token file the client left in it: a worker that
+        sees the token writes the tables there (empty: always return them).
     """
 
     path: str
@@ -54,6 +61,8 @@ class Job:
     thermrs_version: str
     options: str = "{}"
     known: frozenset[str] = frozenset()
+    stage: str = ""
+    token: str = ""
 
 
 def run_job(job: Job) -> dict[str, Any]:
@@ -62,12 +71,13 @@ def run_job(job: Job) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``status``: ``"extracted"`` (with ``row``, the catalog row, and ``tables``, name →
-        ``pyarrow.Table`` with a ``run`` column), ``"unchanged"`` (its hash is in
+        ``status``: ``"extracted"`` (with ``row``, the catalog row, and either ``staged``, the
+        folder its tables were written into, or ``tables``, name → ``pyarrow.Table`` with a
+        ``run`` column), ``"unchanged"`` (its hash is in
         ``job.known``: with ``content_hash`` and ``recording``) or ``"failed"`` (with
         ``error``, one line: the recording is bad input, the campaign goes on).
     """
-    from thermrs.ingest import extract
+    from thermrs.ingest import LOSS_KEY, extract
     from thermrs.rig import Rig
 
     try:
@@ -122,12 +132,14 @@ def run_job(job: Job) -> dict[str, Any]:
         "options": job.options,
         "extracted_at": datetime.now(UTC).isoformat(timespec="seconds"),
     }
-    return {
-        "status": "extracted",
-        "path": job.path,
-        "row": row,
-        "tables": {k: v.to_arrow() for k, v in tables.items()},
-    }
+    done = {"status": "extracted", "path": job.path, "row": row}
+    if reachable(job.stage, job.token):
+        try:
+            staged = write_stage(Path(job.stage), rid, tables, {LOSS_KEY: row["loss_detail"]})
+            return {**done, "staged": str(staged)}
+        except OSError:
+            pass  # the client writes them
+    return {**done, "tables": {k: v.to_arrow() for k, v in tables.items()}}
 
 
 def run_stats(
