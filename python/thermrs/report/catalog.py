@@ -13,7 +13,7 @@ import polars as pl
 from thermrs.report.data import RunInput
 from thermrs.rig import Rig
 
-__all__ = ["load_campaign_runs"]
+__all__ = ["campaign_report_runs", "load_campaign_runs"]
 
 
 def load_campaign_runs(
@@ -77,3 +77,42 @@ def load_campaign_runs(
             )
         )
     return out
+
+
+def campaign_report_runs(
+    dataset: Any,
+    rig: Rig,
+    *,
+    where: str | None = None,
+    runs: Sequence[str] = (),
+    train: Sequence[str] = (),
+) -> tuple[list[RunInput], list[str]]:
+    """The runs of ``thermrs report --campaign``: the ``train`` runs then the ``runs`` named
+    (default: every run ``where`` selects, the ``train`` runs first), and the training runs'
+    names (empty: the report's default, the first run).
+
+    Raises
+    ------
+    InputError
+        As :func:`load_campaign_runs`.
+    """
+    from thermrs.campaigns.inputs import open_dataset, pick_runs
+    from thermrs.campaigns.select import campaign_runs
+
+    ds = open_dataset(dataset)
+    train_names: list[str] = []
+    if train:
+        rows = pick_runs(campaign_runs(ds, where), train, what="--train")
+        train_names = [f"{a}#{b}" for a, b in rows.select("recording", "run").iter_rows()]
+    if runs:
+        names = [*train_names, *runs]
+    elif train:
+        names = [
+            *train_names,
+            *campaign_runs(ds, where)
+            .select(pl.concat_str("recording", pl.lit("#"), "run"))["recording"]
+            .to_list(),
+        ]
+    else:
+        names = []
+    return load_campaign_runs(ds, rig, where=where, names=names), train_names
