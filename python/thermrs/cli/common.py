@@ -466,6 +466,9 @@ def chosen_splits(
             _say_split(campaign_path, "runs", [], True)
     for s in sets:
         if not s.holdout:
-            raise InputError(f"no {holdout_what} run left: every run chosen is a training run")
+            raise InputError(
+                f"no held-out run: every run chosen trains; name them with {holdout_what} or "
+                "hold them out by --rule"
+            )
         distinct_runs(s.train, s.holdout, holdout_what)
     return sets
