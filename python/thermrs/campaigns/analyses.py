@@ -48,13 +48,35 @@ Progress = Callable[[str], object]
 def fit(
     dataset: DatasetLike, rig: Any, *, where: str | None = None, train: Sequence[str] = ()
 ) -> Any:
-    """α over the runs ``where`` selects (or the ``train`` runs named among them): the
-    :func:`thermrs.workflows.fit_document` of ``thermrs fit`` (a ``FitResult``).
+    """α over the runs ``where`` selects (or the ``train`` runs named among them), as
+    ``thermrs fit --campaign`` reports it.
+
+    Parameters
+    ----------
+    dataset
+        The campaign dataset (a :class:`~thermrs.campaigns.Dataset` or its folder).
+    rig
+        The rig the runs were recorded on.
+    where
+        The query choosing runs (:func:`thermrs.campaigns.select.parse_query`; default all).
+    train
+        Runs by name, ``RECORDING#RUN`` or ``RECORDING`` (default: every run chosen).
+
+    Returns
+    -------
+    FitResult
+        :func:`thermrs.workflows.fit_document`: the time-series fit and start/end per run.
 
     Raises
     ------
     InputError
-        What :func:`~thermrs.campaigns.inputs.splits` and :func:`thermrs.fit.fit_alpha` raise.
+        Not a dataset; a bad query or one matching no run; a name naming no run; too few
+        visits to fit (:func:`thermrs.fit.fit_alpha`).
+
+    Examples
+    --------
+    >>> res = thermrs.campaigns.fit("campaign/", rig, where="date>=2026-11-02")  # doctest: +SKIP
+    >>> res.fit.alpha_per_k, res.fit.ci95  # doctest: +SKIP
     """
     from thermrs.workflows import fit_document
 
@@ -144,15 +166,44 @@ def predict(
     axis: str = "auto",
     end_visits: int = 1,
 ) -> list[Prediction]:
-    """Held-out runs of a campaign predicted: one :class:`Prediction` per fold of ``rule``; or
-    the ``runs`` named (default: every selected run not trained on) with α fitted on the
-    ``train`` runs named, or with ``alpha_per_k`` given (then nothing is trained on).
+    """Held-out runs of a campaign predicted from their temperatures, as ``thermrs predict
+    --campaign`` does.
+
+    Parameters
+    ----------
+    dataset
+        The campaign dataset (a :class:`~thermrs.campaigns.Dataset` or its folder).
+    rig
+        The rig the runs were recorded on.
+    where
+        The query choosing runs (default all).
+    rule
+        ``leave-one-run-out`` or ``by-day``: a prediction per fold, α fitted on its training
+        runs.
+    train
+        Else the runs α is fitted on (names); ``runs`` default to the other runs chosen.
+    runs
+        The runs to predict (names; default: every run chosen that is not trained on).
+    alpha_per_k
+        Else predict with this α (1/K): no rule, no training runs.
+    axis, end_visits
+        As :func:`thermrs.predict.prediction_table`.
+
+    Returns
+    -------
+    list of Prediction
+        One per fold (one without a rule): the α values, the Table 7-style table, the series.
 
     Raises
     ------
     InputError
-        What :func:`~thermrs.campaigns.inputs.splits` raises; α given with a rule or
-        training runs; no run to predict.
+        What :func:`~thermrs.campaigns.inputs.splits` raises; α given with a rule or training
+        runs; no run left to predict.
+
+    Examples
+    --------
+    >>> folds = thermrs.campaigns.predict("campaign/", rig, rule="by-day")  # doctest: +SKIP
+    >>> [(p.split.name, p.rms_um()) for p in folds]  # doctest: +SKIP
     """
     from thermrs.errors import InputError
 
@@ -205,8 +256,38 @@ def drift(
     window: int | None = None,
     tolerance_um: float | None = None,
 ) -> DriftResult:
-    """Heating curves and ISO 9283-style figures of the runs ``where`` selects (or the
-    ``runs`` named among them); window and tolerance default as ``thermrs drift``'s."""
+    """Heating curves and ISO 9283-style figures of a campaign's runs, as ``thermrs drift
+    --campaign`` gives them.
+
+    Parameters
+    ----------
+    dataset
+        The campaign dataset (a :class:`~thermrs.campaigns.Dataset` or its folder).
+    rig
+        The rig the runs were recorded on.
+    where
+        The query choosing runs (default all).
+    runs
+        Runs by name among them (default: every run chosen).
+    window, tolerance_um
+        Visits per ISO 9283 window and the settling tolerance (µm); default as ``thermrs
+        drift``'s.
+
+    Returns
+    -------
+    DriftResult
+        The curves and the ISO 9283-style figures.
+
+    Raises
+    ------
+    InputError
+        Not a dataset; a bad query or one matching no run; a name naming no run.
+
+    Examples
+    --------
+    >>> d = thermrs.campaigns.drift("campaign/", rig, where="speed>20")  # doctest: +SKIP
+    >>> d.iso.summary  # doctest: +SKIP
+    """
     from thermrs.defaults import ISO_TOLERANCE_UM, ISO_WINDOW
 
     return drift_tables(
@@ -281,14 +362,39 @@ def diagnose(
     seed: int = 0,
     progress: Progress | None = None,
 ) -> list[DiagnosisFold]:
-    """The gap diagnosed on a campaign's runs: a diagnosis per fold of ``rule``, or one of
-    the ``train`` and ``holdout`` runs named (see :func:`~thermrs.campaigns.inputs.splits`).
+    """The sim-to-real gap diagnosed on a campaign's runs, as ``thermrs diagnose
+    --campaign`` does.
+
+    Parameters
+    ----------
+    dataset
+        The campaign dataset (a :class:`~thermrs.campaigns.Dataset` or its folder).
+    rig
+        The rig the runs were recorded on.
+    where
+        The query choosing runs (default all).
+    rule
+        ``leave-one-run-out`` or ``by-day``: a diagnosis per fold.
+    train, holdout
+        Else the runs named (see :func:`~thermrs.campaigns.inputs.splits`).
+    exclude, bootstrap, seed, progress
+        As :func:`thermrs.diagnose.diagnose` (``progress`` messages start with the fold).
+
+    Returns
+    -------
+    list of DiagnosisFold
+        One per fold (one without a rule).
 
     Raises
     ------
     InputError
         What :func:`~thermrs.campaigns.inputs.splits` and :func:`thermrs.diagnose.diagnose`
         raise; a split without held-out runs.
+
+    Examples
+    --------
+    >>> for d in thermrs.campaigns.diagnose("campaign/", rig, rule="by-day"):  # doctest: +SKIP
+    ...     print(d.split.name, d.diagnosis.to_json()["verdict"]["status"])
     """
     sets = splits(dataset, rig, where=where, rule=rule, train=train, holdout=holdout)
     return diagnose_splits(
@@ -328,8 +434,42 @@ def design(
     progress: Progress | None = None,
     **options: Any,
 ) -> list[DesignFold]:
-    """The measurement that separates confounded effects, per fold of ``rule`` or for the
-    runs named; ``options`` are :func:`thermrs.design.design`'s keywords (``exclude``,
-    ``between``, ``budget_h``, ``seed``, ``prove_it``, …)."""
+    """The measurement that separates confounded effects, designed on a campaign's runs as
+    ``thermrs design --campaign`` does.
+
+    Parameters
+    ----------
+    dataset
+        The campaign dataset (a :class:`~thermrs.campaigns.Dataset` or its folder).
+    rig
+        The rig the runs were recorded on.
+    where
+        The query choosing runs (default all).
+    rule
+        ``leave-one-run-out`` or ``by-day``: a design per fold.
+    train, holdout
+        Else the runs named (see :func:`~thermrs.campaigns.inputs.splits`).
+    progress
+        Called with a short message (starting with the fold) as the work goes on.
+    **options
+        :func:`thermrs.design.design`'s keywords (``exclude``, ``between``, ``budget_h``,
+        ``seed``, ``prove_it``, …).
+
+    Returns
+    -------
+    list of DesignFold
+        One per fold (one without a rule); ``.result.write(DIR)`` writes its files.
+
+    Raises
+    ------
+    InputError
+        What :func:`~thermrs.campaigns.inputs.splits` and :func:`thermrs.design.design` raise.
+
+    Examples
+    --------
+    >>> (d,) = thermrs.campaigns.design("campaign/", rig, train=["r1#run1"],
+    ...                                 holdout=["r1#run2"], prove_it=False)  # doctest: +SKIP
+    >>> d.result.write("next-experiment/")  # doctest: +SKIP
+    """
     sets = splits(dataset, rig, where=where, rule=rule, train=train, holdout=holdout)
     return design_splits(sets, rig, progress=progress, **options)

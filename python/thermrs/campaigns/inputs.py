@@ -67,12 +67,26 @@ class Split:
 
 
 def open_dataset(dataset: DatasetLike) -> Dataset:
-    """The dataset (a :class:`Dataset`, or the folder ``thermrs extract`` wrote).
+    """A campaign dataset to read.
+
+    Parameters
+    ----------
+    dataset
+        A :class:`Dataset`, or the folder ``thermrs extract REC… -o DATASET`` wrote.
+
+    Returns
+    -------
+    Dataset
+        The dataset (nothing is created on disk).
 
     Raises
     ------
     InputError
         No such folder, or not a campaign dataset.
+
+    Examples
+    --------
+    >>> thermrs.campaigns.open_dataset("campaign/").catalog()  # doctest: +SKIP
     """
     return dataset if isinstance(dataset, Dataset) else Dataset.open(Path(dataset))
 
@@ -122,13 +136,30 @@ def pick_runs(runs: pl.DataFrame, names: Sequence[str], *, what: str = "run") ->
 def select_runs(
     dataset: DatasetLike, *, where: str | None = None, names: Sequence[str] = ()
 ) -> pl.DataFrame:
-    """The runs chosen by query and, if ``names`` are given, by name among them (one row per
-    run, the columns of :func:`thermrs.campaigns.select.campaign_runs`).
+    """The runs chosen by query and, if ``names`` are given, by name among them.
+
+    Parameters
+    ----------
+    dataset
+        The campaign dataset (a :class:`Dataset` or its folder).
+    where
+        The query (:func:`thermrs.campaigns.select.parse_query`; default every run).
+    names
+        Runs by name (see the module docs).
+
+    Returns
+    -------
+    polars.DataFrame
+        One row per run, the columns of :func:`thermrs.campaigns.select.campaign_runs`.
 
     Raises
     ------
     InputError
         Not a dataset; a bad query, or one that matches no run; a name that names no run.
+
+    Examples
+    --------
+    >>> thermrs.campaigns.select_runs("campaign/", where="speed>20")  # doctest: +SKIP
     """
     runs = campaign_runs(open_dataset(dataset), where)
     return pick_runs(runs, names) if names else runs
@@ -159,11 +190,21 @@ def splits(
     train, holdout
         Run names (see the module docs).
 
+    Returns
+    -------
+    list of Split
+        One per fold of ``rule``; else one.
+
     Raises
     ------
     InputError
         What :func:`select_runs` and :func:`thermrs.campaigns.select.folds` raise; a rule
         together with names; a run both trained on and held out; nothing left to train on.
+
+    Examples
+    --------
+    >>> for s in thermrs.campaigns.splits("campaign/", rig, rule="leave-one-run-out"):
+    ...     print(s.name, s.train_names, s.holdout_names)  # doctest: +SKIP
     """
     ds = open_dataset(dataset)
     runs = campaign_runs(ds, where)
@@ -193,13 +234,33 @@ def splits(
 def selected(
     dataset: DatasetLike, rig: Any, *, where: str | None = None, names: Sequence[str] = ()
 ) -> Split:
-    """The run tables of the runs ``where`` selects (or the ``names`` among them), as the
-    training runs of one split with none held out.
+    """The run tables of the runs ``where`` selects (or the ``names`` among them).
+
+    Parameters
+    ----------
+    dataset
+        The campaign dataset (a :class:`Dataset` or its folder).
+    rig
+        The rig the runs were recorded on.
+    where
+        The query (default every run).
+    names
+        Runs by name (see the module docs).
+
+    Returns
+    -------
+    Split
+        The run tables as its ``train``, none held out; ``data_loss`` from the catalog.
 
     Raises
     ------
     InputError
         What :func:`select_runs` raises; a run without a visit with a spot.
+
+    Examples
+    --------
+    >>> s = thermrs.campaigns.selected("campaign/", rig, where="date=2026-11-02")  # doctest: +SKIP
+    >>> s.train_names  # doctest: +SKIP
     """
     ds = open_dataset(dataset)
     runs = campaign_runs(ds, where)
