@@ -23,11 +23,20 @@ from tests.test_campaign import SCENARIO
 RIG = str(thermrs.default_rig_path())
 
 
-def cli(*args: str) -> subprocess.CompletedProcess[str]:
+def cli(cmd: str, *args: str) -> subprocess.CompletedProcess[str]:
+    """``thermrs CMD --rig RIG ARGS…`` in a new process."""
     env = {**os.environ, "THERMRS_DEBUG": ""}
     return subprocess.run(
-        [sys.executable, "-m", "thermrs", *args], capture_output=True, text=True, env=env
+        [sys.executable, "-m", "thermrs", cmd, "--rig", RIG, *args],
+        capture_output=True,
+        text=True,
+        env=env,
     )
+
+
+def on_campaign(camp: dict[str, Path], cmd: str, *args: str) -> subprocess.CompletedProcess[str]:
+    """``thermrs CMD --rig RIG --campaign DATASET ARGS…``."""
+    return cli(cmd, "--campaign", str(camp["ds"]), *args)
 
 
 @pytest.fixture(scope="module")
@@ -47,6 +56,15 @@ def spec(camp: dict[str, Path], name: str) -> str:
     """The file run of a campaign run: ``r1-<hash>#run2`` → ``…/r1.mcap#run2``."""
     rec, _, run = name.partition("#")
     return f"{camp['dir'] / rec.rsplit('-', 1)[0]}.mcap#{run}"
+
+
+def named_and_files(
+    camp: dict[str, Path], train: list[str], holdout: list[str]
+) -> tuple[list[str], list[str]]:
+    """``--train … --holdout …`` as campaign names and as the recordings' file runs."""
+    runs = {"--train": train, "--holdout": holdout}
+    named = [x for k, v in runs.items() for x in (k, *v)]
+    return named, [x for k, v in runs.items() for x in (k, *[spec(camp, n) for n in v])]
 
 
 def file_tables(camp: dict[str, Path], names: list[str]) -> list[pl.DataFrame]:
@@ -92,11 +110,9 @@ def test_fit_from_the_catalog_is_the_fit_of_the_files(
     assert got.fit.ci95 == pytest.approx(truth.fit.ci95, rel=1e-9)
     # The CLI: --campaign with --where, against --train FILE#RUN.
     a, b = tmp_path / "a.json", tmp_path / "b.json"
-    p = cli(
-        "fit", "--rig", RIG, "--campaign", str(camp["ds"]), "--where", "run=run1", "--json", str(a)
-    )
+    p = on_campaign(camp, "fit", "--where", "run=run1", "--json", str(a))
     assert p.returncode == 0, p.stderr
-    p = cli("fit", "--rig", RIG, "--train", *[spec(camp, n) for n in names], "--json", str(b))
+    p = cli("fit", "--train", *[spec(camp, n) for n in names], "--json", str(b))
     assert p.returncode == 0, p.stderr
     da, db = json.loads(a.read_text()), json.loads(b.read_text())
     assert da["alpha_per_k"]["value"] == pytest.approx(db["alpha_per_k"]["value"], rel=1e-9)
@@ -120,17 +136,7 @@ def test_predict_by_rule_is_each_fold_predicted_from_files(
 
     rig = thermrs.load_rig()
     out = tmp_path / "p.json"
-    p = cli(
-        "predict",
-        "--rig",
-        RIG,
-        "--campaign",
-        str(camp["ds"]),
-        "--rule",
-        "leave-one-run-out",
-        "--json",
-        str(out),
-    )
+    p = on_campaign(camp, "predict", "--rule", "leave-one-run-out", "--json", str(out))
     assert p.returncode == 0, p.stderr
     assert "Held out by fold (leave-one-run-out)" in p.stdout
     doc = json.loads(out.read_text())
@@ -145,19 +151,7 @@ def test_predict_by_rule_is_each_fold_predicted_from_files(
         for c in ("predicted_um", "measured_um", "rms_centred_um"):
             assert got[c].to_list() == pytest.approx(truth[c].to_list(), rel=1e-9, abs=1e-12)
     # α given, runs by query: the same table as the files with that α.
-    p = cli(
-        "predict",
-        "--rig",
-        RIG,
-        "--campaign",
-        str(camp["ds"]),
-        "--where",
-        "speed>150",
-        "--alpha",
-        "23.2u",
-        "--json",
-        str(out),
-    )
+    p = on_campaign(camp, "predict", "--where", "speed>150", "--alpha", "23.2u", "--json", str(out))
     assert p.returncode == 0, p.stderr
     got = pl.DataFrame(json.loads(out.read_text())["table"])
     truth = prediction_table(
@@ -170,11 +164,9 @@ def test_drift_from_the_catalog_is_drift_of_the_files(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
     a, b = tmp_path / "a.json", tmp_path / "b.json"
-    p = cli(
-        "drift", "--rig", RIG, "--campaign", str(camp["ds"]), "--run", "r2#run2", "--json", str(a)
-    )
+    p = on_campaign(camp, "drift", "--run", "r2#run2", "--json", str(a))
     assert p.returncode == 0, p.stderr
-    p = cli("drift", "--rig", RIG, "--run", spec(camp, "r2#run2"), "--json", str(b))
+    p = cli("drift", "--run", spec(camp, "r2#run2"), "--json", str(b))
     assert p.returncode == 0, p.stderr
     (rid,) = thermrs.campaigns.select_runs(camp["ds"], names=["r2#run2"])["recording"]
     # Everything the same but the run's name.
@@ -188,32 +180,10 @@ def test_diagnose_from_the_catalog_is_the_diagnosis_of_the_files(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
     a, b = tmp_path / "a.json", tmp_path / "b.json"
-    common = ["--rig", RIG, "--bootstrap", "0"]
-    p = cli(
-        "diagnose",
-        *common,
-        "--campaign",
-        str(camp["ds"]),
-        "--train",
-        "r1#run1",
-        "r2#run1",
-        "--holdout",
-        "r1#run2",
-        "--json",
-        str(a),
-    )
+    named, files = named_and_files(camp, ["r1#run1", "r2#run1"], ["r1#run2"])
+    p = on_campaign(camp, "diagnose", "--bootstrap", "0", *named, "--json", str(a))
     assert p.returncode == 0, p.stderr
-    p = cli(
-        "diagnose",
-        *common,
-        "--train",
-        spec(camp, "r1#run1"),
-        spec(camp, "r2#run1"),
-        "--holdout",
-        spec(camp, "r1#run2"),
-        "--json",
-        str(b),
-    )
+    p = cli("diagnose", "--bootstrap", "0", *files, "--json", str(b))
     assert p.returncode == 0, p.stderr
     da, db = json.loads(a.read_text()), json.loads(b.read_text())
     assert da["verdict"]["status"] == db["verdict"]["status"]
@@ -249,12 +219,9 @@ def test_report_from_the_catalog_is_the_report_of_the_files(
     # The report itself (one run: no diagnosis, quick): the same text but for names and the
     # extraction's own report, which a dataset does not keep.
     a, b = tmp_path / "a.html", tmp_path / "b.html"
-    p = cli(
+    p = on_campaign(
+        camp,
         "report",
-        "--rig",
-        RIG,
-        "--campaign",
-        str(camp["ds"]),
         "--where",
         "recording=" + got[1].name.split("#")[0] + ", run=run1",
         "-o",
@@ -262,7 +229,7 @@ def test_report_from_the_catalog_is_the_report_of_the_files(
         "--quiet",
     )
     assert p.returncode == 0, p.stderr
-    p = cli("report", "--rig", RIG, "--run", spec(camp, "r1#run1"), "-o", str(b), "--quiet")
+    p = cli("report", "--run", spec(camp, "r1#run1"), "-o", str(b), "--quiet")
     assert p.returncode == 0, p.stderr
 
     def body(md: Path, name: str) -> str:
@@ -277,30 +244,10 @@ def test_report_from_the_catalog_is_the_report_of_the_files(
 def test_design_from_the_catalog_is_the_design_of_the_files(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
-    common = ["--rig", RIG, "--no-proof"]
-    p = cli(
-        "design",
-        *common,
-        "--campaign",
-        str(camp["ds"]),
-        "--train",
-        "r1#run1",
-        "--holdout",
-        "r1#run2",
-        "-o",
-        str(tmp_path / "a"),
-    )
+    named, files = named_and_files(camp, ["r1#run1"], ["r1#run2"])
+    p = on_campaign(camp, "design", "--no-proof", *named, "-o", str(tmp_path / "a"))
     assert p.returncode == 0, p.stderr
-    p = cli(
-        "design",
-        *common,
-        "--train",
-        spec(camp, "r1#run1"),
-        "--holdout",
-        spec(camp, "r1#run2"),
-        "-o",
-        str(tmp_path / "b"),
-    )
+    p = cli("design", "--no-proof", *files, "-o", str(tmp_path / "b"))
     assert p.returncode == 0, p.stderr
     da, db = (json.loads((tmp_path / x / "design.json").read_text()) for x in "ab")
     assert da["confounded"] == db["confounded"]
@@ -328,7 +275,7 @@ def test_bad_campaign_input_is_one_line_exit_2(
     camp: dict[str, Path], args: list[str], says: str
 ) -> None:
     fill = {"d": str(camp["dir"]), "ds": str(camp["ds"])}
-    p = cli(*[a.format(**fill) for a in args], "--rig", RIG)
+    p = cli(*[a.format(**fill) for a in args])
     assert p.returncode == 2, p.stderr
     assert says.format(**fill) in p.stderr
     errors = [line for line in p.stderr.splitlines() if "error" in line]

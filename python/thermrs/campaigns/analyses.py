@@ -171,12 +171,8 @@ def predict(
 
     Parameters
     ----------
-    dataset
-        The campaign dataset (a :class:`~thermrs.campaigns.Dataset` or its folder).
-    rig
-        The rig the runs were recorded on.
-    where
-        The query choosing runs (default all).
+    dataset, rig, where
+        As :func:`fit`.
     rule
         ``leave-one-run-out`` or ``by-day``: a prediction per fold, α fitted on its training
         runs.
@@ -261,12 +257,8 @@ def drift(
 
     Parameters
     ----------
-    dataset
-        The campaign dataset (a :class:`~thermrs.campaigns.Dataset` or its folder).
-    rig
-        The rig the runs were recorded on.
-    where
-        The query choosing runs (default all).
+    dataset, rig, where
+        As :func:`fit`.
     runs
         Runs by name among them (default: every run chosen).
     window, tolerance_um
@@ -367,12 +359,8 @@ def diagnose(
 
     Parameters
     ----------
-    dataset
-        The campaign dataset (a :class:`~thermrs.campaigns.Dataset` or its folder).
-    rig
-        The rig the runs were recorded on.
-    where
-        The query choosing runs (default all).
+    dataset, rig, where
+        As :func:`fit`.
     rule
         ``leave-one-run-out`` or ``by-day``: a diagnosis per fold.
     train, holdout
@@ -439,16 +427,12 @@ def design(
 
     Parameters
     ----------
-    dataset
-        The campaign dataset (a :class:`~thermrs.campaigns.Dataset` or its folder).
-    rig
-        The rig the runs were recorded on.
-    where
-        The query choosing runs (default all).
+    dataset, rig, where
+        As :func:`fit`.
     rule
         ``leave-one-run-out`` or ``by-day``: a design per fold.
     train, holdout
-        Else the runs named (see :func:`~thermrs.campaigns.inputs.splits`).
+        Else the runs named, as for :func:`diagnose`.
     progress
         Called with a short message (starting with the fold) as the work goes on.
     **options

@@ -238,14 +238,10 @@ def selected(
 
     Parameters
     ----------
-    dataset
-        The campaign dataset (a :class:`Dataset` or its folder).
+    dataset, where, names
+        As :func:`select_runs`.
     rig
         The rig the runs were recorded on.
-    where
-        The query (default every run).
-    names
-        Runs by name (see the module docs).
 
     Returns
     -------
