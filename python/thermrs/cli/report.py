@@ -103,10 +103,10 @@ def report(
 
     err = Console(stderr=True, highlight=False)
     if demo and (runs or train or rig_path is not None or campaign_path is not None):
-        raise click.UsageError("--demo takes no --rig, --run, --train or --campaign")
+        raise click.UsageError("--demo takes no --rig, --run or --train (nor --campaign)")
     no_campaign(campaign_path, query)
     if not demo and not runs and not train and campaign_path is None:
-        raise click.UsageError("give --run RUN… (and --rig RIG), --campaign DATASET, or --demo")
+        raise click.UsageError("give --run RUN… (and --rig RIG), or --demo, or --campaign DATASET")
     if not demo and rig_path is None:
         raise click.UsageError("give --rig RIG")
     from thermrs.runs import split_run_spec
