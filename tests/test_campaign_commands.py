@@ -58,6 +58,11 @@ def spec(camp: dict[str, Path], name: str) -> str:
     return f"{camp['dir'] / rec.rsplit('-', 1)[0]}.mcap#{run}"
 
 
+def rec_id(camp: dict[str, Path], stem: str) -> str:
+    """The catalog's id of a recording."""
+    return str(thermrs.campaigns.select_runs(camp["ds"], names=[stem])["recording"][0])
+
+
 def named_and_files(
     camp: dict[str, Path], train: list[str], holdout: list[str]
 ) -> tuple[list[str], list[str]]:
@@ -168,7 +173,7 @@ def test_drift_from_the_catalog_is_drift_of_the_files(
     assert p.returncode == 0, p.stderr
     p = cli("drift", "--run", spec(camp, "r2#run2"), "--json", str(b))
     assert p.returncode == 0, p.stderr
-    (rid,) = thermrs.campaigns.select_runs(camp["ds"], names=["r2#run2"])["recording"]
+    rid = rec_id(camp, "r2")
     # Everything the same but the run's name.
     da = json.loads(a.read_text().replace(f"{rid}#run2", "RUN"))
     db = json.loads(b.read_text().replace("r2#run2", "RUN"))
@@ -194,6 +199,48 @@ def test_diagnose_from_the_catalog_is_the_diagnosis_of_the_files(
     assert da["how_far"]["holdout_rms_after_um"] == pytest.approx(
         db["how_far"]["holdout_rms_after_um"], rel=1e-6
     )
+
+
+def test_diagnose_by_rule_is_each_fold_diagnosed_and_predict_uses_a_diagnosis(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    from thermrs.diagnose import diagnose
+
+    rig = thermrs.load_rig()
+    out = tmp_path / "d.json"
+    where = ["--where", "recording=" + rec_id(camp, "r1")]
+    p = on_campaign(
+        camp,
+        "diagnose",
+        "--bootstrap",
+        "0",
+        "--rule",
+        "leave-one-run-out",
+        *where,
+        "--json",
+        str(out),
+    )
+    assert p.returncode == 0, p.stderr
+    assert "Diagnosis by fold (leave-one-run-out)" in p.stdout
+    doc = json.loads(out.read_text())
+    assert doc["rule"] == "leave-one-run-out" and len(doc["folds"]) == 2
+    first = doc["folds"][0]
+    assert first["holdout"] == [f"{rec_id(camp, 'r1')}#run1"]
+    truth = diagnose(
+        file_tables(camp, first["train"]), file_tables(camp, first["holdout"]), rig, bootstrap=0
+    ).to_json()
+    assert first["diagnosis"]["verdict"]["status"] == truth["verdict"]["status"]
+    assert first["diagnosis"]["verdict"]["effect"] == truth["verdict"]["effect"]
+    # That fold's diagnosis predicts its held-out run as it predicts the file's.
+    (tmp_path / "one.json").write_text(json.dumps(first["diagnosis"]))
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    diag = ["--diagnosis", str(tmp_path / "one.json")]
+    p = on_campaign(camp, "predict", *diag, "--run", "r1#run1", "--json", str(a))
+    assert p.returncode == 0, p.stderr
+    p = cli("predict", *diag, "--run", spec(camp, "r1#run1"), "--json", str(b))
+    assert p.returncode == 0, p.stderr
+    ta, tb = (pl.DataFrame(json.loads(x.read_text())["table"]) for x in (a, b))
+    assert_frame_equal(ta.drop("run"), tb.drop("run"), rel_tol=1e-9)
 
 
 def test_report_from_the_catalog_is_the_report_of_the_files(
