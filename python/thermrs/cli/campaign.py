@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from thermrs.cli.common import rig_option, rule_option, where_option
+from thermrs.cli.common import out_option, rig_option, rule_option, where_option
 
 __all__ = ["campaign_command", "extract_campaign", "is_campaign"]
 
@@ -107,14 +107,7 @@ def extract_campaign(
 @rig_option
 @where_option
 @rule_option("Also fit on training runs and check on held-out runs by this rule.")
-@click.option(
-    "-o",
-    "--out",
-    "out_path",
-    type=click.Path(path_type=Path),
-    default=None,
-    help="Write the campaign page (OUT.md or OUT.html).",
-)
+@out_option("Write the campaign page (OUT.md or OUT.html).", required=False)
 def campaign_command(
     dataset: Path, rig_path: Path, query: str | None, rule: str | None, out_path: Path | None
 ) -> None:

@@ -139,10 +139,18 @@ rig_option = click.option(
 )
 
 
-def out_option(what: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """``-o/--out PATH`` with its help text."""
+def out_option(
+    what: str, *, required: bool = True
+) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """``-o/--out PATH`` with its help text (optional with ``required=False``: None)."""
     return click.option(
-        "-o", "--out", "out_path", required=True, type=click.Path(path_type=Path), help=what
+        "-o",
+        "--out",
+        "out_path",
+        required=required,
+        default=None,
+        type=click.Path(path_type=Path),
+        help=what,
     )
 
 

@@ -16,6 +16,7 @@ from thermrs.cli.common import (
     EXIT_DATA_LOSS,
     campaign_options,
     no_campaign,
+    out_option,
     writable,
 )
 from thermrs.errors import InputError
@@ -54,14 +55,10 @@ __all__ = ["report"]
     help="Runs α is fitted on (default: the first --run); the others are held out, predicted "
     "and diagnosed. A --train run not given as --run is added." + CAMPAIGN_NAMES_HELP,
 )
-@click.option(
-    "-o",
-    "--out",
-    "out_path",
-    type=click.Path(path_type=Path),
-    default=None,
-    help="HTML file to write [default: thermrs-report.html, or thermrs-demo-report.html with "
+@out_option(
+    "HTML file to write [default: thermrs-report.html, or thermrs-demo-report.html with "
     "--demo]; the Markdown twin OUT.md and its figures OUT_files/ go beside it.",
+    required=False,
 )
 @click.option("--pdf", is_flag=True, help="Also print the report to OUT.pdf (headless Chromium).")
 @click.option("--no-markdown", is_flag=True, help="Write only the HTML.")
