@@ -18,6 +18,7 @@ from polars.testing import assert_frame_equal
 from thermrs.runs import load_runs
 from thermrs.simulate import simulate
 
+from tests.support.recordings import shift_days
 from tests.test_campaign import SCENARIO
 
 RIG = str(thermrs.default_rig_path())
@@ -163,6 +164,34 @@ def test_predict_by_rule_is_each_fold_predicted_from_files(
         file_tables(camp, ["r1#run2", "r2#run2"]), rig, alphas={"given": 23.2e-6}
     )
     assert got["predicted_um"].to_list() == pytest.approx(truth["predicted_um"].to_list())
+
+
+def test_by_day_trains_on_one_day_and_predicts_the_next(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    from thermrs.predict import prediction_table
+    from thermrs.workflows import fit_document, training_alphas
+
+    # r2 recorded a day later (the same bytes but for the stamps), beside r1.
+    shift_days(camp["r2"], tmp_path / "r2d.mcap", 1)
+    for r in (camp["r1"], tmp_path / "r2d.mcap"):
+        thermrs.campaign([r], tmp_path / "ds")
+    out = tmp_path / "p.json"
+    p = cli("predict", "--campaign", str(tmp_path / "ds"), "--rule", "by-day", "--json", str(out))
+    assert p.returncode == 0, p.stderr
+    (fold,) = json.loads(out.read_text())["folds"]
+    assert fold["fold"] == "train 2025-06-15, hold out 2025-06-16"
+    assert [n.split("-")[0] for n in fold["train"] + fold["holdout"]] == ["r1", "r1", "r2d", "r2d"]
+    rig = thermrs.load_rig()
+    files = [f"{camp['r1']}#run1", f"{camp['r1']}#run2"]
+    alphas = training_alphas(
+        fit_document([t for f in files for t in load_runs(f, rig).tables], rig)
+    )
+    assert fold["alpha_per_k"] == pytest.approx(alphas, rel=1e-9)
+    held = load_runs(tmp_path / "r2d.mcap", rig).tables
+    truth = prediction_table(held, rig, alphas=alphas)
+    got = pl.DataFrame(fold["table"])
+    assert got["predicted_um"].to_list() == pytest.approx(truth["predicted_um"].to_list(), rel=1e-9)
 
 
 def test_drift_from_the_catalog_is_drift_of_the_files(
