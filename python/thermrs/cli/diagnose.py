@@ -239,7 +239,7 @@ def diagnose(
     writable(json_path, "--json", suffixes=(".json",))
 
     if paper:
-        if train or holdout or campaign_path is not None:
+        if train or holdout or campaign_path is not None or query or rule:
             raise click.UsageError(
                 "--paper diagnoses the paper's numbers; give no --train/--holdout/--campaign"
             )

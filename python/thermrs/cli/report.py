@@ -7,6 +7,7 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 from rich.console import Console
@@ -20,6 +21,10 @@ from thermrs.cli.common import (
     writable,
 )
 from thermrs.errors import InputError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from thermrs.report.data import RunInput
+    from thermrs.rig import Rig
 
 __all__ = ["report"]
 
@@ -154,7 +159,7 @@ def report(
         else:
             from thermrs.fit import run_name
             from thermrs.report import write_report
-            from thermrs.report.data import RunInput, load_runs
+            from thermrs.report.data import load_runs
             from thermrs.rig import load_rig
             from thermrs.runs import split_run_spec
 
@@ -163,21 +168,8 @@ def report(
             loaded: list[RunInput] = []
             train_names: list[str] = []
             if campaign_path is not None:  # the runs of a campaign dataset, by query and name
-                from thermrs.report.catalog import campaign_report_runs
-
                 stage(f"reading {campaign_path}")
-                loaded, train_names = campaign_report_runs(
-                    campaign_path,
-                    rig,
-                    where=query,
-                    runs=[str(p) for p in runs],
-                    train=[str(p) for p in train],
-                )
-                click.echo(
-                    f"thermrs: {campaign_path}: {len(loaded)} run(s): "
-                    + ", ".join(r.name for r in loaded),
-                    err=True,
-                )
+                loaded, train_names = _campaign_runs(campaign_path, rig, query, runs, train)
                 loss = any(r.data_loss for r in loaded)
             specs = list(dict.fromkeys([*train, *runs])) if campaign_path is None else []
             files = [split_run_spec(p)[0] for p in specs]
@@ -236,3 +228,24 @@ def report(
             err.print(f"wrote {written.pdf}")
     if loss:
         sys.exit(EXIT_DATA_LOSS)
+
+
+def _campaign_runs(
+    campaign_path: Path,
+    rig: Rig,
+    query: str | None,
+    runs: tuple[Path, ...],
+    train: tuple[Path, ...],
+) -> tuple[list[RunInput], list[str]]:
+    """The report's runs from a campaign dataset (:mod:`thermrs.report.catalog`), listed on
+    stderr, and the training runs' names."""
+    from thermrs.report.catalog import campaign_report_runs
+
+    loaded, train_names = campaign_report_runs(
+        campaign_path, rig, where=query, runs=[str(p) for p in runs], train=[str(p) for p in train]
+    )
+    click.echo(
+        f"thermrs: {campaign_path}: {len(loaded)} run(s): " + ", ".join(r.name for r in loaded),
+        err=True,
+    )
+    return loaded, train_names
