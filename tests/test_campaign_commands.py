@@ -341,7 +341,7 @@ def test_design_from_the_catalog_is_the_design_of_the_files(
         (["fit", "--campaign", "{ds}", "--where", "date>=2030-01-01"], "no run matches"),
         (["predict", "--campaign", "{ds}", "--rule", "by-day"], "at least two days"),
         (["diagnose", "--campaign", "{ds}", "--rule", "by-day"], "at least two days"),
-        (["drift", "--campaign", "{ds}", "--run", "r7#run1"], "r7#run1: no such run"),
+        (["drift", "--campaign", "{ds}", "--run", "r7#run1"], "--run r7#run1: no such run"),
         (["fit", "--train", "{ds}/../r1.mcap", "--where", "run=run1"], "give --campaign"),
         (["diagnose", "--campaign", "{ds}"], "no held-out run"),
         (["report", "--campaign", "{ds}", "--where", "speed<0"], "no run matches"),

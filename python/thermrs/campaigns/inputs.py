@@ -232,7 +232,12 @@ def splits(
 
 
 def selected(
-    dataset: DatasetLike, rig: Any, *, where: str | None = None, names: Sequence[str] = ()
+    dataset: DatasetLike,
+    rig: Any,
+    *,
+    where: str | None = None,
+    names: Sequence[str] = (),
+    what: str = "run",
 ) -> Split:
     """The run tables of the runs ``where`` selects (or the ``names`` among them).
 
@@ -242,6 +247,8 @@ def selected(
         As :func:`select_runs`.
     rig
         The rig the runs were recorded on.
+    what
+        What a name is called in an error message (``--run``, say).
 
     Returns
     -------
@@ -260,7 +267,7 @@ def selected(
     """
     ds = open_dataset(dataset)
     runs = campaign_runs(ds, where)
-    rows = pick_runs(runs, names) if names else runs
+    rows = pick_runs(runs, names, what=what) if names else runs
     return _load(ds, runs, rig, [("", _names(rows), [])])[0]
 
 

@@ -411,7 +411,7 @@ def chosen_runs(
         return run_tables(tuple(names), rig, what)
     from thermrs.campaigns.inputs import selected
 
-    s = selected(campaign_path, rig, where=query, names=[str(n) for n in names])
+    s = selected(campaign_path, rig, where=query, names=[str(n) for n in names], what=what)
     _say_split(campaign_path, what, s.train_names, s.data_loss)
     return s.train, s.data_loss
 
@@ -448,11 +448,10 @@ def chosen_splits(
 
     no_campaign(campaign_path, query, rule)
     if campaign_path is None:
-        if not train:
-            raise click.UsageError("Missing option '--train' (or --campaign DATASET).")
+        for opt, given in (("--train", train), (holdout_what, holdout)):
+            if not given:
+                raise click.UsageError(f"Missing option '{opt}' (or --campaign DATASET).")
         tt, loss1 = run_tables(tuple(train), rig, "--train")
-        if not holdout:
-            raise click.UsageError(f"Missing option '{holdout_what}' (or --campaign DATASET).")
         th, loss2 = run_tables(tuple(holdout), rig, holdout_what)
         sets = [Split("", tt, th, loss1 or loss2)]
     else:
