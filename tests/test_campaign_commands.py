@@ -314,6 +314,9 @@ def test_report_from_the_catalog_is_the_report_of_the_files(
         return text.split("## What extraction")[0]
 
     assert body(tmp_path / "a.md", got[1].name) == body(tmp_path / "b.md", "r1#run1")
+    # The library face writes the same report.
+    thermrs.campaigns.report(camp["ds"], rig, tmp_path / "c.html", runs=[got[1].name])
+    assert body(tmp_path / "c.md", got[1].name) == body(tmp_path / "b.md", "r1#run1")
 
 
 @pytest.mark.slow

@@ -8,7 +8,7 @@ cluster, and the runs of a campaign chosen by query.
 - :mod:`thermrs.campaigns.select`: runs by query, training and held-out sets by rule;
 - :mod:`thermrs.campaigns.inputs`: run tables and splits of a dataset, runs by name;
 - :mod:`thermrs.campaigns.analyses`: :func:`fit`, :func:`predict`, :func:`drift`,
-  :func:`diagnose` and :func:`design` on a campaign's runs.
+  :func:`diagnose`, :func:`design` and :func:`report` on a campaign's runs.
 
 Example
 -------
@@ -37,6 +37,7 @@ from thermrs.campaigns.analyses import (
     drift,
     fit,
     predict,
+    report,
 )
 from thermrs.campaigns.dataset import Dataset
 from thermrs.campaigns.engine import CampaignResult, Progress, run_campaign
@@ -58,6 +59,7 @@ __all__ = [
     "fit",
     "open_dataset",
     "predict",
+    "report",
     "select_runs",
     "selected",
     "splits",
