@@ -200,3 +200,46 @@ def write_messages(
             sequence=seq,
         )
     w.finish()
+
+
+def shift_days(src: Path, dst: Path, days: int) -> Path:
+    """A copy of the recording ``src`` recorded ``days`` later: every message's header stamp
+    (the first field of each ROS 2 message here, after the 4-byte CDR encapsulation), its log
+    and publish times and the ``thermrs.run`` markers moved by whole days, rewritten by the
+    ``mcap`` package's own reader and writer."""
+    import struct
+
+    from mcap.reader import make_reader
+
+    shift = days * 86_400 * 10**9
+    with src.open("rb") as f, dst.open("wb") as out:
+        r = make_reader(f)
+        w = Writer(out, compression=CompressionType.ZSTD)  # type: ignore[arg-type]
+        w.start(profile="ros2", library="thermrs-tests")
+        schemas: dict[int, int] = {}
+        channels: dict[int, int] = {}
+        for sc, ch, m in r.iter_messages(log_time_order=False):
+            if sc is not None and sc.id not in schemas:
+                schemas[sc.id] = w.register_schema(sc.name, sc.encoding, sc.data)
+            if ch.id not in channels:
+                channels[ch.id] = w.register_channel(
+                    ch.topic, ch.message_encoding, schemas[sc.id] if sc else 0
+                )
+            (sec,) = struct.unpack_from("<i", m.data, 4)
+            data = bytearray(m.data)
+            struct.pack_into("<i", data, 4, sec + days * 86_400)
+            w.add_message(
+                channels[ch.id],
+                log_time=m.log_time + shift,
+                data=bytes(data),
+                publish_time=m.publish_time + shift,
+                sequence=m.sequence,
+            )
+        for md in r.iter_metadata():
+            values = dict(md.metadata)
+            for k in ("start_ns", "end_ns"):
+                if k in values:
+                    values[k] = str(int(values[k]) + shift)
+            w.add_metadata(md.name, values)
+        w.finish()
+    return dst

@@ -87,6 +87,27 @@ class Dataset:
             raise InputError(f"dataset {root}: {e.strerror or e}") from None
         self.root = root
 
+    @classmethod
+    def open(cls, root: str | Path) -> Dataset:
+        """A dataset that ``thermrs extract`` wrote, for reading (nothing is created).
+
+        Raises
+        ------
+        InputError
+            ``root`` does not exist, is not a folder, or holds no catalog.
+        """
+        root = Path(root)
+        if not root.exists():
+            raise InputError(f"dataset {root}: no such folder")
+        if not root.is_dir():
+            raise InputError(f"dataset {root}: is a file, expected a folder")
+        if not (root / "_catalog").is_dir():
+            raise InputError(
+                f"dataset {root}: not a campaign dataset (no _catalog/; write one with "
+                "`thermrs extract REC… -o DATASET`)"
+            )
+        return cls(root)
+
     # --- reading ----------------------------------------------------------------------------
     def catalog(self) -> pl.DataFrame:
         """One row per committed recording (columns :data:`CATALOG_SCHEMA`), by id."""

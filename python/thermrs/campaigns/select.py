@@ -163,7 +163,10 @@ def folds(runs: pl.DataFrame, rule: str) -> list[Fold]:
     if rule == "by-day":
         days = sorted(set(runs["date"].to_list()))
         if len(days) < 2:
-            raise InputError(f"by-day needs runs on at least two days (they are all on {days})")
+            raise InputError(
+                "by-day needs runs on at least two days (they are all on "
+                f"{', '.join(str(d) for d in days)})"
+            )
         by_day = {d: [n for n, x in zip(names, runs["date"], strict=True) if x == d] for d in days}
         return [
             Fold(f"train {a}, hold out {b}", by_day[a], by_day[b])

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import click
 
+from thermrs.cli.common import out_option, rig_option, rule_option, where_option
+
 __all__ = ["campaign_command", "extract_campaign", "is_campaign"]
 
 
@@ -102,35 +104,10 @@ def extract_campaign(
 
 @click.command("campaign")
 @click.argument("dataset", type=click.Path(exists=True, file_okay=False, path_type=Path))
-@click.option(
-    "--rig",
-    "rig_path",
-    required=True,
-    type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    help="Rig file (TOML, SPEC §3).",
-)
-@click.option(
-    "--where",
-    "query",
-    default=None,
-    metavar="QUERY",
-    help="Runs to use: KEY OP VALUE terms, comma-separated (keys robot, rig, "
-    "recording, run, date, speed, duration), e.g. 'date>=2026-11-02, speed>20'.",
-)
-@click.option(
-    "--rule",
-    type=click.Choice(["leave-one-run-out", "by-day"]),
-    default=None,
-    help="Also fit on training runs and check on held-out runs by this rule.",
-)
-@click.option(
-    "-o",
-    "--out",
-    "out_path",
-    type=click.Path(path_type=Path),
-    default=None,
-    help="Write the campaign page (OUT.md or OUT.html).",
-)
+@rig_option
+@where_option
+@rule_option("Also fit on training runs and check on held-out runs by this rule.")
+@out_option("Write the campaign page (OUT.md or OUT.html).", required=False)
 def campaign_command(
     dataset: Path, rig_path: Path, query: str | None, rule: str | None, out_path: Path | None
 ) -> None:

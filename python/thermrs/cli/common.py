@@ -24,6 +24,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from rich.console import Console
     from rich.table import Table
 
+    from thermrs.campaigns.inputs import Split
     from thermrs.rig import Rig
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_DATA_LOSS = 0, 1, 2, 3
@@ -32,21 +33,31 @@ EXIT_INTERRUPTED = 130
 #: The joint tolerance of a visit (°); the same as :data:`thermrs.visits.DEFAULT_TOLERANCE_DEG`
 #: (a test checks), from :mod:`thermrs.defaults` so that ``thermrs --help`` need not import polars.
 __all__ = [
+    "CAMPAIGN_NAMES_HELP",
     "TRAIN_HELP",
     "VISIT_TOLERANCE_DEG",
     "AlphaType",
+    "campaign_options",
+    "chosen_runs",
+    "chosen_splits",
     "console",
     "distinct_runs",
+    "exclude_option",
     "fmt",
     "input_file",
+    "json_option",
+    "no_campaign",
     "out",
     "out_option",
     "radians_hint",
     "rig_option",
+    "rule_option",
     "run_file",
     "run_tables",
     "runs_option",
+    "seed_option",
     "table",
+    "where_option",
     "writable",
     "write_csv",
     "write_json",
@@ -107,6 +118,8 @@ class RunFileType(click.ParamType):  # type: ignore[type-arg]
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         text = str(value)
+        if ctx is not None and ctx.params.get("campaign_path") is not None:
+            return text  # a run of the --campaign dataset, named recording#run
         path = Path(text)
         if "#" in text and not path.exists():
             path = Path(text.rpartition("#")[0])
@@ -126,10 +139,18 @@ rig_option = click.option(
 )
 
 
-def out_option(what: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """``-o/--out PATH`` with its help text."""
+def out_option(
+    what: str, *, required: bool = True
+) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """``-o/--out PATH`` with its help text (optional with ``required=False``: None)."""
     return click.option(
-        "-o", "--out", "out_path", required=True, type=click.Path(path_type=Path), help=what
+        "-o",
+        "--out",
+        "out_path",
+        required=required,
+        default=None,
+        type=click.Path(path_type=Path),
+        help=what,
     )
 
 
@@ -270,16 +291,24 @@ def distinct_runs(
         )
 
 
-def runs_option(what: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """``--run RUN…`` (required, several), with its help text."""
+Decorator = Callable[[Callable[..., Any]], Callable[..., Any]]
+
+#: How a run is named in a campaign dataset (the help of every run option).
+CAMPAIGN_NAMES_HELP = (
+    " With --campaign: runs of the dataset, RECORDING#RUN (RECORDING the catalog's id or "
+    "the file's stem; alone: each of its runs)."
+)
+
+
+def runs_option(what: str, *, name: str = "--run", dest: str = "runs") -> Decorator:
+    """``--run RUN…`` (several; required unless ``--campaign`` chooses runs), with its help."""
     return click.option(
-        "--run",
-        "runs",
-        required=True,
+        name,
+        dest,
         multiple=True,
         type=run_file,
         help=f"{what}: recordings (MCAP) or tables written by `thermrs extract`; FILE#RUN "
-        "takes one run of a file (FILE alone: each of its runs).",
+        "takes one run of a file (FILE alone: each of its runs)." + CAMPAIGN_NAMES_HELP,
     )
 
 
@@ -287,3 +316,166 @@ TRAIN_HELP = (
     "Training runs: recordings (MCAP) or tables written by `thermrs extract` (--train A B or "
     "--train A --train B); FILE#RUN takes one run of a file (FILE alone: each of its runs)."
 )
+
+
+def json_option(what: str = "Write the SPEC §7 JSON here (atomically).") -> Decorator:
+    """``--json PATH``, with its help text."""
+    return click.option(
+        "--json", "json_path", type=click.Path(path_type=Path), default=None, help=what
+    )
+
+
+def seed_option(what: str) -> Decorator:
+    """``--seed N`` (default 0)."""
+    return click.option(
+        "--seed",
+        default=0,
+        show_default=True,
+        type=click.IntRange(0, 2**32 - 1),
+        help=what,
+    )
+
+
+def exclude_option(what: str) -> Decorator:
+    """``--exclude EFFECT…``: SPEC §6 effects the diagnoser may not name."""
+    return click.option("--exclude", "exclude", multiple=True, help=what)
+
+
+#: ``--where QUERY``: the runs of a campaign dataset to use.
+where_option = click.option(
+    "--where",
+    "query",
+    default=None,
+    metavar="QUERY",
+    help="Runs to use: KEY OP VALUE terms, comma-separated (keys robot, rig, "
+    "recording, run, date, speed, duration), e.g. 'date>=2026-11-02, speed>20'.",
+)
+
+
+def rule_option(what: str) -> Decorator:
+    """``--rule leave-one-run-out|by-day``: training and held-out runs by rule."""
+    return click.option(
+        "--rule", type=click.Choice(["leave-one-run-out", "by-day"]), default=None, help=what
+    )
+
+
+def campaign_options(*, rule: str | None = None) -> Decorator:
+    """``--campaign DATASET`` and ``--where QUERY`` (and, with ``rule`` its help, ``--rule``):
+    runs read from a campaign dataset (``thermrs extract REC… -o DATASET``) instead of files.
+    ``--campaign`` is processed first, so that run options then take ``RECORDING#RUN``."""
+
+    def deco(f: Callable[..., Any]) -> Callable[..., Any]:
+        if rule is not None:
+            f = rule_option(rule)(f)
+        f = where_option(f)
+        return click.option(
+            "--campaign",
+            "campaign_path",
+            type=click.Path(path_type=Path),
+            default=None,
+            is_eager=True,
+            metavar="DATASET",
+            help="Read the runs from this campaign dataset (written by `thermrs extract "
+            "REC… -o DATASET`): every run, or those --where and the run options choose.",
+        )(f)
+
+    return deco
+
+
+def no_campaign(campaign_path: Path | None, query: str | None, rule: str | None = None) -> None:
+    """``--where`` and ``--rule`` only with ``--campaign``.
+
+    Raises
+    ------
+    click.UsageError
+        One line saying so.
+    """
+    if campaign_path is None and (query is not None or rule is not None):
+        opt = "--where" if query is not None else "--rule"
+        raise click.UsageError(f"{opt} chooses runs of a campaign: give --campaign DATASET")
+
+
+def chosen_runs(
+    campaign_path: Path | None,
+    query: str | None,
+    names: Sequence[Any],
+    rig: Rig,
+    what: str,
+) -> tuple[list[pl.DataFrame], bool]:
+    """Run tables and whether data was lost: from the ``--campaign`` dataset (the runs
+    ``--where`` selects, or those named among them) or from files (``names`` required)."""
+    no_campaign(campaign_path, query)
+    if campaign_path is None:
+        if not names:
+            raise click.UsageError(f"Missing option '{what}' (or --campaign DATASET).")
+        return run_tables(tuple(names), rig, what)
+    from thermrs.campaigns.inputs import selected
+
+    s = selected(campaign_path, rig, where=query, names=[str(n) for n in names], what=what)
+    _say_split(campaign_path, what, s.train_names, s.data_loss)
+    return s.train, s.data_loss
+
+
+def _say_split(campaign_path: Path, what: str, names: Sequence[str], loss: bool) -> None:
+    if names:
+        click.echo(
+            f"thermrs: {what} {campaign_path}: {len(names)} run{'s' * (len(names) != 1)}: "
+            + ", ".join(names),
+            err=True,
+        )
+    if loss:
+        click.echo(
+            f"thermrs: data loss: {campaign_path}: a recording of these runs lost part of its "
+            "data (see the catalog's loss_detail); results use what was intact",
+            err=True,
+        )
+
+
+def chosen_splits(
+    campaign_path: Path | None,
+    query: str | None,
+    rule: str | None,
+    train: Sequence[Any],
+    holdout: Sequence[Any],
+    rig: Rig,
+    *,
+    holdout_what: str = "--holdout",
+) -> list[Split]:
+    """Training and held-out run tables: a split per fold of ``--rule`` or the runs named,
+    from the ``--campaign`` dataset; from files, the one split of ``--train``/``--holdout``
+    (both lists of files). A held-out run may not be a training run again."""
+    from thermrs.campaigns.inputs import Split, splits
+
+    no_campaign(campaign_path, query, rule)
+    if campaign_path is None:
+        for opt, given in (("--train", train), (holdout_what, holdout)):
+            if not given:
+                raise click.UsageError(f"Missing option '{opt}' (or --campaign DATASET).")
+        tt, loss1 = run_tables(tuple(train), rig, "--train")
+        th, loss2 = run_tables(tuple(holdout), rig, holdout_what)
+        sets = [Split("", tt, th, loss1 or loss2)]
+    else:
+        sets = splits(
+            campaign_path,
+            rig,
+            where=query,
+            rule=rule,
+            train=[str(n) for n in train],
+            holdout=[str(n) for n in holdout],
+        )
+        for s in sets:
+            click.echo(
+                f"thermrs: {campaign_path}: {s.name or 'runs'}: train on "
+                f"{', '.join(s.train_names)}; hold out {', '.join(s.holdout_names) or 'none'}",
+                err=True,
+            )
+        if any(s.data_loss for s in sets):
+            _say_split(campaign_path, "runs", [], True)
+    for s in sets:
+        if not s.holdout:
+            raise InputError(
+                f"no held-out run: every run chosen trains; name them with {holdout_what} or "
+                "hold them out by --rule"
+            )
+        distinct_runs(s.train, s.holdout, holdout_what)
+    return sets

@@ -14,7 +14,6 @@ from thermrs.cli.common import (
     input_file,
     out,
     rig_option,
-    run_tables,
     table,
     writable,
     write_csv,
@@ -22,6 +21,8 @@ from thermrs.cli.common import (
 )
 
 if TYPE_CHECKING:  # pragma: no cover
+    import polars as pl
+
     from thermrs.compensate import DiagnosedModel
     from thermrs.rig import Rig
 
@@ -50,7 +51,8 @@ def _say_model(m: DiagnosedModel) -> None:
 def predict_diagnosed(
     r: Rig,
     diagnosis: Path,
-    runs: tuple[Path, ...],
+    held: list[pl.DataFrame],
+    loss: bool,
     json_path: Path | None,
     series_path: Path | None,
 ) -> None:
@@ -61,7 +63,6 @@ def predict_diagnosed(
 
     model = load_diagnosis(diagnosis, r)
     _say_model(model)
-    held, loss = run_tables(runs, r, "--run")
     series = predict_series(held, r, model)
     shrink = shrink_table(series)
     if json_path is not None:

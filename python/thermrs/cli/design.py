@@ -11,16 +11,15 @@ import click
 from rich.console import Console
 from rich.table import Table
 
+from thermrs.cli.common import (
+    campaign_options,
+    exclude_option,
+    input_file,
+    runs_option,
+    seed_option,
+)
+
 out = Console(highlight=False)
-
-
-def _types() -> tuple[click.ParamType, click.ParamType]:  # type: ignore[type-arg]
-    from thermrs.cli.common import input_file, run_file
-
-    return input_file, run_file
-
-
-input_file, run_file = _types()
 
 
 def render_design(doc: dict[str, Any], out_dir: Path) -> None:
@@ -72,23 +71,9 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
 
 @click.command()
 @click.option("--rig", "rig_path", required=True, type=input_file, help="Rig file (SPEC §3).")
-@click.option(
-    "--train",
-    "train",
-    multiple=True,
-    required=True,
-    type=run_file,
-    help="Training runs (recordings or extracted tables).",
-)
-@click.option(
-    "--holdout", "holdout", multiple=True, required=True, type=run_file, help="Held-out runs."
-)
-@click.option(
-    "--exclude",
-    "exclude",
-    multiple=True,
-    help="Effects the diagnoser may not name (SPEC §6 names).",
-)
+@runs_option("Training runs", name="--train", dest="train")
+@runs_option("Held-out runs", name="--holdout", dest="holdout")
+@exclude_option("Effects the diagnoser may not name (SPEC §6 names).")
 @click.option(
     "--between",
     "between",
@@ -103,13 +88,7 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
     type=click.FloatRange(1.0, 1000.0),
     help="Most recording hours to ask for.",
 )
-@click.option(
-    "--seed",
-    default=0,
-    show_default=True,
-    type=click.IntRange(0, 2**32 - 1),
-    help="Seed of the proof's simulations.",
-)
+@seed_option("Seed of the proof's simulations.")
 @click.option(
     "--no-proof",
     "no_proof",
@@ -122,8 +101,10 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
     "out_dir",
     required=True,
     type=click.Path(path_type=Path),
-    help="Folder for rig.toml, scenario.toml and design.json (created).",
+    help="Folder for rig.toml, scenario.toml and design.json (created); with --rule, a "
+    "folder per fold inside it (fold-1, fold-2, …, listed in folds.json).",
 )
+@campaign_options(rule="With --campaign: a design per fold, each in its own folder under -o.")
 def design(
     rig_path: Path,
     train: tuple[Path, ...],
@@ -134,16 +115,20 @@ def design(
     seed: int,
     no_proof: bool,
     out_dir: Path,
+    campaign_path: Path | None,
+    query: str | None,
+    rule: str | None,
 ) -> None:
     """Design the measurement that separates confounded effects, and prove it by simulation.
 
     Ranks new poses with a chip and run protocols by how surely they tell each confounded
     effect from its rivals; simulates the best with each rival as the truth and diagnoses
-    again; recommends one only if every truth is identified. Exits 3 (after designing) if
-    part of a recording was lost.
+    again; recommends one only if every truth is identified. The runs are files, or runs of
+    a --campaign dataset (named, or held out by --rule). Exits 3 (after designing) if part
+    of a recording was lost.
     """
-    from thermrs.cli.common import EXIT_DATA_LOSS, run_tables
-    from thermrs.design import design as run
+    from thermrs.campaigns.analyses import design_splits
+    from thermrs.cli.common import EXIT_DATA_LOSS, chosen_splits, write_json
     from thermrs.errors import InputError
     from thermrs.rig import load_rig
 
@@ -152,13 +137,23 @@ def design(
     if not out_dir.parent.exists():
         raise InputError(f"-o {out_dir}: its parent folder {out_dir.parent} does not exist")
     r = load_rig(rig_path)
-    tt, loss1 = run_tables(train, r, "--train")
-    th, loss2 = run_tables(holdout, r, "--holdout")
+    sets = chosen_splits(campaign_path, query, rule, train, holdout, r)
+    dirs = [out_dir] if rule is None else [out_dir / f"fold-{i + 1}" for i in range(len(sets))]
     with out.status("designing…") as status:
-        res = run(tt, th, r, exclude=list(exclude), between=list(between) or None,
-                  budget_h=budget_h, seed=seed, prove_it=not no_proof,
-                  progress=lambda m: status.update(f"designing: {m}…"))  # fmt: skip
-        res.write(out_dir)
-    render_design(res.to_json(), out_dir)
-    if loss1 or loss2:
+        res = design_splits(sets, r, exclude=list(exclude), between=list(between) or None,
+                            budget_h=budget_h, seed=seed, prove_it=not no_proof,
+                            progress=lambda m: status.update(f"designing: {m}…"))  # fmt: skip
+        for d, f in zip(dirs, res, strict=True):
+            d.mkdir(parents=True, exist_ok=True)
+            f.result.write(d)
+        if rule is not None:
+            write_json(out_dir / "folds.json", {"rule": rule, "folds": [
+                {"fold": f.split.name, "folder": d.name, "train": f.split.train_names,
+                 "holdout": f.split.holdout_names} for d, f in zip(dirs, res, strict=True)
+            ]})  # fmt: skip
+    for d, f in zip(dirs, res, strict=True):
+        if f.split.name:
+            out.rule(f"[bold]{f.split.name}[/bold] ({d})")
+        render_design(f.result.to_json(), d)
+    if any(s.data_loss for s in sets):
         sys.exit(EXIT_DATA_LOSS)

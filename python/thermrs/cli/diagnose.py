@@ -5,13 +5,25 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 from rich.table import Table
 
 # The CLI's console: the terminal's width on a terminal; piped, tables are never cut or wrapped.
-from thermrs.cli.common import input_file, out, run_file
+from thermrs.cli.common import (
+    campaign_options,
+    exclude_option,
+    input_file,
+    json_option,
+    out,
+    runs_option,
+    seed_option,
+)
+
+if TYPE_CHECKING:  # pragma: no cover
+    from thermrs.campaigns.analyses import DiagnosisFold
+    from thermrs.campaigns.inputs import Split
 
 #: Visits a camera needs in a run to be diagnosed: one goes to the run's unknown offset.
 MIN_VISITS = 3
@@ -177,26 +189,11 @@ def render_paper(doc: dict[str, Any]) -> None:
     default=None,
     help="Rig file (default with --paper: the embedded paper rig).",
 )
-@click.option(
-    "--train",
-    "train",
-    multiple=True,
-    type=run_file,
-    help="Training runs (recordings or extracted tables).",
-)
-@click.option(
-    "--holdout",
-    "holdout",
-    multiple=True,
-    type=run_file,
-    help="Held-out runs, scored but never fitted.",
-)
-@click.option(
-    "--exclude",
-    "exclude",
-    multiple=True,
-    help="Effects removed from the library (SPEC §6 names; --exclude A B or repeats): "
-    "never named, never rivals.",
+@runs_option("Training runs", name="--train", dest="train")
+@runs_option("Held-out runs, scored but never fitted", name="--holdout", dest="holdout")
+@exclude_option(
+    "Effects removed from the library (SPEC §6 names; --exclude A B or repeats): never named, "
+    "never rivals."
 )
 @click.option("--paper", "paper", is_flag=True, help="Diagnose the paper's own Table 4 numbers.")
 @click.option(
@@ -206,19 +203,14 @@ def render_paper(doc: dict[str, Any]) -> None:
     type=click.IntRange(0, 10_000),
     help="Block-bootstrap resamples for stability.",
 )
-@click.option(
-    "--seed",
-    default=0,
-    show_default=True,
-    type=click.IntRange(0, 2**32 - 1),
-    help="Seed of the resampling.",
+@seed_option("Seed of the resampling.")
+@json_option(
+    "Write the SPEC §7 JSON here (atomically); with --rule, one document per fold "
+    '({"rule", "folds": [{"fold", "train", "holdout", "diagnosis"}]}).'
 )
-@click.option(
-    "--json",
-    "json_path",
-    type=click.Path(path_type=Path),
-    default=None,
-    help="Write the SPEC §7 JSON here (atomically).",
+@campaign_options(
+    rule="With --campaign: a diagnosis per fold (each rendered in turn, then the verdicts "
+    "side by side)."
 )
 def diagnose(
     rig_path: Path | None,
@@ -229,22 +221,27 @@ def diagnose(
     bootstrap: int,
     seed: int,
     json_path: Path | None,
+    campaign_path: Path | None,
+    query: str | None,
+    rule: str | None,
 ) -> None:
     """Diagnose the sim-to-real gap: where the nominal model's residual lies, which SPEC §6
-    effect causes it, and how far it shrinks — scored on held-out runs.
+    effect causes it, and how far it shrinks — scored on held-out runs. The runs are files,
+    or runs of a --campaign dataset (named, or held out by --rule).
 
     Exits 3 (after diagnosing) if part of a recording was lost.
     """
-    from thermrs.cli.common import EXIT_DATA_LOSS, distinct_runs, run_tables, writable, write_json
+    from thermrs.campaigns.analyses import diagnose_splits
+    from thermrs.cli.common import EXIT_DATA_LOSS, chosen_splits, writable, write_json
     from thermrs.errors import InputError
     from thermrs.rig import load_rig
 
     writable(json_path, "--json", suffixes=(".json",))
 
     if paper:
-        if train or holdout:
+        if train or holdout or campaign_path is not None or query or rule:
             raise click.UsageError(
-                "--paper diagnoses the paper's numbers; give no --train/--holdout"
+                "--paper diagnoses the paper's numbers; give no --train/--holdout/--campaign"
             )
         from thermrs.diagnose.paper import paper_diagnosis
 
@@ -255,20 +252,44 @@ def diagnose(
         return
     if rig_path is None:
         raise click.UsageError("Missing option '--rig' (or give --paper).")
-    if not train:
-        raise click.UsageError("Missing option '--train'.")
-    if not holdout:
+    if campaign_path is None and train and not holdout:
         raise InputError(
             "no --holdout run: effects are scored on runs they were not fitted on; give at "
             "least one held-out run"
         )
-    from thermrs.diagnose import diagnose as run
-
     r = load_rig(rig_path)
-    tt, loss1 = run_tables(train, r, "--train")
-    th, loss2 = run_tables(holdout, r, "--holdout")
-    distinct_runs(tt, th)
-    for role, tables in (("--train", tt), ("--holdout", th)):
+    sets = chosen_splits(campaign_path, query, rule, train, holdout, r)
+    for s in sets:
+        check_visits(s)
+    with out.status("diagnosing…") as status:
+        folds = diagnose_splits(sets, r, exclude=exclude, bootstrap=bootstrap, seed=seed,
+                                progress=lambda m: status.update(f"diagnosing: {m}…"))  # fmt: skip
+    if json_path is not None:
+        if rule is None:
+            write_json(json_path, folds[0].diagnosis.to_json())
+        else:
+            write_json(json_path, {"rule": rule, "folds": [f.to_json() for f in folds]})
+    for f in folds:
+        if f.split.name:
+            out.rule(f"[bold]{f.split.name}[/bold]")
+        render_diagnosis(f.diagnosis.to_json())
+    if rule is not None:
+        render_folds(folds, rule)
+    if any(s.data_loss for s in sets):
+        sys.exit(EXIT_DATA_LOSS)
+
+
+def check_visits(s: Split) -> None:
+    """Every camera of every run has the visits a diagnosis needs.
+
+    Raises
+    ------
+    InputError
+        One line naming the run and camera.
+    """
+    from thermrs.errors import InputError
+
+    for role, tables in (("--train", s.train), ("--holdout", s.holdout)):
         for t in tables:
             for cam, n in t.group_by("camera").len().sort("camera").iter_rows():
                 if n < MIN_VISITS:
@@ -277,15 +298,23 @@ def diagnose(
                         f"needs at least {MIN_VISITS} per camera and run (each run's unknown "
                         "mounting takes one)"
                     )
-    with out.status("diagnosing…") as status:
-        d = run(tt, th, r, exclude=list(exclude), bootstrap=bootstrap, seed=seed,
-                progress=lambda m: status.update(f"diagnosing: {m}…"))  # fmt: skip
-    doc = d.to_json()
-    if json_path is not None:
-        write_json(json_path, doc)
-    render_diagnosis(doc)
-    if loss1 or loss2:
-        sys.exit(EXIT_DATA_LOSS)
+
+
+def render_folds(folds: list[DiagnosisFold], rule: str) -> None:
+    """The folds' verdicts side by side."""
+    t = Table(title=f"Diagnosis by fold ({rule})")
+    for c in ("fold", "verdict", "effect", "held-out rms µm before → after"):
+        t.add_column(c, overflow="fold")
+    for f in folds:
+        doc = f.diagnosis.to_json()
+        hf = doc["how_far"]
+        t.add_row(
+            f.split.name,
+            doc["verdict"]["status"],
+            str(doc["verdict"]["effect"] or "—"),
+            f"{hf['holdout_rms_before_um']:.2f} → {hf['holdout_rms_after_um']:.2f}",
+        )
+    out.print(t)
 
 
 @click.command("diagnose-bench")
@@ -352,13 +381,7 @@ def diagnose(
     type=click.IntRange(1, 256),
     help="Worker processes.",
 )
-@click.option(
-    "--json",
-    "json_path",
-    type=click.Path(path_type=Path),
-    default=None,
-    help="Write the results here (atomically).",
-)
+@json_option("Write the results here (atomically).")
 def diagnose_bench(
     rig_path: Path | None,
     seeds: int,

@@ -9,9 +9,11 @@ import click
 
 from thermrs.cli.common import (
     EXIT_DATA_LOSS,
+    campaign_options,
+    chosen_runs,
+    json_option,
     out,
     rig_option,
-    run_tables,
     runs_option,
     table,
     writable,
@@ -37,37 +39,30 @@ from thermrs.defaults import ISO_TOLERANCE_UM, ISO_WINDOW
     show_default=True,
     help="Settling tolerance of the barycentre (µm).",
 )
-@click.option(
-    "--json",
-    "json_path",
-    type=click.Path(path_type=Path),
-    default=None,
-    help="Write the curves and the ISO 9283-style figures as JSON here (atomically).",
-)
+@json_option("Write the curves and the ISO 9283-style figures as JSON here (atomically).")
+@campaign_options()
 def drift(
     rig_path: Path, runs: tuple[Path, ...], window: int, tolerance_um: float,
-    json_path: Path | None,
+    json_path: Path | None, campaign_path: Path | None, query: str | None,
 ) -> None:  # fmt: skip
     """How runs warm up and drift: first-order heating curves y = y₀ + A·e^(−t/τ) per ROI
     temperature and per camera drift axis, and ISO 9283-style pose figures per camera chip
-    (RP cold and warm, dAP, dRP, settling time).
+    (RP cold and warm, dAP, dRP, settling time). The runs are files, or runs of a --campaign
+    dataset.
 
     Exits 3 (after reporting) if part of a recording was lost.
     """
-    import polars as pl
-
-    from thermrs.heating import heating_curves
-    from thermrs.iso9283 import LABEL, iso9283
+    from thermrs.campaigns.analyses import drift_tables
+    from thermrs.iso9283 import LABEL
     from thermrs.rig import load_rig
 
     writable(json_path, "--json")
     r = load_rig(rig_path)
-    tables, loss = run_tables(runs, r, "--run")
-    joined = pl.concat(tables, how="diagonal_relaxed")
-    curves = heating_curves(joined)
-    iso = iso9283(joined, window=window, tolerance_um=tolerance_um)
+    tables, loss = chosen_runs(campaign_path, query, runs, r, "--run")
+    res = drift_tables(tables, window=window, tolerance_um=tolerance_um)
+    curves, iso = res.curves, res.iso
     if json_path is not None:
-        write_json(json_path, {"curves": curves.to_dicts(), "iso9283": iso.to_json()})
+        write_json(json_path, res.to_json())
 
     from thermrs.numbers import fmt as num
     from thermrs.numbers import tau_determined

@@ -8,12 +8,15 @@ from pathlib import Path
 import click
 
 from thermrs.cli.common import (
+    CAMPAIGN_NAMES_HELP,
     EXIT_DATA_LOSS,
     TRAIN_HELP,
+    campaign_options,
+    chosen_runs,
+    json_option,
     out,
     rig_option,
     run_file,
-    run_tables,
     table,
     writable,
     write_json,
@@ -25,22 +28,22 @@ from thermrs.cli.common import (
 @click.option(
     "--train",
     "train",
-    required=True,
     multiple=True,
     type=run_file,
-    help=TRAIN_HELP,
+    help=TRAIN_HELP + CAMPAIGN_NAMES_HELP + " Default with --campaign: every run chosen.",
 )
-@click.option(
-    "--json",
-    "json_path",
-    type=click.Path(path_type=Path),
-    default=None,
-    help="Write the SPEC §7 JSON here (atomically).",
-)
-def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None:
+@json_option()
+@campaign_options()
+def fit(
+    rig_path: Path,
+    train: tuple[Path, ...],
+    json_path: Path | None,
+    campaign_path: Path | None,
+    query: str | None,
+) -> None:
     """Fit the expansion coefficient α over training runs: a time-series least-squares fit of
     the forward model to every visit's spot, with a 95 % interval, and the paper's start/end
-    estimator per camera beside it.
+    estimator per camera beside it. The runs are files, or runs of a --campaign dataset.
 
     Exits 3 (after fitting) if part of a training recording was lost.
     """
@@ -49,7 +52,7 @@ def fit(rig_path: Path, train: tuple[Path, ...], json_path: Path | None) -> None
 
     writable(json_path, "--json")
     r = load_rig(rig_path)
-    tables, loss = run_tables(train, r, "--train")
+    tables, loss = chosen_runs(campaign_path, query, train, r, "--train")
     result = fit_document(tables, r)
     f, start_end, doc = result.fit, result.start_end, result.to_json()
     if json_path is not None:

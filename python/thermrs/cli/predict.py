@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -12,12 +13,14 @@ from thermrs.cli.common import (
     EXIT_DATA_LOSS,
     TRAIN_HELP,
     AlphaType,
-    distinct_runs,
+    campaign_options,
+    chosen_runs,
+    chosen_splits,
     input_file,
+    json_option,
     out,
     rig_option,
     run_file,
-    run_tables,
     runs_option,
     table,
     writable,
@@ -25,6 +28,9 @@ from thermrs.cli.common import (
     write_json,
 )
 from thermrs.errors import InputError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from thermrs.campaigns.analyses import Prediction
 
 
 @click.command()
@@ -57,7 +63,9 @@ from thermrs.errors import InputError
     "train",
     multiple=True,
     type=run_file,
-    help="Fit α on these runs first (time-series and start/end estimators). " + TRAIN_HELP,
+    help="Fit α on these runs first (time-series and start/end estimators). "
+    + TRAIN_HELP
+    + " With --campaign: runs of the dataset (RECORDING#RUN); --run defaults to the others.",
 )
 @click.option(
     "--axis",
@@ -73,12 +81,9 @@ from thermrs.errors import InputError
     show_default=True,
     help="The run's end is the mean of its last N visits.",
 )
-@click.option(
-    "--json",
-    "json_path",
-    type=click.Path(path_type=Path),
-    default=None,
-    help="Write the prediction table as JSON here (atomically).",
+@json_option(
+    "Write the prediction table as JSON here (atomically); with --rule, one per fold "
+    '({"rule", "folds": [{"fold", "train", "holdout", "alpha_per_k", "table"}]}).'
 )
 @click.option(
     "--series",
@@ -86,7 +91,11 @@ from thermrs.errors import InputError
     type=click.Path(path_type=Path),
     default=None,
     help="Write every visit's predicted and measured drift here (atomically): Parquet "
-    "(.parquet) or CSV (.csv), by the name's suffix.",
+    "(.parquet) or CSV (.csv), by the name's suffix; with --rule, a fold column first.",
+)
+@campaign_options(
+    rule="With --campaign: for each fold, fit α on its training runs and predict its held-out "
+    "runs (a table per fold, then a summary of the folds)."
 )
 def predict(
     rig_path: Path,
@@ -99,6 +108,9 @@ def predict(
     end_visits: int,
     json_path: Path | None,
     series_path: Path | None,
+    campaign_path: Path | None,
+    query: str | None,
+    rule: str | None,
 ) -> None:
     """Predict runs' drift from their temperatures with the forward model and an α given,
     read from a fit, or fitted here on training runs; a Table 7-style table (predicted,
@@ -106,66 +118,101 @@ def predict(
 
     Exits 3 (after predicting) if part of a recording was lost.
     """
-    from thermrs.ingest import write_parquet_atomic
-    from thermrs.numbers import end_error
-    from thermrs.predict import check_alpha, prediction_table
-    from thermrs.predict import predict as run_predict
+    from thermrs.campaigns.analyses import predict_splits
+    from thermrs.campaigns.inputs import Split
     from thermrs.rig import load_rig
-    from thermrs.workflows import fit_document, training_alphas
 
-    given = sum(x is not None and x != () for x in (alpha, fit_path, diagnosis_path, train))
+    training = bool(train) or rule is not None
+    given = sum(
+        x for x in (alpha is not None, fit_path is not None, diagnosis_path is not None, training)
+    )
     if given != 1:
-        raise InputError("give exactly one of --alpha, --fit, --diagnosis or --train")
+        raise InputError(
+            "give exactly one of --alpha, --fit, --diagnosis or --train (or --rule with --campaign)"
+        )
     writable(json_path, "--json")
     writable(series_path, "--series", suffixes=(".parquet", ".csv"))
+    alphas = None if training or diagnosis_path else _given_alpha(alpha, fit_path)
     r = load_rig(rig_path)
+    if training:
+        sets = chosen_splits(campaign_path, query, rule, train, runs, r, holdout_what="--run")
+    else:
+        held, lost = chosen_runs(campaign_path, query, runs, r, "--run")
+        sets = [Split("", [], held, lost)]
     if diagnosis_path is not None:
         from thermrs.cli.compensate import predict_diagnosed
 
-        predict_diagnosed(r, diagnosis_path, runs, json_path, series_path)
-        return
-    loss = False
-    alphas: dict[str, float] = {}
-    if alpha is not None:
-        alphas["given"] = alpha
-    elif fit_path is not None:
-        try:
-            doc = json.loads(fit_path.read_text())
-            alphas["fit"] = check_alpha(doc["alpha_per_k"]["value"], what=f"--fit {fit_path}:")
-        except FileNotFoundError:
-            raise InputError(f"--fit {fit_path}: no such file") from None
-        except (ValueError, KeyError, TypeError) as e:
-            why = f"{type(e).__name__}: {e}".splitlines()[0]
-            raise InputError(f"--fit {fit_path}: not a `thermrs fit --json` file ({why})") from None
-    else:
-        tables, loss = run_tables(train, r, "--train")
-        alphas.update(training_alphas(fit_document(tables, r)))
-    held, lost = run_tables(runs, r, "--run")
-    loss |= lost
-    if train:
-        distinct_runs(tables, held, "--run")
-    result = prediction_table(held, r, alphas=alphas, axis=axis, end_visits=end_visits)
-    if json_path is not None:
-        write_json(
-            json_path, {"alpha_per_k": alphas, "table": result.drop("alpha_per_k").to_dicts()}
+        predict_diagnosed(
+            r, diagnosis_path, sets[0].holdout, sets[0].data_loss, json_path, series_path
         )
-    if series_path is not None:
-        import polars as pl
+        return
+    preds = predict_splits(sets, r, alphas=alphas, axis=axis, end_visits=end_visits)
+    _write(preds, rule, json_path, series_path)
+    for p in preds:
+        _render(p, training)
+    out.print(
+        "rms: prediction against measurement over every visit, both axes, mean offset removed; "
+        "noise: the measurement's own visit-to-visit noise."
+    )
+    if rule is not None:
+        _render_folds(preds, rule)
+    if any(s.data_loss for s in sets):
+        sys.exit(EXIT_DATA_LOSS)
 
+
+def _given_alpha(alpha: float | None, fit_path: Path | None) -> dict[str, float]:
+    """α given, or read from a `thermrs fit --json` file."""
+    from thermrs.predict import check_alpha
+
+    if alpha is not None:
+        return {"given": alpha}
+    assert fit_path is not None
+    try:
+        doc = json.loads(fit_path.read_text())
+        return {"fit": check_alpha(doc["alpha_per_k"]["value"], what=f"--fit {fit_path}:")}
+    except FileNotFoundError:
+        raise InputError(f"--fit {fit_path}: no such file") from None
+    except (ValueError, KeyError, TypeError) as e:
+        why = f"{type(e).__name__}: {e}".splitlines()[0]
+        raise InputError(f"--fit {fit_path}: not a `thermrs fit --json` file ({why})") from None
+
+
+def _write(
+    preds: list[Prediction], rule: str | None, json_path: Path | None, series_path: Path | None
+) -> None:
+    """The JSON document and the series file: one prediction as ever; folds of a rule each."""
+    import polars as pl
+
+    from thermrs.ingest import write_parquet_atomic
+
+    if json_path is not None:
+        if rule is None:
+            doc = {k: v for k, v in preds[0].to_json().items() if k in ("alpha_per_k", "table")}
+        else:
+            doc = {"rule": rule, "folds": [p.to_json() for p in preds]}
+        write_json(json_path, doc)
+    if series_path is not None:
         series = pl.concat(
             [
-                run_predict(pl.concat(held, how="diagonal_relaxed"), r, alpha_per_k=a).select(
-                    pl.lit(label).alias("alpha"), pl.all()
-                )
-                for label, a in alphas.items()
+                p.series
+                if rule is None
+                else p.series.select(pl.lit(p.split.name).alias("fold"), pl.all())
+                for p in preds
             ]
         )
         if series_path.name.endswith(".csv"):
             write_csv(series_path, series)
         else:
             write_parquet_atomic(series, series_path)
+
+
+def _render(p: Prediction, training: bool) -> None:
+    """One split's Table 7-style table."""
+    from thermrs.numbers import end_error
+
     t = table(
-        "Predicted against measured drift at the end of each run",
+        (f"{p.split.name}: p" if p.split.name else "P")
+        + "redicted against measured drift at the end of each run",
         [
             (c, "left" if c in ("α", "cam", "run", "axis") else "right")
             for c in (
@@ -181,10 +228,10 @@ def predict(
             )
         ],
         caption="α (×10⁻⁶/K): "
-        + ", ".join(f"{k} {v * 1e6:.3f}" for k, v in alphas.items())
-        + (" (series: time-series fit; A, B, mean: start/end)" if train else ""),
+        + ", ".join(f"{k} {v * 1e6:.3f}" for k, v in p.alphas.items())
+        + (" (series: time-series fit; A, B, mean: start/end)" if training else ""),
     )
-    for row in result.iter_rows(named=True):
+    for row in p.table.iter_rows(named=True):
         t.add_row(
             row["alpha"],
             row["camera"],
@@ -197,9 +244,28 @@ def predict(
             f"{row['noise_um']:.3f}",
         )
     out.print(t)
-    out.print(
-        "rms: prediction against measurement over every visit, both axes, mean offset removed; "
-        "noise: the measurement's own visit-to-visit noise."
+
+
+def _render_folds(preds: list[Prediction], rule: str) -> None:
+    """The folds of a rule side by side: α fitted on each, the error on its held-out runs."""
+    t = table(
+        f"Held out by fold ({rule})",
+        [
+            ("fold", "left"),
+            ("train runs", "right"),
+            ("held-out runs", "right"),
+            ("α series (×10⁻⁶/K)", "right"),
+            ("held-out rms µm", "right"),
+        ],
+        caption="held-out rms: measured − predicted drift over every held-out visit, the norm of "
+        "u and v, with the time-series α",
     )
-    if loss:
-        sys.exit(EXIT_DATA_LOSS)
+    for p in preds:
+        t.add_row(
+            p.split.name,
+            str(len(p.split.train)),
+            str(len(p.split.holdout)),
+            f"{p.alphas['series'] * 1e6:.3f}",
+            f"{p.rms_um():.3f}",
+        )
+    out.print(t)

@@ -7,12 +7,24 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 from rich.console import Console
 
-from thermrs.cli.common import EXIT_DATA_LOSS, writable
+from thermrs.cli.common import (
+    CAMPAIGN_NAMES_HELP,
+    EXIT_DATA_LOSS,
+    campaign_options,
+    no_campaign,
+    out_option,
+    writable,
+)
 from thermrs.errors import InputError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from thermrs.report.data import RunInput
+    from thermrs.rig import Rig
 
 __all__ = ["report"]
 
@@ -37,7 +49,8 @@ __all__ = ["report"]
     multiple=True,
     type=click.Path(path_type=Path),
     help="Runs: recordings (MCAP) or tables written by `thermrs extract`; FILE#RUN takes one "
-    "run of a file (FILE alone: each of its runs, split as every command splits them).",
+    "run of a file (FILE alone: each of its runs, split as every command splits them)."
+    + CAMPAIGN_NAMES_HELP,
 )
 @click.option(
     "--train",
@@ -45,16 +58,12 @@ __all__ = ["report"]
     multiple=True,
     type=click.Path(path_type=Path),
     help="Runs α is fitted on (default: the first --run); the others are held out, predicted "
-    "and diagnosed. A --train run not given as --run is added.",
+    "and diagnosed. A --train run not given as --run is added." + CAMPAIGN_NAMES_HELP,
 )
-@click.option(
-    "-o",
-    "--out",
-    "out_path",
-    type=click.Path(path_type=Path),
-    default=None,
-    help="HTML file to write [default: thermrs-report.html, or thermrs-demo-report.html with "
+@out_option(
+    "HTML file to write [default: thermrs-report.html, or thermrs-demo-report.html with "
     "--demo]; the Markdown twin OUT.md and its figures OUT_files/ go beside it.",
+    required=False,
 )
 @click.option("--pdf", is_flag=True, help="Also print the report to OUT.pdf (headless Chromium).")
 @click.option("--no-markdown", is_flag=True, help="Write only the HTML.")
@@ -66,6 +75,7 @@ __all__ = ["report"]
     help="--demo: keep the simulated recording and its truth here (default: a temporary folder).",
 )
 @click.option("--quiet", is_flag=True, help="No progress.")
+@campaign_options()
 def report(
     demo: bool,
     rig_path: Path | None,
@@ -77,6 +87,8 @@ def report(
     title: str | None,
     workdir: Path | None,
     quiet: bool,
+    campaign_path: Path | None,
+    query: str | None,
 ) -> None:
     """Write the report a person reads: one self-contained HTML file (figures inline, opens
     offline) and a Markdown twin, for one run or a campaign, from recordings or extracted
@@ -84,22 +96,24 @@ def report(
     tables, prediction against measurement, ISO 9283-style repeatability, the diagnosis and
     what extraction skipped.
 
-    `thermrs report --demo` simulates the paper's runs and reports on them.
+    `thermrs report --demo` simulates the paper's runs and reports on them; `thermrs report
+    --campaign DATASET [--where QUERY]` reports on runs of a campaign dataset.
 
     Exits 3 (after writing the report) if part of a recording was lost.
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     err = Console(stderr=True, highlight=False)
-    if demo and (runs or train or rig_path is not None):
-        raise click.UsageError("--demo takes no --rig, --run or --train")
-    if not demo and not runs and not train:
-        raise click.UsageError("give --run RUN… (and --rig RIG), or --demo")
+    if demo and (runs or train or rig_path is not None or campaign_path is not None):
+        raise click.UsageError("--demo takes no --rig, --run or --train (nor --campaign)")
+    no_campaign(campaign_path, query)
+    if not demo and not runs and not train and campaign_path is None:
+        raise click.UsageError("give --run RUN… (and --rig RIG), or --demo, or --campaign DATASET")
     if not demo and rig_path is None:
         raise click.UsageError("give --rig RIG")
     from thermrs.runs import split_run_spec
 
-    for p in (*train, *runs):
+    for p in (*train, *runs) if campaign_path is None else ():
         f = split_run_spec(p)[0]
         if f.is_dir():
             raise InputError(f"{f}: is a directory, expected a recording (.mcap) or tables")
@@ -145,17 +159,21 @@ def report(
         else:
             from thermrs.fit import run_name
             from thermrs.report import write_report
-            from thermrs.report.data import RunInput, load_runs
+            from thermrs.report.data import load_runs
             from thermrs.rig import load_rig
             from thermrs.runs import split_run_spec
 
             assert rig_path is not None
             rig = load_rig(rig_path)
-            specs = list(dict.fromkeys([*train, *runs]))
-            files = [split_run_spec(p)[0] for p in specs]
-            names = [run_name(f) for f in files]
             loaded: list[RunInput] = []
             train_names: list[str] = []
+            if campaign_path is not None:  # the runs of a campaign dataset, by query and name
+                stage(f"reading {campaign_path}")
+                loaded, train_names = _campaign_runs(campaign_path, rig, query, runs, train)
+                loss = any(r.data_loss for r in loaded)
+            specs = list(dict.fromkeys([*train, *runs])) if campaign_path is None else []
+            files = [split_run_spec(p)[0] for p in specs]
+            names = [run_name(f) for f in files]
             cache: dict[object, object] = {}
             for i, (p, f) in enumerate(zip(specs, files, strict=True)):
                 stage(f"reading {p} ({i + 1}/{len(specs)})")
@@ -210,3 +228,24 @@ def report(
             err.print(f"wrote {written.pdf}")
     if loss:
         sys.exit(EXIT_DATA_LOSS)
+
+
+def _campaign_runs(
+    campaign_path: Path,
+    rig: Rig,
+    query: str | None,
+    runs: tuple[Path, ...],
+    train: tuple[Path, ...],
+) -> tuple[list[RunInput], list[str]]:
+    """The report's runs from a campaign dataset (:mod:`thermrs.report.catalog`), listed on
+    stderr, and the training runs' names."""
+    from thermrs.report.catalog import campaign_report_runs
+
+    loaded, train_names = campaign_report_runs(
+        campaign_path, rig, where=query, runs=[str(p) for p in runs], train=[str(p) for p in train]
+    )
+    click.echo(
+        f"thermrs: {campaign_path}: {len(loaded)} run(s): " + ", ".join(r.name for r in loaded),
+        err=True,
+    )
+    return loaded, train_names

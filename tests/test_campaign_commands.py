@@ -1,0 +1,361 @@
+"""fit, predict, drift, diagnose, design and report on the runs of a campaign dataset
+(``--campaign DATASET --where … --rule …``, ``thermrs.campaigns.fit`` …): each gives what the
+same command gives on the same runs read from the recordings themselves (``FILE#RUN``), a path
+that shares no code with the dataset's; and bad input is one line, exit 2."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import polars as pl
+import pytest
+import thermrs
+from polars.testing import assert_frame_equal
+from thermrs.runs import load_runs
+from thermrs.simulate import simulate
+
+from tests.support.recordings import shift_days
+from tests.test_campaign import SCENARIO
+
+RIG = str(thermrs.default_rig_path())
+
+
+def cli(cmd: str, *args: str) -> subprocess.CompletedProcess[str]:
+    """``thermrs CMD --rig RIG ARGS…`` in a new process."""
+    env = {**os.environ, "THERMRS_DEBUG": ""}
+    return subprocess.run(
+        [sys.executable, "-m", "thermrs", cmd, "--rig", RIG, *args],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
+
+
+def on_campaign(camp: dict[str, Path], cmd: str, *args: str) -> subprocess.CompletedProcess[str]:
+    """``thermrs CMD --rig RIG --campaign DATASET ARGS…``."""
+    return cli(cmd, "--campaign", str(camp["ds"]), *args)
+
+
+@pytest.fixture(scope="module")
+def camp(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Two recordings of two runs each (30 % and 75 % speed) and their campaign dataset,
+    extracted in process (one recording per call: no cluster)."""
+    d = tmp_path_factory.mktemp("campaign-commands")
+    (d / "s.toml").write_text(SCENARIO)
+    rig = thermrs.load_rig()
+    recs = [simulate(rig, d / "s.toml", d / f"r{i}.mcap", seed=i).recording for i in (1, 2)]
+    for r in recs:
+        thermrs.campaign([r], d / "ds")
+    return {"dir": d, "ds": d / "ds", "r1": recs[0], "r2": recs[1]}
+
+
+def spec(camp: dict[str, Path], name: str) -> str:
+    """The file run of a campaign run: ``r1-<hash>#run2`` → ``…/r1.mcap#run2``."""
+    rec, _, run = name.partition("#")
+    return f"{camp['dir'] / rec.rsplit('-', 1)[0]}.mcap#{run}"
+
+
+def rec_id(camp: dict[str, Path], stem: str) -> str:
+    """The catalog's id of a recording."""
+    return str(thermrs.campaigns.select_runs(camp["ds"], names=[stem])["recording"][0])
+
+
+def named_and_files(
+    camp: dict[str, Path], train: list[str], holdout: list[str]
+) -> tuple[list[str], list[str]]:
+    """``--train … --holdout …`` as campaign names and as the recordings' file runs."""
+    runs = {"--train": train, "--holdout": holdout}
+    named = [x for k, v in runs.items() for x in (k, *v)]
+    return named, [x for k, v in runs.items() for x in (k, *[spec(camp, n) for n in v])]
+
+
+def file_tables(camp: dict[str, Path], names: list[str]) -> list[pl.DataFrame]:
+    rig = thermrs.load_rig()
+    return [t for n in names for t in load_runs(spec(camp, n), rig).tables]
+
+
+def same_table(a: pl.DataFrame, b: pl.DataFrame) -> None:
+    assert_frame_equal(a.drop("run"), b.drop("run"), check_exact=False, rel_tol=1e-12)
+
+
+def test_runs_by_name_and_query(camp: dict[str, Path]) -> None:
+    from thermrs.campaigns import select_runs, selected, splits
+    from thermrs.errors import InputError
+
+    rig = thermrs.load_rig()
+    every = select_runs(camp["ds"])
+    assert every.height == 4
+    # A recording by its stem or its id; alone, each of its runs.
+    rid = every.filter(pl.col("run") == "run1")["recording"][0]
+    assert select_runs(camp["ds"], names=[rid.rsplit("-", 1)[0]]).height == 2
+    one = selected(camp["ds"], rig, names=[f"{rid}#run2"])
+    # The run table read from the dataset is the one read from the recording.
+    same_table(one.train[0], file_tables(camp, [f"{rid}#run2"])[0])
+    with pytest.raises(InputError, match="no such run"):
+        selected(camp["ds"], rig, names=["r9#run1"])
+    s = splits(camp["ds"], rig, where="run=run1", train=["r1#run1"])
+    assert [len(s[0].train), len(s[0].holdout)] == [1, 1]
+    with pytest.raises(InputError, match="both trained on and held out"):
+        splits(camp["ds"], rig, train=["r1"], holdout=["r1#run2"])
+
+
+def test_fit_from_the_catalog_is_the_fit_of_the_files(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    from thermrs.workflows import fit_document
+
+    rig = thermrs.load_rig()
+    names = ["r1#run1", "r2#run1"]
+    got = thermrs.campaigns.fit(camp["ds"], rig, where="run=run1")
+    truth = fit_document(file_tables(camp, names), rig)
+    assert got.fit.alpha_per_k == pytest.approx(truth.fit.alpha_per_k, rel=1e-9)
+    assert got.fit.ci95 == pytest.approx(truth.fit.ci95, rel=1e-9)
+    # The CLI: --campaign with --where, against --train FILE#RUN.
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    p = on_campaign(camp, "fit", "--where", "run=run1", "--json", str(a))
+    assert p.returncode == 0, p.stderr
+    p = cli("fit", "--train", *[spec(camp, n) for n in names], "--json", str(b))
+    assert p.returncode == 0, p.stderr
+    da, db = json.loads(a.read_text()), json.loads(b.read_text())
+    assert da["alpha_per_k"]["value"] == pytest.approx(db["alpha_per_k"]["value"], rel=1e-9)
+    assert sorted(
+        se["mean"]["value"] if isinstance(se["mean"], dict) else se["mean"][0]
+        for se in da["start_end"].values()
+    ) == pytest.approx(
+        sorted(
+            se["mean"]["value"] if isinstance(se["mean"], dict) else se["mean"][0]
+            for se in db["start_end"].values()
+        ),
+        rel=1e-9,
+    )
+
+
+def test_predict_by_rule_is_each_fold_predicted_from_files(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    from thermrs.predict import prediction_table
+    from thermrs.workflows import fit_document, training_alphas
+
+    rig = thermrs.load_rig()
+    out = tmp_path / "p.json"
+    p = on_campaign(camp, "predict", "--rule", "leave-one-run-out", "--json", str(out))
+    assert p.returncode == 0, p.stderr
+    assert "Held out by fold (leave-one-run-out)" in p.stdout
+    doc = json.loads(out.read_text())
+    assert doc["rule"] == "leave-one-run-out" and len(doc["folds"]) == 4
+    for fold in doc["folds"]:
+        assert len(fold["train"]) == 3 and len(fold["holdout"]) == 1
+        assert fold["holdout"][0] not in fold["train"]
+        alphas = training_alphas(fit_document(file_tables(camp, fold["train"]), rig))
+        assert fold["alpha_per_k"] == pytest.approx(alphas, rel=1e-9)
+        truth = prediction_table(file_tables(camp, fold["holdout"]), rig, alphas=alphas)
+        got = pl.DataFrame(fold["table"])
+        for c in ("predicted_um", "measured_um", "rms_centred_um"):
+            assert got[c].to_list() == pytest.approx(truth[c].to_list(), rel=1e-9, abs=1e-12)
+    # α given, runs by query: the same table as the files with that α.
+    p = on_campaign(camp, "predict", "--where", "speed>150", "--alpha", "23.2u", "--json", str(out))
+    assert p.returncode == 0, p.stderr
+    got = pl.DataFrame(json.loads(out.read_text())["table"])
+    truth = prediction_table(
+        file_tables(camp, ["r1#run2", "r2#run2"]), rig, alphas={"given": 23.2e-6}
+    )
+    assert got["predicted_um"].to_list() == pytest.approx(truth["predicted_um"].to_list())
+
+
+def test_by_day_trains_on_one_day_and_predicts_the_next(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    from thermrs.predict import prediction_table
+    from thermrs.workflows import fit_document, training_alphas
+
+    # r2 recorded a day later (the same bytes but for the stamps), beside r1.
+    shift_days(camp["r2"], tmp_path / "r2d.mcap", 1)
+    for r in (camp["r1"], tmp_path / "r2d.mcap"):
+        thermrs.campaign([r], tmp_path / "ds")
+    out = tmp_path / "p.json"
+    p = cli("predict", "--campaign", str(tmp_path / "ds"), "--rule", "by-day", "--json", str(out))
+    assert p.returncode == 0, p.stderr
+    (fold,) = json.loads(out.read_text())["folds"]
+    assert fold["fold"] == "train 2025-06-15, hold out 2025-06-16"
+    assert [n.split("-")[0] for n in fold["train"] + fold["holdout"]] == ["r1", "r1", "r2d", "r2d"]
+    rig = thermrs.load_rig()
+    files = [f"{camp['r1']}#run1", f"{camp['r1']}#run2"]
+    alphas = training_alphas(
+        fit_document([t for f in files for t in load_runs(f, rig).tables], rig)
+    )
+    assert fold["alpha_per_k"] == pytest.approx(alphas, rel=1e-9)
+    held = load_runs(tmp_path / "r2d.mcap", rig).tables
+    truth = prediction_table(held, rig, alphas=alphas)
+    got = pl.DataFrame(fold["table"])
+    assert got["predicted_um"].to_list() == pytest.approx(truth["predicted_um"].to_list(), rel=1e-9)
+
+
+def test_drift_from_the_catalog_is_drift_of_the_files(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    p = on_campaign(camp, "drift", "--run", "r2#run2", "--json", str(a))
+    assert p.returncode == 0, p.stderr
+    p = cli("drift", "--run", spec(camp, "r2#run2"), "--json", str(b))
+    assert p.returncode == 0, p.stderr
+    rid = rec_id(camp, "r2")
+    # Everything the same but the run's name.
+    da = json.loads(a.read_text().replace(f"{rid}#run2", "RUN"))
+    db = json.loads(b.read_text().replace("r2#run2", "RUN"))
+    assert_frame_equal(pl.DataFrame(da["curves"]), pl.DataFrame(db["curves"]), rel_tol=1e-9)
+    assert da["iso9283"] == db["iso9283"]
+
+
+def test_diagnose_from_the_catalog_is_the_diagnosis_of_the_files(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    named, files = named_and_files(camp, ["r1#run1", "r2#run1"], ["r1#run2"])
+    p = on_campaign(camp, "diagnose", "--bootstrap", "0", *named, "--json", str(a))
+    assert p.returncode == 0, p.stderr
+    p = cli("diagnose", "--bootstrap", "0", *files, "--json", str(b))
+    assert p.returncode == 0, p.stderr
+    da, db = json.loads(a.read_text()), json.loads(b.read_text())
+    assert da["verdict"]["status"] == db["verdict"]["status"]
+    assert da["verdict"]["effect"] == db["verdict"]["effect"]
+    assert da["baseline"]["alpha_per_k"]["value"] == pytest.approx(
+        db["baseline"]["alpha_per_k"]["value"], rel=1e-9
+    )
+    assert da["how_far"]["holdout_rms_after_um"] == pytest.approx(
+        db["how_far"]["holdout_rms_after_um"], rel=1e-6
+    )
+
+
+def test_diagnose_by_rule_is_each_fold_diagnosed_and_predict_uses_a_diagnosis(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    from thermrs.diagnose import diagnose
+
+    rig = thermrs.load_rig()
+    out = tmp_path / "d.json"
+    where = ["--where", "recording=" + rec_id(camp, "r1")]
+    p = on_campaign(
+        camp,
+        "diagnose",
+        "--bootstrap",
+        "0",
+        "--rule",
+        "leave-one-run-out",
+        *where,
+        "--json",
+        str(out),
+    )
+    assert p.returncode == 0, p.stderr
+    assert "Diagnosis by fold (leave-one-run-out)" in p.stdout
+    doc = json.loads(out.read_text())
+    assert doc["rule"] == "leave-one-run-out" and len(doc["folds"]) == 2
+    first = doc["folds"][0]
+    assert first["holdout"] == [f"{rec_id(camp, 'r1')}#run1"]
+    truth = diagnose(
+        file_tables(camp, first["train"]), file_tables(camp, first["holdout"]), rig, bootstrap=0
+    ).to_json()
+    assert first["diagnosis"]["verdict"]["status"] == truth["verdict"]["status"]
+    assert first["diagnosis"]["verdict"]["effect"] == truth["verdict"]["effect"]
+    # That fold's diagnosis predicts its held-out run as it predicts the file's.
+    (tmp_path / "one.json").write_text(json.dumps(first["diagnosis"]))
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    diag = ["--diagnosis", str(tmp_path / "one.json")]
+    p = on_campaign(camp, "predict", *diag, "--run", "r1#run1", "--json", str(a))
+    assert p.returncode == 0, p.stderr
+    p = cli("predict", *diag, "--run", spec(camp, "r1#run1"), "--json", str(b))
+    assert p.returncode == 0, p.stderr
+    ta, tb = (pl.DataFrame(json.loads(x.read_text())["table"]) for x in (a, b))
+    assert_frame_equal(ta.drop("run"), tb.drop("run"), rel_tol=1e-9)
+
+
+def test_report_from_the_catalog_is_the_report_of_the_files(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    from thermrs.report.catalog import campaign_report_runs
+    from thermrs.report.data import load_runs as report_runs
+
+    rig = thermrs.load_rig()
+    got, train = campaign_report_runs(camp["ds"], rig, train=["r2#run2"], runs=["r1"])
+    assert [r.name.split("-")[0] + "#" + r.name.split("#")[1] for r in got] == [
+        "r2#run2",
+        "r1#run1",
+        "r1#run2",
+    ]
+    assert train == [got[0].name]
+    for r in got:
+        (truth,) = report_runs(spec(camp, r.name), rig)
+        same_table(r.table, truth.table)
+        assert truth.temperatures is not None and r.temperatures is not None
+        assert_frame_equal(r.temperatures, truth.temperatures.select(r.temperatures.columns))
+        assert (r.joints, r.frames_by_status) == (truth.joints, truth.frames_by_status)
+    # The report itself (one run: no diagnosis, quick): the same text but for names and the
+    # extraction's own report, which a dataset does not keep.
+    a, b = tmp_path / "a.html", tmp_path / "b.html"
+    p = on_campaign(
+        camp,
+        "report",
+        "--where",
+        "recording=" + got[1].name.split("#")[0] + ", run=run1",
+        "-o",
+        str(a),
+        "--quiet",
+    )
+    assert p.returncode == 0, p.stderr
+    p = cli("report", "--run", spec(camp, "r1#run1"), "-o", str(b), "--quiet")
+    assert p.returncode == 0, p.stderr
+
+    def body(md: Path, name: str) -> str:
+        text = md.read_text().replace(name, "RUN").replace(f"{md.stem}_files", "FIG")
+        text = text.replace("Extraction lost nothing and skipped no message.\n\n", "")
+        return text.split("## What extraction")[0]
+
+    assert body(tmp_path / "a.md", got[1].name) == body(tmp_path / "b.md", "r1#run1")
+    # The library face writes the same report.
+    thermrs.campaigns.report(camp["ds"], rig, tmp_path / "c.html", runs=[got[1].name])
+    assert body(tmp_path / "c.md", got[1].name) == body(tmp_path / "b.md", "r1#run1")
+
+
+@pytest.mark.slow
+def test_design_from_the_catalog_is_the_design_of_the_files(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    named, files = named_and_files(camp, ["r1#run1"], ["r1#run2"])
+    p = on_campaign(camp, "design", "--no-proof", *named, "-o", str(tmp_path / "a"))
+    assert p.returncode == 0, p.stderr
+    p = cli("design", "--no-proof", *files, "-o", str(tmp_path / "b"))
+    assert p.returncode == 0, p.stderr
+    da, db = (json.loads((tmp_path / x / "design.json").read_text()) for x in "ab")
+    assert da["confounded"] == db["confounded"]
+    assert [c["label"] for c in da["candidates"]] == [c["label"] for c in db["candidates"]]
+    assert [c["min_z"] for c in da["candidates"]] == pytest.approx(
+        [c["min_z"] for c in db["candidates"]], rel=1e-6
+    )
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["fit", "--campaign", "{d}/nothing"], "dataset {d}/nothing: no such folder"),
+        (["fit", "--campaign", "{d}"], "not a campaign dataset"),
+        (["fit", "--campaign", "{ds}", "--where", "date>=2030-01-01"], "no run matches"),
+        (["predict", "--campaign", "{ds}", "--rule", "by-day"], "at least two days"),
+        (["diagnose", "--campaign", "{ds}", "--rule", "by-day"], "at least two days"),
+        (["drift", "--campaign", "{ds}", "--run", "r7#run1"], "--run r7#run1: no such run"),
+        (["fit", "--train", "{ds}/../r1.mcap", "--where", "run=run1"], "give --campaign"),
+        (["diagnose", "--campaign", "{ds}"], "no held-out run"),
+        (["report", "--campaign", "{ds}", "--where", "speed<0"], "no run matches"),
+    ],
+)
+def test_bad_campaign_input_is_one_line_exit_2(
+    camp: dict[str, Path], args: list[str], says: str
+) -> None:
+    fill = {"d": str(camp["dir"]), "ds": str(camp["ds"])}
+    p = cli(*[a.format(**fill) for a in args])
+    assert p.returncode == 2, p.stderr
+    assert says.format(**fill) in p.stderr
+    errors = [line for line in p.stderr.splitlines() if "error" in line]
+    assert "Traceback" not in p.stderr and len(errors) == 1
