@@ -30,7 +30,7 @@ import polars as pl
 from thermrs import _native
 from thermrs.errors import InputError, RecordingError
 from thermrs.rig import Rig, as_rig
-from thermrs.runs import DEFAULT_GAP_FACTOR, DEFAULT_MIN_GAP_S, RUNS_SCHEMA, find_runs
+from thermrs.rundetect import DEFAULT_GAP_FACTOR, DEFAULT_MIN_GAP_S, RUNS_SCHEMA, find_runs
 from thermrs.visits import DEFAULT_TOLERANCE_DEG, find_visits, with_runs
 
 __all__ = [
