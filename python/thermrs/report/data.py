@@ -278,7 +278,7 @@ class ReportData:
     #: With an identified effect: the held-out runs predicted by the nominal model and by the
     #: diagnosed one (:func:`thermrs.compensate.shrink_table`), else None.
     diagnosed_prediction: pl.DataFrame | None = None
-    #: With an ambiguous diagnosis: the experiment that settles it (:mod:`.design_section`).
+    #: With an ambiguous diagnosis: the experiment that settles it (:mod:`.sections.design`).
     design_section: Any | None = None
     design_note: str | None = None
     notes: list[str] = field(default_factory=list)
@@ -479,7 +479,7 @@ def _design(
     doc = diagnosis_json(diag)
     if (doc.get("verdict") or {}).get("status") != "ambiguous":
         return None, None
-    from thermrs.report.design_section import section_for
+    from thermrs.report.sections.design import section_for
 
     say("designing the experiment that settles it")
     try:
