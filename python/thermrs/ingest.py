@@ -285,66 +285,8 @@ def extract(
         threshold_sigma=threshold_sigma,
         verify_crc=verify_crc,
     )
-    statuses = _native.status_names()
-    cam_names = [c.name for c in rig.cameras]
-    frames = pl.DataFrame(
-        {k: v for k, v in frames_c.items() if k not in ("camera", "status")}
-    ).with_columns(
-        camera=pl.Series(np.asarray(cam_names, dtype=object)[frames_c["camera"]], dtype=pl.String)
-        if len(frames_c["camera"])
-        else pl.Series([], dtype=pl.String),
-        status=pl.Series(np.asarray(statuses, dtype=object)[frames_c["status"]], dtype=pl.String)
-        if len(frames_c["status"])
-        else pl.Series([], dtype=pl.String),
-    )
-    # No spot (or an invalid frame): null, not NaN, in every measured column.
-    frames = frames.with_columns(pl.col(pl.Float64).fill_nan(None))
-    frames = _with_chip_um(frames, rig).sort("camera", "t_ns")
-    frames = frames.select(
-        "camera",
-        "t_ns",
-        "x_px",
-        "y_px",
-        "u_um",
-        "v_um",
-        "status",
-        "peak",
-        "signal",
-        "size_px",
-        "background",
-        "noise",
-    )
-
-    roi_names = [r.name for r in rig.rois]
-    thermal = pl.DataFrame(
-        {
-            "t_ns": thermal_c["t_ns"],
-            "name": pl.Series(
-                np.asarray(roi_names, dtype=object)[thermal_c["roi"]]
-                if len(thermal_c["roi"])
-                else [],
-                dtype=pl.String,
-            ),
-            "temperature_c": thermal_c["max_c"],
-            "peak_c": thermal_c["peak_c"],
-            "x_px": thermal_c["x_px"].astype(np.int32),
-            "y_px": thermal_c["y_px"].astype(np.int32),
-        },
-        schema_overrides={"t_ns": pl.Int64},
-    )
-    ambient = pl.DataFrame(
-        {
-            "t_ns": ambient_c["t_ns"],
-            "name": pl.Series(["ambient"] * len(ambient_c["t_ns"]), dtype=pl.String),
-            "temperature_c": ambient_c["temperature_c"],
-            "peak_c": ambient_c["temperature_c"],
-            "x_px": pl.Series([None] * len(ambient_c["t_ns"]), dtype=pl.Int32),
-            "y_px": pl.Series([None] * len(ambient_c["t_ns"]), dtype=pl.Int32),
-        },
-        schema_overrides={"t_ns": pl.Int64},
-    )
-    temperatures = pl.concat([thermal, ambient]).sort("t_ns", "name")
-
+    frames = _frames_table(frames_c, rig)
+    temperatures = _temperatures_table(thermal_c, ambient_c, rig)
     pos = joints_c["position"]
     joints = pl.DataFrame(
         {"t_ns": joints_c["t_ns"], **{n: pos[:, i] for i, n in enumerate(rig.joint_names)}},
@@ -369,6 +311,70 @@ def extract(
         report=report,
         runs=runs,
     )
+
+
+def _labels(names: list[str], codes: np.ndarray) -> pl.Series:
+    """Names for the core's integer codes (camera, status, ROI), as a string column."""
+    if not len(codes):
+        return pl.Series([], dtype=pl.String)
+    return pl.Series(np.asarray(names, dtype=object)[codes], dtype=pl.String)
+
+
+def _frames_table(frames_c: dict[str, np.ndarray], rig: Rig) -> pl.DataFrame:
+    """The frames table from the core's columns: names for codes, chip µm, nulls for no spot."""
+    frames = pl.DataFrame(
+        {k: v for k, v in frames_c.items() if k not in ("camera", "status")}
+    ).with_columns(
+        camera=_labels([c.name for c in rig.cameras], frames_c["camera"]),
+        status=_labels(_native.status_names(), frames_c["status"]),
+    )
+    # No spot (or an invalid frame): null, not NaN, in every measured column.
+    frames = frames.with_columns(pl.col(pl.Float64).fill_nan(None))
+    frames = _with_chip_um(frames, rig).sort("camera", "t_ns")
+    return frames.select(
+        "camera",
+        "t_ns",
+        "x_px",
+        "y_px",
+        "u_um",
+        "v_um",
+        "status",
+        "peak",
+        "signal",
+        "size_px",
+        "background",
+        "noise",
+    )
+
+
+def _temperatures_table(
+    thermal_c: dict[str, np.ndarray], ambient_c: dict[str, np.ndarray], rig: Rig
+) -> pl.DataFrame:
+    """ROI maxima and peaks beside the ambient readings, one row per reading."""
+    thermal = pl.DataFrame(
+        {
+            "t_ns": thermal_c["t_ns"],
+            "name": _labels([r.name for r in rig.rois], thermal_c["roi"]),
+            "temperature_c": thermal_c["max_c"],
+            "peak_c": thermal_c["peak_c"],
+            "x_px": thermal_c["x_px"].astype(np.int32),
+            "y_px": thermal_c["y_px"].astype(np.int32),
+        },
+        schema_overrides={"t_ns": pl.Int64},
+    )
+    n = len(ambient_c["t_ns"])
+    ambient = pl.DataFrame(
+        {
+            "t_ns": ambient_c["t_ns"],
+            "name": pl.Series(["ambient"] * n, dtype=pl.String),
+            "temperature_c": ambient_c["temperature_c"],
+            "peak_c": ambient_c["temperature_c"],
+            "x_px": pl.Series([None] * n, dtype=pl.Int32),
+            "y_px": pl.Series([None] * n, dtype=pl.Int32),
+        },
+        schema_overrides={"t_ns": pl.Int64},
+    )
+    return pl.concat([thermal, ambient]).sort("t_ns", "name")
 
 
 def _check_rig_matches(path: Path, rig: Rig, rep: dict[str, Any]) -> None:
