@@ -265,48 +265,19 @@ def fit_alpha(tables: Sequence[pl.DataFrame], rig: RigLike) -> AlphaFit:
     table = pl.concat(tables, how="diagonal_relaxed")
     if table.height < 3:
         raise InputError(f"{table.height} visits: too few to fit α")
-    su, sv = sensitivities(table, rig)
-    groups = table.select(pl.concat_str(["run", "camera"], separator="/")).to_series()
-    keys = sorted(set(groups.to_list()))
-    g = np.array([keys.index(k) for k in groups.to_list()])
-    n, k = table.height, len(keys)
-    # Rows: every visit's u then v. Columns: α, then offsets (group, axis).
-    x = np.zeros((2 * n, 1 + 2 * k))
-    x[:n, 0], x[n:, 0] = su, sv
-    x[np.arange(n), 1 + g] = 1.0
-    x[n + np.arange(n), 1 + k + g] = 1.0
-    y = np.concatenate([table["u_um"].to_numpy(), table["v_um"].to_numpy()])
-    ok = np.isfinite(y) & np.isfinite(x[:, 0])
-    x, y = x[ok], y[ok]
-    x = x[:, np.any(x != 0, axis=0) | (np.arange(x.shape[1]) == 0)]  # offsets with no row
+    d = _design(table, rig)
+    x, y, ok, n = d.x, d.y, d.ok, table.height
     dof = len(y) - x.shape[1]
     if dof < 1:
         raise InputError(f"{len(y)} measurements for {x.shape[1]} parameters: too few to fit α")
-    # Row labels: noise group (camera, axis), unit (the visit: its u and v rows) and series
-    # (run, camera), ordered by time.
-    cams = np.asarray(table["camera"].to_list(), dtype=object)
-    gkey = np.asarray(groups.to_list(), dtype=object)
-    axis = np.repeat(np.array(["/u", "/v"], dtype=object), n)
-    noise = (np.concatenate([cams, cams]) + axis)[ok]
-    series = np.concatenate([gkey, gkey])[ok]
-    unit = np.concatenate([np.arange(n), np.arange(n)])[ok]
-    t_ns = table["t_ns"].to_numpy()
-    order = np.concatenate([t_ns, t_ns]).astype(np.float64)[ok]
     try:
         # Feasible weighted least squares: an ordinary fit, then every (camera, axis) weighted
         # by the inverse of its own residual variance (pose repeatability and centroid noise
         # project differently onto the chips' axes), refitted with the autocorrelation-aware
         # covariance (see the module docstring).
-        r0 = lstsq_qr(x, y).residuals
-        w = np.empty(len(y))
-        pooled = float(r0 @ r0) / dof
-        for grp in set(noise.tolist()):
-            m = noise == grp
-            var = float(np.mean(r0[m] ** 2)) if m.sum() >= 5 else pooled
-            w[m] = 1.0 / max(var, 1e-12 * max(pooled, 1e-300))
-        w /= float(np.median(w))
+        w = _noise_weights(lstsq_qr(x, y).residuals, d.noise, dof)
         fit = lstsq_qr(
-            x, y, w, covariance="hac", series=series, units=unit, order=order, prewhiten=True
+            x, y, w, covariance="hac", series=d.series, units=d.unit, order=d.order, prewhiten=True
         )
     except ValueError as e:
         raise InputError(f"cannot fit α: {e}") from None
@@ -330,6 +301,65 @@ def fit_alpha(tables: Sequence[pl.DataFrame], rig: RigLike) -> AlphaFit:
         n_eff=fit.n_eff,
         ar1=float(fit.ar1[0]),
     )
+
+
+@dataclass(frozen=True)
+class _Design:
+    """The α-plus-offsets least-squares problem of a run table: rows every visit's u then v
+    (non-finite ones dropped, ``ok``), columns α then an offset per (run, camera) and axis;
+    per row its noise group (camera, axis), unit (the visit) and series (run, camera), and
+    time order."""
+
+    x: np.ndarray
+    y: np.ndarray
+    ok: np.ndarray
+    noise: np.ndarray
+    series: np.ndarray
+    unit: np.ndarray
+    order: np.ndarray
+
+
+def _design(table: pl.DataFrame, rig: RigLike) -> _Design:
+    su, sv = sensitivities(table, rig)
+    groups = table.select(pl.concat_str(["run", "camera"], separator="/")).to_series()
+    keys = sorted(set(groups.to_list()))
+    g = np.array([keys.index(k) for k in groups.to_list()])
+    n, k = table.height, len(keys)
+    # Rows: every visit's u then v. Columns: α, then offsets (group, axis).
+    x = np.zeros((2 * n, 1 + 2 * k))
+    x[:n, 0], x[n:, 0] = su, sv
+    x[np.arange(n), 1 + g] = 1.0
+    x[n + np.arange(n), 1 + k + g] = 1.0
+    y = np.concatenate([table["u_um"].to_numpy(), table["v_um"].to_numpy()])
+    ok = np.isfinite(y) & np.isfinite(x[:, 0])
+    x, y = x[ok], y[ok]
+    x = x[:, np.any(x != 0, axis=0) | (np.arange(x.shape[1]) == 0)]  # offsets with no row
+    cams = np.asarray(table["camera"].to_list(), dtype=object)
+    gkey = np.asarray(groups.to_list(), dtype=object)
+    axis = np.repeat(np.array(["/u", "/v"], dtype=object), n)
+    t_ns = table["t_ns"].to_numpy()
+    return _Design(
+        x=x,
+        y=y,
+        ok=ok,
+        noise=(np.concatenate([cams, cams]) + axis)[ok],
+        series=np.concatenate([gkey, gkey])[ok],
+        unit=np.concatenate([np.arange(n), np.arange(n)])[ok],
+        order=np.concatenate([t_ns, t_ns]).astype(np.float64)[ok],
+    )
+
+
+def _noise_weights(r0: np.ndarray, noise: np.ndarray, dof: int) -> np.ndarray:
+    """Per row the inverse of its noise group's residual variance (the pooled one for a
+    group of fewer than five rows), scaled to a median of one."""
+    w = np.empty(len(r0))
+    pooled = float(r0 @ r0) / dof
+    for grp in set(noise.tolist()):
+        m = noise == grp
+        var = float(np.mean(r0[m] ** 2)) if m.sum() >= 5 else pooled
+        w[m] = 1.0 / max(var, 1e-12 * max(pooled, 1e-300))
+    w /= float(np.median(w))
+    return w
 
 
 @dataclass(frozen=True)
@@ -433,53 +463,81 @@ def fit_alpha_start_end(
         gu, gv = sensitivities(table.with_columns(pl.col(f"{n}_c") + 1.0), rig)
         grads.append((gu - su, gv - sv))
     res = fit_alpha([table], rig).residuals if visit_noise_um is None else None
+    cams = {}
+    for cam in sorted(set(table["camera"].to_list())):
+        one = _camera_start_end(table, cam, (su, sv), grads, axis, res, visit_noise_um)
+        if one is not None:
+            cams[cam] = one
+    if not cams:
+        raise InputError("no camera has two visits: nothing to estimate")
     per: dict[str, tuple[float, tuple[float, float]]] = {}
-    spot_vars = []
-    noises = []
     # ∂α_c/∂T per (mapped temperature, first or last visit): the cameras' first (last) visits
     # lie in one cycle and read the same thermal frames, so a reading error is common to all
     # cameras and enters their mean coherently, not independently.
     dtemp: dict[tuple[int, str], list[float]] = {}
-    for cam in sorted(set(table["camera"].to_list())):
-        idx = np.flatnonzero((table["camera"] == cam).to_numpy())
-        idx = idx[np.argsort(table["t_ns"].to_numpy()[idx])]
-        if len(idx) < 2:
-            continue
-        first, last = idx[0], idx[-1]
-        ax = axis
-        if ax == "auto":
-            ax = "u" if abs(su[last] - su[first]) >= abs(sv[last] - sv[first]) else "v"
-        sens = su if ax == "u" else sv
-        y = table[f"{ax}_um"].to_numpy()
-        ds = sens[last] - sens[first]
-        if ds == 0:
-            raise InputError(f"camera {cam}: no predicted drift between first and last visit")
-        if visit_noise_um is not None:
-            noise = float(visit_noise_um)
-        else:
-            assert res is not None
-            r = res.filter(pl.col("camera") == cam)[f"residual_{ax}_um"].to_numpy()
-            noise = float(np.sqrt(np.nanmean(r**2)))
-        noises.append(noise)
-        a = (y[last] - y[first]) / ds
-        k = 0 if ax == "u" else 1
+    for cam, one in cams.items():
         temp_var = 0.0
-        for j, g in enumerate(grads):
-            for end, i, sign in (("first", first, 1.0), ("last", last, -1.0)):
-                d = sign * a * g[k][i] / ds
-                temp_var += (d * temperature_noise_c) ** 2
-                dtemp.setdefault((j, end), []).append(d)
-        spot_var = 2.0 * noise**2 / ds**2
-        half = 1.96 * np.sqrt(spot_var + temp_var)
-        per[cam] = (float(a), (float(a - half), float(a + half)))
-        spot_vars.append(spot_var)
-    if not per:
-        raise InputError("no camera has two visits: nothing to estimate")
+        for key, d in one.dtemp.items():
+            temp_var += (d * temperature_noise_c) ** 2
+            dtemp.setdefault(key, []).append(d)
+        half = 1.96 * np.sqrt(one.spot_var + temp_var)
+        per[cam] = (float(one.alpha), (float(one.alpha - half), float(one.alpha + half)))
     c = len(per)
     m = float(np.mean([v[0] for v in per.values()]))
-    var_m = float(np.sum(spot_vars)) / c**2 + sum(
+    var_m = float(np.sum([one.spot_var for one in cams.values()])) / c**2 + sum(
         (sum(d) / c * temperature_noise_c) ** 2 for d in dtemp.values()
     )
     half_m = 1.96 * float(np.sqrt(var_m))
-    noise = float(np.sqrt(np.mean(np.square(noises))))
+    noise = float(np.sqrt(np.mean(np.square([one.noise for one in cams.values()]))))
     return StartEndFit(per_camera=per, mean=(m, (m - half_m, m + half_m)), visit_noise_um=noise)
+
+
+@dataclass(frozen=True)
+class _CameraStartEnd:
+    """One camera's start/end α, the variance its spot noise gives it, and its derivative by
+    each mapped temperature reading (``(temperature index, "first" | "last")``)."""
+
+    alpha: float
+    spot_var: float
+    noise: float
+    dtemp: dict[tuple[int, str], float]
+
+
+def _camera_start_end(
+    table: pl.DataFrame,
+    cam: str,
+    s: tuple[np.ndarray, np.ndarray],
+    grads: list[tuple[np.ndarray, np.ndarray]],
+    axis: str,
+    res: pl.DataFrame | None,
+    visit_noise_um: float | None,
+) -> _CameraStartEnd | None:
+    """α of ``cam`` from its first and last visit (None with fewer than two visits)."""
+    idx = np.flatnonzero((table["camera"] == cam).to_numpy())
+    idx = idx[np.argsort(table["t_ns"].to_numpy()[idx])]
+    if len(idx) < 2:
+        return None
+    first, last = idx[0], idx[-1]
+    su, sv = s
+    ax = axis
+    if ax == "auto":
+        ax = "u" if abs(su[last] - su[first]) >= abs(sv[last] - sv[first]) else "v"
+    sens = su if ax == "u" else sv
+    y = table[f"{ax}_um"].to_numpy()
+    ds = sens[last] - sens[first]
+    if ds == 0:
+        raise InputError(f"camera {cam}: no predicted drift between first and last visit")
+    if visit_noise_um is not None:
+        noise = float(visit_noise_um)
+    else:
+        assert res is not None
+        r = res.filter(pl.col("camera") == cam)[f"residual_{ax}_um"].to_numpy()
+        noise = float(np.sqrt(np.nanmean(r**2)))
+    a = (y[last] - y[first]) / ds
+    k = 0 if ax == "u" else 1
+    dtemp = {
+        (j, end): sign * a * g[k][i] / ds
+        for j, g in enumerate(grads)
+        for end, i, sign in (("first", first, 1.0), ("last", last, -1.0))
+    }
+    return _CameraStartEnd(alpha=a, spot_var=2.0 * noise**2 / ds**2, noise=noise, dtemp=dtemp)
