@@ -265,7 +265,7 @@ def fit_alpha(tables: Sequence[pl.DataFrame], rig: RigLike) -> AlphaFit:
     table = pl.concat(tables, how="diagonal_relaxed")
     if table.height < 3:
         raise InputError(f"{table.height} visits: too few to fit α")
-    d = _design(table, rig)
+    d = alpha_design(table, rig)
     x, y, ok, n = d.x, d.y, d.ok, table.height
     dof = len(y) - x.shape[1]
     if dof < 1:
@@ -304,7 +304,7 @@ def fit_alpha(tables: Sequence[pl.DataFrame], rig: RigLike) -> AlphaFit:
 
 
 @dataclass(frozen=True)
-class _Design:
+class AlphaDesign:
     """The α-plus-offsets least-squares problem of a run table: rows every visit's u then v
     (non-finite ones dropped, ``ok``), columns α then an offset per (run, camera) and axis;
     per row its noise group (camera, axis), unit (the visit) and series (run, camera), and
@@ -319,7 +319,9 @@ class _Design:
     order: np.ndarray
 
 
-def _design(table: pl.DataFrame, rig: RigLike) -> _Design:
+def alpha_design(table: pl.DataFrame, rig: RigLike) -> AlphaDesign:
+    """The least-squares problem :func:`fit_alpha` solves for a run table (also used by
+    ``benchmarks/bench_coverage.py``, so that its comparisons fit the same design)."""
     su, sv = sensitivities(table, rig)
     groups = table.select(pl.concat_str(["run", "camera"], separator="/")).to_series()
     keys = sorted(set(groups.to_list()))
@@ -338,7 +340,7 @@ def _design(table: pl.DataFrame, rig: RigLike) -> _Design:
     gkey = np.asarray(groups.to_list(), dtype=object)
     axis = np.repeat(np.array(["/u", "/v"], dtype=object), n)
     t_ns = table["t_ns"].to_numpy()
-    return _Design(
+    return AlphaDesign(
         x=x,
         y=y,
         ok=ok,
