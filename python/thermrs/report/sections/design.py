@@ -17,6 +17,7 @@ import numpy as np
 import polars as pl
 
 from thermrs.report.blocks import Figure, Missing, Paragraph, Section, Table
+from thermrs.report.figures import _figure, _legend, _svg
 
 __all__ = ["design_section", "fig_rival_drift", "section_for"]
 
@@ -50,8 +51,6 @@ def _what(rec: Mapping[str, Any]) -> str:
 
 def fig_rival_drift(drift: pl.DataFrame, doc: Mapping[str, Any]) -> str:
     """The rivals' predicted drift (both chip axes) on the new measurement, per run."""
-    from thermrs.report.figures import _figure, _legend, _svg
-
     fig = _figure(3.2)
     axes = fig.subplots(1, 2, sharex=True)
     palette = ("#1b6ca8", "#d1495b", "#2e933c", "#edae49", "#6c4f9e")

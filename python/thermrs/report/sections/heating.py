@@ -2,18 +2,16 @@
 
 from __future__ import annotations
 
-from thermrs.numbers import (
-    fmt,
-    tau_determined,
-)
+from thermrs.numbers import fmt, tau_determined
 from thermrs.report.blocks import Paragraph, Section, Table
-from thermrs.report.data import (
-    ReportData,
-)
+from thermrs.report.data import ReportData
 from thermrs.report.sections.common import axis_name
+
+__all__ = ["section"]
 
 
 def section(d: ReportData) -> Section:
+    """The heating-curves section: the fitted curves of every series with their errors."""
     s = Section("heating", "Heating curves")
     s.blocks.append(
         Paragraph(

@@ -4,21 +4,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from thermrs.numbers import (
-    fmt,
-)
+from thermrs.iso9283 import LABEL
+from thermrs.numbers import fmt
 from thermrs.report.blocks import Figure, Missing, Paragraph, Section, Table
-from thermrs.report.data import (
-    ISO_TOLERANCE_UM,
-    ISO_WINDOW,
-    ReportData,
-)
+from thermrs.report.data import ISO_TOLERANCE_UM, ISO_WINDOW, ReportData
 from thermrs.report.figures import fig_iso
+
+__all__ = ["section"]
 
 
 def section(d: ReportData, colours: Mapping[str, str]) -> Section:
-    from thermrs.iso9283 import LABEL
-
+    """The ISO 9283 section: RP cold and warm, dAP, dRP and settling per run and camera."""
     s = Section("iso9283", "Repeatability cold against warm (ISO 9283-style)")
     s.blocks.append(
         Paragraph(

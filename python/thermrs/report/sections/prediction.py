@@ -4,18 +4,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from thermrs.numbers import (
-    fmt_alpha,
-)
+from thermrs.numbers import fmt_alpha
 from thermrs.report.blocks import Figure, Missing, Paragraph, Section
-from thermrs.report.data import (
-    ReportData,
-)
+from thermrs.report.data import ReportData
 from thermrs.report.figures import fig_prediction
 from thermrs.report.sections.common import join
 
+__all__ = ["section"]
+
 
 def section(d: ReportData, colours: Mapping[str, str]) -> Section:
+    """The prediction section: the held-out runs predicted with the fitted α."""
     s = Section("prediction", "Prediction against measurement")
     if d.series is None or d.fit is None:
         s.blocks.append(Missing(d.fit_note or "Nothing was predicted."))

@@ -5,19 +5,17 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from thermrs.numbers import (
-    fmt,
-    fmt_alpha,
-)
+from thermrs.numbers import fmt, fmt_alpha
 from thermrs.report.blocks import Figure, Paragraph, Section, Table
-from thermrs.report.data import (
-    ReportData,
-)
+from thermrs.report.data import ReportData
 from thermrs.report.figures import fig_rig
 from thermrs.report.sections.common import join
 
+__all__ = ["section"]
+
 
 def section(d: ReportData, colours: Mapping[str, str]) -> Section:
+    """The rig section: what the rig is, and where the laser meets each chip at every pose."""
     r = d.rig
     s = Section("rig", "The rig")
     s.blocks.append(

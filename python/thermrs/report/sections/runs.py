@@ -7,14 +7,15 @@ from collections.abc import Mapping
 import polars as pl
 
 from thermrs.report.blocks import Figure, Missing, Paragraph, Section
-from thermrs.report.data import (
-    ReportData,
-)
+from thermrs.report.data import ReportData
 from thermrs.report.figures import fig_run
 from thermrs.report.sections.common import series_colours
 
+__all__ = ["section"]
+
 
 def section(d: ReportData, colours: Mapping[str, str]) -> Section:
+    """The runs section: one figure per run, drift and temperatures on one time axis."""
     s = Section("runs", "Drift and temperatures per run")
     s.blocks.append(
         Paragraph(
