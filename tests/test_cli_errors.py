@@ -387,6 +387,17 @@ def _unwritable_folder(tmp_path: Path) -> Path:
     return ro
 
 
+def _assert_cannot_write(line: str, path: Path) -> None:
+    """`error: cannot write PATH: reason`, the reason the operating system's: permission
+    denied in a read-only folder; in /proc whatever this kernel says (here ENOENT)."""
+    head = f"thermrs: error: cannot write {path}: "
+    assert line.startswith(head), line
+    if path.parent != Path("/proc"):
+        assert line == head + os.strerror(errno.EACCES), line
+    else:
+        assert len(line) > len(head), line
+
+
 #: Commands writing an output into a folder that takes no file, and that output's name.
 UNWRITABLE = [
     ("extract {rec} --rig {rig} -o {out}/x.parquet", "x.parquet"),
@@ -409,9 +420,7 @@ def test_an_unwritable_output_exits_1_with_one_line_naming_the_file(
     lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
     assert p.returncode == 1, p.stderr
     assert len(lines) == 1 and "Traceback" not in p.stderr, p.stderr
-    path = out / name
-    reason = os.strerror(errno.ENOENT if out == Path("/proc") else errno.EACCES)
-    assert lines[0] == f"thermrs: error: cannot write {path}: {reason}", lines[0]
+    _assert_cannot_write(lines[0], out / name)
     assert set(data["dir"].rglob("*")) == before
     assert not out.exists() or out == Path("/proc") or list(out.iterdir()) == []
 
@@ -421,10 +430,9 @@ def test_an_unwritable_report_exits_1_naming_the_file(tmp_path: Path) -> None:
     out = _unwritable_folder(tmp_path) / "r.html"
     p = cli("report", "--demo", "-o", str(out))
     assert p.returncode == 1, p.stderr
-    assert p.stderr.strip().splitlines() == [
-        f"thermrs: error: cannot write {out}: "
-        + os.strerror(errno.ENOENT if out.parent == Path("/proc") else errno.EACCES)
-    ], p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1, p.stderr
+    _assert_cannot_write(lines[0], out)
 
 
 def test_a_failed_write_in_the_library_is_an_oserror_naming_the_file(
