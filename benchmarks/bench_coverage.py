@@ -90,19 +90,12 @@ def before_issue9(tables: list[pl.DataFrame], rig: object) -> tuple[float, float
     """α and its 95 % interval as thermrs computed them before issue #9: weighted least
     squares, covariance pinv(XᵀWX) at numpy's default cutoff, Student-t on iid residuals."""
     from scipy import stats
-    from thermrs.fit import sensitivities
+    from thermrs.fit import alpha_design
 
     table = pl.concat(tables, how="diagonal_relaxed")
-    su, sv = sensitivities(table, rig)  # type: ignore[arg-type]
-    groups = table.select(pl.concat_str(["run", "camera"], separator="/")).to_series()
-    keys = sorted(set(groups.to_list()))
-    g = np.array([keys.index(k) for k in groups.to_list()])
-    n, k = table.height, len(keys)
-    x = np.zeros((2 * n, 1 + 2 * k))
-    x[:n, 0], x[n:, 0] = su, sv
-    x[np.arange(n), 1 + g] = 1.0
-    x[n + np.arange(n), 1 + k + g] = 1.0
-    y = np.concatenate([table["u_um"].to_numpy(), table["v_um"].to_numpy()])
+    d = alpha_design(table, rig)  # type: ignore[arg-type]
+    assert d.ok.all()  # finite visits: the same rows as the design of old
+    x, y = d.x, d.y
     dof = len(y) - x.shape[1]
     beta, *_ = np.linalg.lstsq(x, y, rcond=None)
     r = y - x @ beta
@@ -143,20 +136,10 @@ def synthetic(args: argparse.Namespace) -> list[dict[str, object]]:
                 tables = visit_tables(rig, rng, alpha=alpha)  # type: ignore[arg-type]
                 f = fit_alpha(tables, rig)  # type: ignore[arg-type]
                 # The same least squares, iid interval (rows independent).
-                from thermrs.fit import sensitivities
+                from thermrs.fit import alpha_design
 
-                table = pl.concat(tables)
-                su, sv = sensitivities(table, rig)  # type: ignore[arg-type]
-                grp = table.select(pl.concat_str(["run", "camera"], separator="/")).to_series()
-                keys = sorted(set(grp.to_list()))
-                gi = np.array([keys.index(k) for k in grp.to_list()])
-                n, k = table.height, len(keys)
-                x = np.zeros((2 * n, 1 + 2 * k))
-                x[:n, 0], x[n:, 0] = su, sv
-                x[np.arange(n), 1 + gi] = 1.0
-                x[n + np.arange(n), 1 + k + gi] = 1.0
-                y = np.concatenate([table["u_um"].to_numpy(), table["v_um"].to_numpy()])
-                iid = lstsq_qr(x, y).interval(0)
+                d = alpha_design(pl.concat(tables), rig)  # type: ignore[arg-type]
+                iid = lstsq_qr(d.x, d.y).interval(0)
                 old = before_issue9(tables, rig)
                 res.append((alpha, f.alpha_per_k, *f.ci95, f.n_eff, *iid, *old))
         a = np.array(res)

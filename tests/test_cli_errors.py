@@ -1,9 +1,11 @@
 """A new user's mistakes through the CLI (issue #13): every wrong invocation exits 2 with exactly
-one line on stderr and no traceback, writes nothing; losses stay visible; Ctrl-C stops a long
+one line on stderr and no traceback, writes nothing; an output the system will not take exits 1
+with one line naming the file; losses stay visible; Ctrl-C stops a long
 command at once with exit 130 and one line; tables are never cut."""
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import shutil
@@ -107,16 +109,12 @@ WRONG: list[tuple[str, str]] = [
     ("extract {rec} --rig {ur5} -o {dir}/o.parquet", "/near/image_raw"),
     ("fit --rig {ur5} --train {rec}", "/near/image_raw"),
     # unwritable outputs
-    ("extract {rec} --rig {rig} -o /proc/x.parquet", "/proc"),
     ("extract {rec} --rig {rig} -o {dir}/no/such/folder/o.parquet", "does not exist"),
     ("extract {rec} --rig {rig} -o {folder}", "is a directory"),
     ("extract {rec} --rig {rig} -o {dir}/o.csv", ".parquet"),
-    ("simulate --rig {rig} --scenario {sc} -o /proc/x.mcap", "/proc"),
     ("simulate --rig {rig} --scenario {sc} -o {dir}/nowhere/o.mcap", "does not exist"),
     ("simulate --rig {rig} --scenario {sc} -o {dir}/o.parquet", ".mcap"),
-    ("fit --rig {rig} --train {tables} --json /proc/fit.json", "/proc"),
     ("fit --rig {rig} --train {tables} --json {dir}/nowhere/fit.json", "does not exist"),
-    ("predict --rig {rig} --alpha 2e-5 --run {tables} --json /proc/p.json", "/proc"),
     ("predict --rig {rig} --alpha 2e-5 --run {tables} --series {dir}/s.txt", ".csv"),
     ("drift --rig {rig} --run {tables} --json {folder}", "is a directory"),
     # bad numbers
@@ -372,10 +370,69 @@ def test_a_failed_write_exits_1_with_one_line_naming_the_file(
     assert p.returncode == 1, p.stderr
     lines = p.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in p.stderr, p.stderr
-    assert str(out) in lines[0], lines
+    assert lines[0].startswith(f"thermrs: error: cannot write {out}: "), lines
     if command == "simulate":  # (polars' parquet writer does not pass the errno on)
         assert "File too large" in lines[0], lines
     assert list(tmp_path.iterdir()) == []
+
+
+def _unwritable_folder(tmp_path: Path) -> Path:
+    """A folder that takes no new file: read-only for a user; for root (whom permissions do not
+    stop) /proc, which takes no file whatever the user."""
+    if os.geteuid() == 0:
+        return Path("/proc")
+    ro = tmp_path / "read-only"
+    ro.mkdir()
+    ro.chmod(0o555)
+    return ro
+
+
+def _assert_cannot_write(line: str, path: Path) -> None:
+    """`error: cannot write PATH: reason`, the reason the operating system's: permission
+    denied in a read-only folder; in /proc whatever this kernel says (here ENOENT)."""
+    head = f"thermrs: error: cannot write {path}: "
+    assert line.startswith(head), line
+    if path.parent != Path("/proc"):
+        assert line == head + os.strerror(errno.EACCES), line
+    else:
+        assert len(line) > len(head), line
+
+
+#: Commands writing an output into a folder that takes no file, and that output's name.
+UNWRITABLE = [
+    ("extract {rec} --rig {rig} -o {out}/x.parquet", "x.parquet"),
+    ("simulate --rig {rig} --scenario {sc} -o {out}/x.mcap", "x.mcap"),
+    ("fit --rig {rig} --train {tables} --json {out}/fit.json", "fit.json"),
+    ("predict --rig {rig} --alpha 2e-5 --run {tables} --json {out}/p.json", "p.json"),
+    ("drift --rig {rig} --run {tables} --json {out}/d.json", "d.json"),
+]
+
+
+@pytest.mark.parametrize(("args", "name"), UNWRITABLE, ids=[a for a, _ in UNWRITABLE])
+def test_an_unwritable_output_exits_1_with_one_line_naming_the_file(
+    data: dict[str, Path], tmp_path: Path, args: str, name: str
+) -> None:
+    """Not bad input (exit 2) nor an internal error: `error: cannot write PATH: reason`, exit 1,
+    the operating system's reason, nothing written."""
+    out = _unwritable_folder(tmp_path)
+    before = set(data["dir"].rglob("*"))
+    p = cli(*[a.format(**data, out=out) for a in args.split()])
+    lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
+    assert p.returncode == 1, p.stderr
+    assert len(lines) == 1 and "Traceback" not in p.stderr, p.stderr
+    _assert_cannot_write(lines[0], out / name)
+    assert set(data["dir"].rglob("*")) == before
+    assert not out.exists() or out == Path("/proc") or list(out.iterdir()) == []
+
+
+def test_an_unwritable_report_exits_1_naming_the_file(tmp_path: Path) -> None:
+    """The report's output is checked before the (minute-long) demo starts."""
+    out = _unwritable_folder(tmp_path) / "r.html"
+    p = cli("report", "--demo", "-o", str(out))
+    assert p.returncode == 1, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1, p.stderr
+    _assert_cannot_write(lines[0], out)
 
 
 def test_a_failed_write_in_the_library_is_an_oserror_naming_the_file(
@@ -389,7 +446,7 @@ def test_a_failed_write_in_the_library_is_an_oserror_naming_the_file(
         "try:\n"
         f"    thermrs.simulate.simulate({str(data['rig'])!r}, {str(data['sc'])!r}, {str(out)!r})\n"
         "except OSError as e:\n"
-        "    print(type(e).__name__, e.errno, e.filename)\n"
+        "    print(type(e).__name__, e.errno, e.filename, str(e).startswith('cannot write'))\n"
     )
     p = subprocess.run(
         [sys.executable, "-c", code],
@@ -398,9 +455,7 @@ def test_a_failed_write_in_the_library_is_an_oserror_naming_the_file(
         preexec_fn=_file_size_limit(1_000),
     )
     assert p.returncode == 0, p.stderr
-    import errno
-
-    assert p.stdout.split() == ["OSError", str(errno.EFBIG), str(out)], p.stdout
+    assert p.stdout.split() == ["OutputError", str(errno.EFBIG), str(out), "True"], p.stdout
     assert list(tmp_path.iterdir()) == []
 
 

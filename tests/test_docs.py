@@ -7,6 +7,7 @@ import inspect
 
 import pytest
 import thermrs
+import thermrs.atomic
 import thermrs.heating
 import thermrs.ingest
 import thermrs.iso9283
@@ -27,6 +28,7 @@ import thermrs.rig
         thermrs.iso9283,
         thermrs.predict,
         thermrs.ingest,
+        thermrs.atomic,
     ],
 )
 def test_docstring_examples(module: object) -> None:

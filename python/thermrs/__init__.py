@@ -5,18 +5,21 @@ The heavy lifting is Rust (``thermrs._native``); this package is the library API
 - :mod:`thermrs.rig`: rig files (load, validate, explain);
 - :mod:`thermrs.model`: the thermal-expansion forward model, vectorised over time series;
 - :mod:`thermrs.ingest`: recordings to tables (:func:`thermrs.extract`);
-- :mod:`thermrs.fit`: run tables and the fit of the expansion coefficient α;
+- :mod:`thermrs.fit`: the fit of the expansion coefficient α on run tables
+  (:mod:`thermrs.runtable`);
 - :mod:`thermrs.predict`: predicted against measured drift (Table 7 for any runs);
 - :mod:`thermrs.heating`: first-order heating curves;
 - :mod:`thermrs.iso9283`: ISO 9283-style pose figures;
 - :mod:`thermrs.simulate`: the simulator (a rig at work under a scenario);
 - :mod:`thermrs.paper`: the KR 15/2 paper's own model and its Tables 6 and 7;
-- :mod:`thermrs.runs`: runs inside a recording; :mod:`thermrs.inventory`: what a recording
+- :mod:`thermrs.runs`: runs inside a recording (found by :mod:`thermrs.rundetect`), files to
+  run tables; :mod:`thermrs.inventory`: what a recording
   holds, from its summary;
 - :mod:`thermrs.effects`, :mod:`thermrs.signatures`, :mod:`thermrs.diagnose`: the SPEC §6
   effects and the diagnosis of the sim-to-real gap; :mod:`thermrs.compensate`: the diagnosed
   model put to use; :mod:`thermrs.stats`: least squares and its covariance;
-- :mod:`thermrs.report`: the report a person reads.
+- :mod:`thermrs.report`: the report a person reads; :mod:`thermrs.atomic`: outputs written
+  atomically.
 
 Every submodule and name below is reachable right after ``import thermrs``; each is imported
 on first use, so that ``import thermrs`` (and ``thermrs --help``) stay fast.
@@ -60,6 +63,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from thermrs.errors import (
         InputError,
         InternalError,
+        OutputError,
         RecordingError,
         RigError,
         ScenarioError,
@@ -108,6 +112,7 @@ _NAMES = {
     "load_rig": "thermrs.rig",
     "InputError": "thermrs.errors",
     "InternalError": "thermrs.errors",
+    "OutputError": "thermrs.errors",
     "RecordingError": "thermrs.errors",
     "RigError": "thermrs.errors",
     "ScenarioError": "thermrs.errors",
@@ -119,6 +124,7 @@ __all__ = [
     "ForwardModel",
     "InputError",
     "InternalError",
+    "OutputError",
     "RecordingError",
     "Rig",
     "RigError",

@@ -1,20 +1,9 @@
 """Fitting the expansion coefficient α on the forward model (SPEC §4, §7 ``thermrs fit``).
 
 Run tables
-    :func:`run_table` joins each visit (mean centroid of its ``ok`` frames, chip µm) with the
-    temperatures at the visit's time: every ROI maximum and the ambient reading, interpolated
-    between their own samples with a shape-preserving cubic (PCHIP) and extrapolated beyond
-    them (a run's first visits come before its first thermal frame; holding that later,
-    warmer reading, or joining samples by straight lines along a curved warm-up, biases α by
-    a few per cent when thermal frames are sparse). A recording of several runs gives one run
-    table per run (:mod:`thermrs.runs`), each from its own temperature readings: they are not
-    measured while the robot idles between runs.
-
-    ROI maxima (SPEC §3) are maxima of noisy pixels: they read high by an amount that shrinks
-    as a link's hot region forms (0.05 K pixel noise: about 0.11 K at a 0.3 K rise, 0.03 K at
-    10 K), which compresses the measured ΔT and raises a fitted α by 1–2 %. Run tables
-    therefore use each ROI's de-noised peak by default (a quadratic surface fitted around the
-    maximum; +0.03 K at 0.3 K, 0.00 K at 10 K), and the maximum on request.
+    One row per visit with the temperatures at its time: :mod:`thermrs.runtable`
+    (:func:`run_table`, :func:`run_table_from`, re-exported here); from files,
+    :func:`load_run_table` (:func:`thermrs.runs.load_runs`).
 
 Time-series estimator
     For visit i of camera c in run r, the spot's position on the chip (u, v) is modelled as
@@ -52,15 +41,18 @@ from typing import Any
 
 import numpy as np
 import polars as pl
-from scipy.interpolate import PchipInterpolator
 
 from thermrs.errors import InputError
-from thermrs.ingest import Extraction
 from thermrs.model import ForwardModel
-from thermrs.rig import Rig, as_rig
-from thermrs.stats import lstsq_qr
+from thermrs.rig import as_rig
+from thermrs.runs import load_runs
+from thermrs.runtable import RUN_COLUMNS, run_table, run_table_from
 
-RigLike = Rig | str | os.PathLike[str]
+# Run tables live in thermrs.runtable; these names stay importable from here.
+from thermrs.runtable import RigLike as RigLike
+from thermrs.runtable import interpolate as interpolate
+from thermrs.runtable import run_name as run_name
+from thermrs.stats import lstsq_qr
 
 __all__ = [
     "RUN_COLUMNS",
@@ -72,170 +64,6 @@ __all__ = [
     "run_table",
     "run_table_from",
 ]
-
-
-def interpolate(t: np.ndarray, st: np.ndarray, sv: np.ndarray) -> np.ndarray:
-    """Samples (st, sv) at t: shape-preserving piecewise cubic (PCHIP, scipy), which follows a
-    first-order warm-up far better than straight lines between sparse thermal frames, and
-    extrapolates smoothly beyond the ends."""
-    if len(st) == 0:
-        return np.full(len(t), np.nan)
-    if len(st) == 1:
-        return np.full(len(t), float(sv[0]))
-    keep = np.concatenate([[True], np.diff(st) > 0])
-    return np.asarray(PchipInterpolator(st[keep], sv[keep], extrapolate=True)(t))
-
-
-#: Columns the fits need of a run table (:func:`run_table` also gives ``drift_u_um``,
-#: ``drift_v_um`` and one ``<name>_c`` per temperature).
-RUN_COLUMNS = ("run", "camera", "visit", "t_ns", "u_um", "v_um")
-
-
-def run_table(
-    ex: Extraction, rig: RigLike, *, run: str = "run", temperature: str = "peak"
-) -> pl.DataFrame:
-    """The run table of an extraction: one row per visit, with the temperatures at its time.
-
-    Parameters
-    ----------
-    ex
-        The extraction (:func:`thermrs.extract`).
-    rig
-        The rig it was recorded on (a :class:`~thermrs.Rig` or the path of a rig file).
-    run
-        The run's name (the ``run`` column).
-    temperature
-        ``"peak"`` (default, the de-noised ROI peak) or ``"max"`` (the ROI maximum).
-
-    Returns
-    -------
-    polars.DataFrame
-        See :func:`run_table_from`.
-
-    Raises
-    ------
-    TypeError
-        ``ex`` is not an :class:`~thermrs.Extraction` or ``rig`` not a rig.
-    InputError
-        ``temperature`` is neither ``"peak"`` nor ``"max"``, or the extraction holds several
-        runs (one table across them would anchor every run at the first one's start; use
-        :func:`thermrs.runs.load_runs`).
-
-    Examples
-    --------
-    >>> import thermrs
-    >>> ex = thermrs.extract("run1.mcap", thermrs.load_rig())  # doctest: +SKIP
-    >>> thermrs.fit.run_table(ex, thermrs.load_rig(), run="run1").columns[:4]  # doctest: +SKIP
-    ['run', 'camera', 'visit', 't_ns']
-    """
-    if not isinstance(ex, Extraction):
-        raise TypeError(
-            f"run_table takes a thermrs.Extraction, not {type(ex).__name__} "
-            "(for tables use run_table_from, for a file load_run_table)"
-        )
-    if ex.runs.height > 1:
-        # One table across runs would anchor every run's drift at the first one's start.
-        raise InputError(
-            f"the extraction holds {ex.runs.height} runs ({', '.join(ex.runs['run'])}): one "
-            "run table per run, e.g. thermrs.runs.load_runs(path, rig).tables"
-        )
-    return run_table_from(ex.visits, ex.temperatures, rig, run=run, temperature=temperature)
-
-
-def run_table_from(
-    visits: pl.DataFrame,
-    temperatures: pl.DataFrame,
-    rig: RigLike,
-    *,
-    run: str = "run",
-    temperature: str = "peak",
-) -> pl.DataFrame:
-    """The run table: one row per visit with ``ok`` frames.
-
-    Parameters
-    ----------
-    visits, temperatures
-        The recording's visits and temperatures tables (:class:`thermrs.Extraction`, or the
-        ``.visits.parquet`` and ``.temperatures.parquet`` files ``thermrs extract`` writes).
-    rig
-        The rig it was recorded on.
-    run
-        The run's name (the ``run`` column).
-    temperature
-        Which ROI reading to use: ``"peak"`` (default; the de-noised peak, which does not read
-        high the way the maximum of noisy pixels does) or ``"max"`` (the ROI maximum of SPEC §3,
-        the paper's reading).
-
-    Returns
-    -------
-    polars.DataFrame
-        ``run``, ``camera``, ``visit``, ``t_ns``, ``u_um``, ``v_um``, ``drift_u_um``,
-        ``drift_v_um`` and one ``<name>_c`` column per ROI and ``ambient`` (°C at the visit
-        time, PCHIP interpolation between the readings, see the module docs).
-
-    Raises
-    ------
-    InputError
-        ``temperature`` is neither ``"peak"`` nor ``"max"``, or a table lacks its columns.
-    TypeError
-        ``visits`` or ``temperatures`` is not a polars DataFrame.
-
-    Examples
-    --------
-    >>> import polars as pl, thermrs
-    >>> v = pl.read_parquet("run1.visits.parquet")  # doctest: +SKIP
-    >>> t = pl.read_parquet("run1.temperatures.parquet")  # doctest: +SKIP
-    >>> thermrs.fit.run_table_from(v, t, thermrs.load_rig(), run="run1")  # doctest: +SKIP
-    """
-    for name, df in (("visits", visits), ("temperatures", temperatures)):
-        if not isinstance(df, pl.DataFrame):
-            raise TypeError(f"{name} must be a polars DataFrame, not {type(df).__name__}")
-    as_rig(rig)
-    need: dict[str, tuple[str, ...]] = {
-        "visits": ("camera", "t_ns", "n_ok", "u_um", "v_um", "drift_u_um", "drift_v_um"),
-        "temperatures": ("t_ns", "name"),
-    }
-    for name, df in (("visits", visits), ("temperatures", temperatures)):
-        lacking = [c for c in need[name] if c not in df.columns]
-        if lacking:
-            raise InputError(f"the {name} table has no column(s) {lacking}")
-    if temperature not in ("peak", "max"):
-        raise InputError(f"temperature must be 'peak' or 'max', got {temperature!r}")
-    column = "peak_c" if temperature == "peak" else "temperature_c"
-    v = visits.filter(pl.col("n_ok") > 0).sort("camera", "t_ns")
-    t = v["t_ns"].to_numpy().astype(np.float64)
-    cols: dict[str, np.ndarray] = {}
-    temps = temperatures
-    if column not in temps.columns:  # tables extracted before the peak existed
-        column = "temperature_c"
-    for name in sorted(set(temps["name"].to_list())):
-        s = temps.filter(pl.col("name") == name).sort("t_ns")
-        st = s["t_ns"].to_numpy().astype(np.float64)
-        sv = s[column].to_numpy()
-        cols[f"{name}_c"] = interpolate(t, st, sv)
-    return v.select(
-        pl.lit(run).alias("run"),
-        "camera",
-        "visit",
-        "t_ns",
-        "u_um",
-        "v_um",
-        "drift_u_um",
-        "drift_v_um",
-    ).with_columns(**{k: pl.Series(k, a) for k, a in cols.items()})
-
-
-def run_name(path: str | os.PathLike[str]) -> str:
-    """The run name :func:`load_run_table` gives a file by default: its name without
-    ``.mcap``, or without ``[.visits|.temperatures|.joints].parquet``."""
-    name = Path(path).name
-    if name.endswith(".parquet"):
-        stem = name[: -len(".parquet")]
-        for part in (".visits", ".temperatures", ".joints"):
-            if stem.endswith(part):
-                return stem[: -len(part)]
-        return stem
-    return name[: -len(".mcap")] if name.endswith(".mcap") else Path(name).stem
 
 
 def load_run_table(
@@ -280,8 +108,6 @@ def load_run_table(
     >>> import thermrs
     >>> table, lost = thermrs.fit.load_run_table("run1.parquet", "rig.toml")  # doctest: +SKIP
     """
-    from thermrs.runs import load_runs
-
     rt = load_runs(Path(path), as_rig(rig), name=run, temperature=temperature)
     return pl.concat(rt.tables, how="diagonal_relaxed"), rt.data_loss
 
@@ -439,48 +265,19 @@ def fit_alpha(tables: Sequence[pl.DataFrame], rig: RigLike) -> AlphaFit:
     table = pl.concat(tables, how="diagonal_relaxed")
     if table.height < 3:
         raise InputError(f"{table.height} visits: too few to fit α")
-    su, sv = sensitivities(table, rig)
-    groups = table.select(pl.concat_str(["run", "camera"], separator="/")).to_series()
-    keys = sorted(set(groups.to_list()))
-    g = np.array([keys.index(k) for k in groups.to_list()])
-    n, k = table.height, len(keys)
-    # Rows: every visit's u then v. Columns: α, then offsets (group, axis).
-    x = np.zeros((2 * n, 1 + 2 * k))
-    x[:n, 0], x[n:, 0] = su, sv
-    x[np.arange(n), 1 + g] = 1.0
-    x[n + np.arange(n), 1 + k + g] = 1.0
-    y = np.concatenate([table["u_um"].to_numpy(), table["v_um"].to_numpy()])
-    ok = np.isfinite(y) & np.isfinite(x[:, 0])
-    x, y = x[ok], y[ok]
-    x = x[:, np.any(x != 0, axis=0) | (np.arange(x.shape[1]) == 0)]  # offsets with no row
+    d = alpha_design(table, rig)
+    x, y, ok, n = d.x, d.y, d.ok, table.height
     dof = len(y) - x.shape[1]
     if dof < 1:
         raise InputError(f"{len(y)} measurements for {x.shape[1]} parameters: too few to fit α")
-    # Row labels: noise group (camera, axis), unit (the visit: its u and v rows) and series
-    # (run, camera), ordered by time.
-    cams = np.asarray(table["camera"].to_list(), dtype=object)
-    gkey = np.asarray(groups.to_list(), dtype=object)
-    axis = np.repeat(np.array(["/u", "/v"], dtype=object), n)
-    noise = (np.concatenate([cams, cams]) + axis)[ok]
-    series = np.concatenate([gkey, gkey])[ok]
-    unit = np.concatenate([np.arange(n), np.arange(n)])[ok]
-    t_ns = table["t_ns"].to_numpy()
-    order = np.concatenate([t_ns, t_ns]).astype(np.float64)[ok]
     try:
         # Feasible weighted least squares: an ordinary fit, then every (camera, axis) weighted
         # by the inverse of its own residual variance (pose repeatability and centroid noise
         # project differently onto the chips' axes), refitted with the autocorrelation-aware
         # covariance (see the module docstring).
-        r0 = lstsq_qr(x, y).residuals
-        w = np.empty(len(y))
-        pooled = float(r0 @ r0) / dof
-        for grp in set(noise.tolist()):
-            m = noise == grp
-            var = float(np.mean(r0[m] ** 2)) if m.sum() >= 5 else pooled
-            w[m] = 1.0 / max(var, 1e-12 * max(pooled, 1e-300))
-        w /= float(np.median(w))
+        w = _noise_weights(lstsq_qr(x, y).residuals, d.noise, dof)
         fit = lstsq_qr(
-            x, y, w, covariance="hac", series=series, units=unit, order=order, prewhiten=True
+            x, y, w, covariance="hac", series=d.series, units=d.unit, order=d.order, prewhiten=True
         )
     except ValueError as e:
         raise InputError(f"cannot fit α: {e}") from None
@@ -504,6 +301,67 @@ def fit_alpha(tables: Sequence[pl.DataFrame], rig: RigLike) -> AlphaFit:
         n_eff=fit.n_eff,
         ar1=float(fit.ar1[0]),
     )
+
+
+@dataclass(frozen=True)
+class AlphaDesign:
+    """The α-plus-offsets least-squares problem of a run table: rows every visit's u then v
+    (non-finite ones dropped, ``ok``), columns α then an offset per (run, camera) and axis;
+    per row its noise group (camera, axis), unit (the visit) and series (run, camera), and
+    time order."""
+
+    x: np.ndarray
+    y: np.ndarray
+    ok: np.ndarray
+    noise: np.ndarray
+    series: np.ndarray
+    unit: np.ndarray
+    order: np.ndarray
+
+
+def alpha_design(table: pl.DataFrame, rig: RigLike) -> AlphaDesign:
+    """The least-squares problem :func:`fit_alpha` solves for a run table (also used by
+    ``benchmarks/bench_coverage.py``, so that its comparisons fit the same design)."""
+    su, sv = sensitivities(table, rig)
+    groups = table.select(pl.concat_str(["run", "camera"], separator="/")).to_series()
+    keys = sorted(set(groups.to_list()))
+    g = np.array([keys.index(k) for k in groups.to_list()])
+    n, k = table.height, len(keys)
+    # Rows: every visit's u then v. Columns: α, then offsets (group, axis).
+    x = np.zeros((2 * n, 1 + 2 * k))
+    x[:n, 0], x[n:, 0] = su, sv
+    x[np.arange(n), 1 + g] = 1.0
+    x[n + np.arange(n), 1 + k + g] = 1.0
+    y = np.concatenate([table["u_um"].to_numpy(), table["v_um"].to_numpy()])
+    ok = np.isfinite(y) & np.isfinite(x[:, 0])
+    x, y = x[ok], y[ok]
+    x = x[:, np.any(x != 0, axis=0) | (np.arange(x.shape[1]) == 0)]  # offsets with no row
+    cams = np.asarray(table["camera"].to_list(), dtype=object)
+    gkey = np.asarray(groups.to_list(), dtype=object)
+    axis = np.repeat(np.array(["/u", "/v"], dtype=object), n)
+    t_ns = table["t_ns"].to_numpy()
+    return AlphaDesign(
+        x=x,
+        y=y,
+        ok=ok,
+        noise=(np.concatenate([cams, cams]) + axis)[ok],
+        series=np.concatenate([gkey, gkey])[ok],
+        unit=np.concatenate([np.arange(n), np.arange(n)])[ok],
+        order=np.concatenate([t_ns, t_ns]).astype(np.float64)[ok],
+    )
+
+
+def _noise_weights(r0: np.ndarray, noise: np.ndarray, dof: int) -> np.ndarray:
+    """Per row the inverse of its noise group's residual variance (the pooled one for a
+    group of fewer than five rows), scaled to a median of one."""
+    w = np.empty(len(r0))
+    pooled = float(r0 @ r0) / dof
+    for grp in set(noise.tolist()):
+        m = noise == grp
+        var = float(np.mean(r0[m] ** 2)) if m.sum() >= 5 else pooled
+        w[m] = 1.0 / max(var, 1e-12 * max(pooled, 1e-300))
+    w /= float(np.median(w))
+    return w
 
 
 @dataclass(frozen=True)
@@ -607,53 +465,81 @@ def fit_alpha_start_end(
         gu, gv = sensitivities(table.with_columns(pl.col(f"{n}_c") + 1.0), rig)
         grads.append((gu - su, gv - sv))
     res = fit_alpha([table], rig).residuals if visit_noise_um is None else None
+    cams = {}
+    for cam in sorted(set(table["camera"].to_list())):
+        one = _camera_start_end(table, cam, (su, sv), grads, axis, res, visit_noise_um)
+        if one is not None:
+            cams[cam] = one
+    if not cams:
+        raise InputError("no camera has two visits: nothing to estimate")
     per: dict[str, tuple[float, tuple[float, float]]] = {}
-    spot_vars = []
-    noises = []
     # ∂α_c/∂T per (mapped temperature, first or last visit): the cameras' first (last) visits
     # lie in one cycle and read the same thermal frames, so a reading error is common to all
     # cameras and enters their mean coherently, not independently.
     dtemp: dict[tuple[int, str], list[float]] = {}
-    for cam in sorted(set(table["camera"].to_list())):
-        idx = np.flatnonzero((table["camera"] == cam).to_numpy())
-        idx = idx[np.argsort(table["t_ns"].to_numpy()[idx])]
-        if len(idx) < 2:
-            continue
-        first, last = idx[0], idx[-1]
-        ax = axis
-        if ax == "auto":
-            ax = "u" if abs(su[last] - su[first]) >= abs(sv[last] - sv[first]) else "v"
-        sens = su if ax == "u" else sv
-        y = table[f"{ax}_um"].to_numpy()
-        ds = sens[last] - sens[first]
-        if ds == 0:
-            raise InputError(f"camera {cam}: no predicted drift between first and last visit")
-        if visit_noise_um is not None:
-            noise = float(visit_noise_um)
-        else:
-            assert res is not None
-            r = res.filter(pl.col("camera") == cam)[f"residual_{ax}_um"].to_numpy()
-            noise = float(np.sqrt(np.nanmean(r**2)))
-        noises.append(noise)
-        a = (y[last] - y[first]) / ds
-        k = 0 if ax == "u" else 1
+    for cam, one in cams.items():
         temp_var = 0.0
-        for j, g in enumerate(grads):
-            for end, i, sign in (("first", first, 1.0), ("last", last, -1.0)):
-                d = sign * a * g[k][i] / ds
-                temp_var += (d * temperature_noise_c) ** 2
-                dtemp.setdefault((j, end), []).append(d)
-        spot_var = 2.0 * noise**2 / ds**2
-        half = 1.96 * np.sqrt(spot_var + temp_var)
-        per[cam] = (float(a), (float(a - half), float(a + half)))
-        spot_vars.append(spot_var)
-    if not per:
-        raise InputError("no camera has two visits: nothing to estimate")
+        for key, d in one.dtemp.items():
+            temp_var += (d * temperature_noise_c) ** 2
+            dtemp.setdefault(key, []).append(d)
+        half = 1.96 * np.sqrt(one.spot_var + temp_var)
+        per[cam] = (float(one.alpha), (float(one.alpha - half), float(one.alpha + half)))
     c = len(per)
     m = float(np.mean([v[0] for v in per.values()]))
-    var_m = float(np.sum(spot_vars)) / c**2 + sum(
+    var_m = float(np.sum([one.spot_var for one in cams.values()])) / c**2 + sum(
         (sum(d) / c * temperature_noise_c) ** 2 for d in dtemp.values()
     )
     half_m = 1.96 * float(np.sqrt(var_m))
-    noise = float(np.sqrt(np.mean(np.square(noises))))
+    noise = float(np.sqrt(np.mean(np.square([one.noise for one in cams.values()]))))
     return StartEndFit(per_camera=per, mean=(m, (m - half_m, m + half_m)), visit_noise_um=noise)
+
+
+@dataclass(frozen=True)
+class _CameraStartEnd:
+    """One camera's start/end α, the variance its spot noise gives it, and its derivative by
+    each mapped temperature reading (``(temperature index, "first" | "last")``)."""
+
+    alpha: float
+    spot_var: float
+    noise: float
+    dtemp: dict[tuple[int, str], float]
+
+
+def _camera_start_end(
+    table: pl.DataFrame,
+    cam: str,
+    s: tuple[np.ndarray, np.ndarray],
+    grads: list[tuple[np.ndarray, np.ndarray]],
+    axis: str,
+    res: pl.DataFrame | None,
+    visit_noise_um: float | None,
+) -> _CameraStartEnd | None:
+    """α of ``cam`` from its first and last visit (None with fewer than two visits)."""
+    idx = np.flatnonzero((table["camera"] == cam).to_numpy())
+    idx = idx[np.argsort(table["t_ns"].to_numpy()[idx])]
+    if len(idx) < 2:
+        return None
+    first, last = idx[0], idx[-1]
+    su, sv = s
+    ax = axis
+    if ax == "auto":
+        ax = "u" if abs(su[last] - su[first]) >= abs(sv[last] - sv[first]) else "v"
+    sens = su if ax == "u" else sv
+    y = table[f"{ax}_um"].to_numpy()
+    ds = sens[last] - sens[first]
+    if ds == 0:
+        raise InputError(f"camera {cam}: no predicted drift between first and last visit")
+    if visit_noise_um is not None:
+        noise = float(visit_noise_um)
+    else:
+        assert res is not None
+        r = res.filter(pl.col("camera") == cam)[f"residual_{ax}_um"].to_numpy()
+        noise = float(np.sqrt(np.nanmean(r**2)))
+    a = (y[last] - y[first]) / ds
+    k = 0 if ax == "u" else 1
+    dtemp = {
+        (j, end): sign * a * g[k][i] / ds
+        for j, g in enumerate(grads)
+        for end, i, sign in (("first", first, 1.0), ("last", last, -1.0))
+    }
+    return _CameraStartEnd(alpha=a, spot_var=2.0 * noise**2 / ds**2, noise=noise, dtemp=dtemp)

@@ -304,33 +304,14 @@ def fit_curve(
     >>> round(c.tau_min, 6), round(c.y0, 6), round(c.a, 6), c.phase
     (45.0, 24.0, 6.0, 'cool-down')
     """
-    t = np.asarray(t_s, dtype=np.float64)
-    v = np.asarray(y, dtype=np.float64)
-    if t.ndim != 1 or t.shape != v.shape:
-        raise InputError(f"{name}: times and values must be 1-D of equal length")
+    t, v = _samples(t_s, y, name=name)
     if not (math.isfinite(flat_sigma) and flat_sigma > 0):
         raise InputError(f"{name}: flat_sigma must be > 0, got {flat_sigma}")
-    ok = np.isfinite(t) & np.isfinite(v)
-    t, v = t[ok], v[ok]
-    order = np.argsort(t, kind="stable")
-    t, v = t[order], v[order]
     n = len(t)
-    if n < MIN_SAMPLES:
-        raise InputError(
-            f"{name}: {n} finite samples, too few for a heating curve (need {MIN_SAMPLES})"
-        )
     t0 = float(t[0])
     x = t - t0
     span = float(x[-1])
-    if span <= 0:
-        raise InputError(f"{name}: all {n} samples are at one time")
-    if tau_bounds_s is None:
-        steps = np.diff(x)
-        lo_s, hi_s = float(np.median(steps[steps > 0])), span * 1e3
-    else:
-        lo_s, hi_s = tau_bounds_s
-    if not (0 < lo_s < hi_s and math.isfinite(hi_s)):
-        raise InputError(f"{name}: tau_bounds_s must satisfy 0 < low < high, got {tau_bounds_s}")
+    lo_s, hi_s = _tau_bounds(x, tau_bounds_s, name=name)
     y_mid = float(np.mean(v))
     y_range = float(np.ptp(v))
     if y_range <= 1e-12 * max(1.0, float(np.max(np.abs(v)))):
@@ -340,37 +321,7 @@ def fit_curve(
     xs = x / span
     z = (v - y_mid) / y_range
     lo, hi = lo_s / span, hi_s / span
-    guess = (float(z[-1]), float(z[0] - z[-1]), _inside(_tau_guess(xs, z), lo, hi))
-    g0, g1, gk = _grid_start(xs, z, lo, hi)
-    starts = [guess, (g0, g1, _inside(gk, lo, hi))]
-    best: tuple[float, FloatArray, FloatArray] | None = None
-    errors: list[str] = []
-    for p0 in starts:
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", OptimizeWarning)
-                popt, pcov = curve_fit(
-                    _model,
-                    xs,
-                    z,
-                    p0=p0,
-                    bounds=([-np.inf, -np.inf, lo], [np.inf, np.inf, hi]),
-                    method="trf",
-                    x_scale="jac",
-                    ftol=1e-14,
-                    xtol=1e-14,
-                    gtol=1e-14,
-                    max_nfev=2000,
-                )
-        except (RuntimeError, ValueError) as e:
-            errors.append(str(e).splitlines()[0])
-            continue
-        sse = float(np.sum((_model(xs, *popt) - z) ** 2))
-        if best is None or sse < best[0]:
-            best = (sse, np.asarray(popt), np.asarray(pcov))
-    if best is None:
-        raise InputError(f"{name}: the heating-curve fit did not converge ({'; '.join(errors)})")
-    sse, popt, pcov = best
+    sse, popt, pcov = _best_fit(xs, z, lo, hi, name=name)
     pcov = pcov * _inflation(z - _model(xs, *popt))
     c0, c1, k = (float(p) for p in popt)
     se = np.sqrt(np.clip(np.diag(pcov), 0.0, np.inf))
@@ -405,6 +356,78 @@ def fit_curve(
         phase="warm-up" if a < 0 else "cool-down",
         t0_s=t0,
     )
+
+
+def _samples(t_s: npt.ArrayLike, y: npt.ArrayLike, *, name: str) -> tuple[FloatArray, FloatArray]:
+    """The finite samples in time order; at least :data:`MIN_SAMPLES` over a time span."""
+    t = np.asarray(t_s, dtype=np.float64)
+    v = np.asarray(y, dtype=np.float64)
+    if t.ndim != 1 or t.shape != v.shape:
+        raise InputError(f"{name}: times and values must be 1-D of equal length")
+    ok = np.isfinite(t) & np.isfinite(v)
+    t, v = t[ok], v[ok]
+    order = np.argsort(t, kind="stable")
+    t, v = t[order], v[order]
+    n = len(t)
+    if n < MIN_SAMPLES:
+        raise InputError(
+            f"{name}: {n} finite samples, too few for a heating curve (need {MIN_SAMPLES})"
+        )
+    if t[-1] - t[0] <= 0:
+        raise InputError(f"{name}: all {n} samples are at one time")
+    return t, v
+
+
+def _tau_bounds(
+    x: FloatArray, tau_bounds_s: tuple[float, float] | None, *, name: str
+) -> tuple[float, float]:
+    """τ's bounds, seconds: as given, or the median sample spacing to 1000 spans."""
+    if tau_bounds_s is None:
+        steps = np.diff(x)
+        lo_s, hi_s = float(np.median(steps[steps > 0])), float(x[-1]) * 1e3
+    else:
+        lo_s, hi_s = tau_bounds_s
+    if not (0 < lo_s < hi_s and math.isfinite(hi_s)):
+        raise InputError(f"{name}: tau_bounds_s must satisfy 0 < low < high, got {tau_bounds_s}")
+    return lo_s, hi_s
+
+
+def _best_fit(
+    xs: FloatArray, z: FloatArray, lo: float, hi: float, *, name: str
+) -> tuple[float, FloatArray, FloatArray]:
+    """(SSE, parameters, covariance) of the better of two starts (the data's own guess and a
+    grid), fitted on the scaled problem with τ within [lo, hi]."""
+    guess = (float(z[-1]), float(z[0] - z[-1]), _inside(_tau_guess(xs, z), lo, hi))
+    g0, g1, gk = _grid_start(xs, z, lo, hi)
+    starts = [guess, (g0, g1, _inside(gk, lo, hi))]
+    best: tuple[float, FloatArray, FloatArray] | None = None
+    errors: list[str] = []
+    for p0 in starts:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", OptimizeWarning)
+                popt, pcov = curve_fit(
+                    _model,
+                    xs,
+                    z,
+                    p0=p0,
+                    bounds=([-np.inf, -np.inf, lo], [np.inf, np.inf, hi]),
+                    method="trf",
+                    x_scale="jac",
+                    ftol=1e-14,
+                    xtol=1e-14,
+                    gtol=1e-14,
+                    max_nfev=2000,
+                )
+        except (RuntimeError, ValueError) as e:
+            errors.append(str(e).splitlines()[0])
+            continue
+        sse = float(np.sum((_model(xs, *popt) - z) ** 2))
+        if best is None or sse < best[0]:
+            best = (sse, np.asarray(popt), np.asarray(pcov))
+    if best is None:
+        raise InputError(f"{name}: the heating-curve fit did not converge ({'; '.join(errors)})")
+    return best
 
 
 def _row(

@@ -3,7 +3,7 @@
 The work is Rust (``thermrs-core``'s ``ingest``, ``cdr``, ``centroid`` and ``thermal``
 modules): a memory-mapped, chunk-parallel MCAP walk, zero-copy CDR decoding, spot detection
 and sub-pixel centroids, thermal ROI maxima. This module turns the columns into tables, finds
-the visits (:mod:`thermrs.visits`) and writes Parquet atomically.
+the visits (:mod:`thermrs.visits`) and writes Parquet atomically (:mod:`thermrs.atomic`).
 
 Example
 -------
@@ -16,9 +16,6 @@ from __future__ import annotations
 
 import json
 import os
-import signal
-import tempfile
-import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,9 +25,12 @@ import numpy as np
 import polars as pl
 
 from thermrs import _native
+from thermrs.atomic import atomic_tmp as atomic_tmp  # atomic writes, importable from here too
+from thermrs.atomic import check_writable, write_all, write_parquet_atomic
+from thermrs.atomic import publish as publish
 from thermrs.errors import InputError, RecordingError
 from thermrs.rig import Rig, as_rig
-from thermrs.runs import DEFAULT_GAP_FACTOR, DEFAULT_MIN_GAP_S, RUNS_SCHEMA, find_runs
+from thermrs.rundetect import DEFAULT_GAP_FACTOR, DEFAULT_MIN_GAP_S, RUNS_SCHEMA, find_runs
 from thermrs.visits import DEFAULT_TOLERANCE_DEG, find_visits, with_runs
 
 __all__ = [
@@ -134,7 +134,9 @@ class Extraction:
         Raises
         ------
         InputError
-            The folder does not exist or a file cannot be written there.
+            The folder does not exist.
+        OutputError
+            A file cannot be written there (naming it); nothing this call wrote is left.
 
         Notes
         -----
@@ -154,30 +156,12 @@ class Extraction:
         meta = {LOSS_KEY: json.dumps(self.report.losses)}
         # All or nothing: every table to a temporary file first, then the renames; an error or
         # Ctrl-C on the way removes what this call wrote.
-        tmps: dict[str, Path] = {}
-        published: list[Path] = []
-        held = _hold_interrupts()  # no Ctrl-C between creating a temporary and knowing it
-        try:
-            for name, path in paths.items():
-                tmps[name] = atomic_tmp(path)
-            _release_interrupts(held)  # a Ctrl-C pending since lands here, inside the try
-            for name, path in paths.items():
-                try:
-                    getattr(self, name).write_parquet(tmps[name], metadata=meta)
-                except (OSError, pl.exceptions.PolarsError) as e:
-                    raise _write_failed(e, path) from None
-            for name, path in paths.items():
-                publish(tmps[name], path)
-                published.append(path)
-        except BaseException:
-            for t in tmps.values():
-                t.unlink(missing_ok=True)
-            for p in published:
-                p.unlink(missing_ok=True)
-            raise
-        finally:
-            _release_interrupts(held)
+        write_all({path: self._parquet_writer(name, meta) for name, path in paths.items()})
         return paths
+
+    def _parquet_writer(self, name: str, meta: dict[str, str]) -> Callable[[Path], None]:
+        table: pl.DataFrame = getattr(self, name)
+        return lambda tmp: table.write_parquet(tmp, metadata=meta)
 
 
 #: Parquet key-value metadata key of the losses of the recording a table was extracted from
@@ -222,177 +206,6 @@ def data_loss(path: str | Path) -> list[dict[str, Any]]:
     except ValueError:
         return [{"kind": "unknown", "offset": 0, "bytes": 0, "detail": str(raw)}]
     return [x for x in losses if isinstance(x, dict)] if isinstance(losses, list) else []
-
-
-def _write_failed(e: BaseException, path: Path) -> OSError:
-    """A failed write (a full disk: not bad input, the CLI exits 1) as an ``OSError`` naming
-    ``path``: the operating system's error as it is, or polars' (which loses the errno)."""
-    if isinstance(e, OSError):
-        return OSError(e.errno, e.strerror or str(e), str(path))
-    first = str(e).strip().splitlines()
-    return OSError(f"cannot write {path}: {first[0] if first else type(e).__name__}")
-
-
-def write_parquet_atomic(
-    df: pl.DataFrame, path: str | Path, *, metadata: dict[str, str] | None = None
-) -> None:
-    """Write ``df`` to ``path`` through a temporary file in the same folder, then rename: a
-    reader never sees a half-written file, and a failure leaves the old file in place.
-
-    Parameters
-    ----------
-    df
-        The table.
-    path
-        Where to write it; its folder must exist (it is not created).
-    metadata
-        Parquet key-value metadata to store with the table.
-
-    Raises
-    ------
-    InputError
-        The folder does not exist or takes no new file.
-    OSError
-        Writing failed (a full disk, say); the message names ``path``; nothing is left behind.
-
-    Examples
-    --------
-    >>> import polars as pl
-    >>> from thermrs.ingest import write_parquet_atomic
-    >>> write_parquet_atomic(pl.DataFrame({"x": [1]}), "out/x.parquet")  # doctest: +SKIP
-    """
-    path = Path(path)
-    held = _hold_interrupts()
-    tmp: Path | None = None
-    try:
-        tmp = atomic_tmp(path)
-        _release_interrupts(held)
-        try:
-            df.write_parquet(tmp, metadata=metadata)
-        except (OSError, pl.exceptions.PolarsError) as e:
-            raise _write_failed(e, path) from None
-        publish(tmp, path)
-    except BaseException:
-        if tmp is not None:
-            tmp.unlink(missing_ok=True)
-        raise
-    finally:
-        _release_interrupts(held)
-
-
-def check_writable(path: str | Path, *, what: str = "output") -> Path:
-    """Check, before any work, that ``path`` can be written atomically: its folder exists and
-    takes a new file, and ``path`` itself is not a folder.
-
-    Parameters
-    ----------
-    path
-        The file to be written.
-    what
-        How messages name it (e.g. ``"-o"``).
-
-    Returns
-    -------
-    Path
-        ``path``.
-
-    Raises
-    ------
-    InputError
-        One line naming ``path`` and what is wrong.
-
-    Examples
-    --------
-    >>> from thermrs.ingest import check_writable
-    >>> check_writable("/no/such/folder/x.parquet", what="-o")  # doctest: +ELLIPSIS
-    Traceback (most recent call last):
-    ...
-    thermrs._native.InputError: -o ...: folder /no/such/folder does not exist (create it first)
-    """
-    path = Path(path)
-    if path.is_dir():
-        raise InputError(f"{what} {path}: is a directory, expected a file name")
-    parent = path.parent
-    if not parent.exists():
-        raise InputError(f"{what} {path}: folder {parent} does not exist (create it first)")
-    if not parent.is_dir():
-        raise InputError(f"{what} {path}: {parent} is not a folder")
-    # An unnamed file (O_TMPFILE where the filesystem has it): nothing is left behind when
-    # Ctrl-C lands here, as it could between creating and removing a named one.
-    try:
-        with tempfile.TemporaryFile(dir=parent):
-            pass
-    except OSError as e:
-        raise InputError(f"{what} {path}: {e.strerror or e} (in {parent})") from None
-    return path
-
-
-def atomic_tmp(path: Path, *, what: str = "cannot write") -> Path:
-    """A fresh temporary file beside ``path`` (same filesystem, so the rename is atomic).
-
-    Raises
-    ------
-    InputError
-        The folder does not exist or does not take a new file.
-    """
-    if not path.parent.is_dir():
-        raise InputError(f"{what} {path}: folder {path.parent} does not exist (create it first)")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    except OSError as e:
-        raise InputError(f"{what} {path}: {e.strerror or e} (in {path.parent})") from None
-    os.close(fd)
-    return Path(tmp)
-
-
-class _Held:
-    """SIGINT deferred: the handler to restore and whether one arrived meanwhile."""
-
-    def __init__(self, previous: Any) -> None:
-        self.previous = previous
-        self.pending = False
-        self.active = True
-
-    def defer(self, signum: int, frame: object) -> None:
-        self.pending = True
-
-
-def _hold_interrupts() -> _Held | None:
-    """Defer Ctrl-C (in the main thread, where Python runs signal handlers).
-
-    Between creating a temporary file and entering the ``try`` that removes it, a Ctrl-C would
-    leave it behind: creation happens with SIGINT deferred, and :func:`_release_interrupts`
-    inside the ``try`` raises a deferred one where the cleanup sees it. (Blocking the signal
-    in this thread would not do: the kernel hands a process-directed SIGINT to another thread,
-    and Python still runs the handler here.)"""
-    if threading.current_thread() is not threading.main_thread():
-        return None
-    previous = signal.getsignal(signal.SIGINT)
-    if not callable(previous):  # ignored or default: nothing of Python's to defer
-        return None
-    held = _Held(previous)
-    signal.signal(signal.SIGINT, held.defer)
-    return held
-
-
-def _release_interrupts(held: _Held | None) -> None:
-    """Restore the handler :func:`_hold_interrupts` replaced and deliver a deferred Ctrl-C to
-    it (idempotent)."""
-    if held is None or not held.active:
-        return
-    held.active = False
-    signal.signal(signal.SIGINT, held.previous)
-    if held.pending:
-        held.previous(signal.SIGINT, None)
-
-
-def publish(tmp: Path, path: Path) -> None:
-    """Give ``tmp`` the permissions a newly created file gets (mkstemp makes it private),
-    then rename it onto ``path`` in one step."""
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(tmp, 0o666 & ~mask)
-    os.replace(tmp, path)
 
 
 def extract(
@@ -472,66 +285,8 @@ def extract(
         threshold_sigma=threshold_sigma,
         verify_crc=verify_crc,
     )
-    statuses = _native.status_names()
-    cam_names = [c.name for c in rig.cameras]
-    frames = pl.DataFrame(
-        {k: v for k, v in frames_c.items() if k not in ("camera", "status")}
-    ).with_columns(
-        camera=pl.Series(np.asarray(cam_names, dtype=object)[frames_c["camera"]], dtype=pl.String)
-        if len(frames_c["camera"])
-        else pl.Series([], dtype=pl.String),
-        status=pl.Series(np.asarray(statuses, dtype=object)[frames_c["status"]], dtype=pl.String)
-        if len(frames_c["status"])
-        else pl.Series([], dtype=pl.String),
-    )
-    # No spot (or an invalid frame): null, not NaN, in every measured column.
-    frames = frames.with_columns(pl.col(pl.Float64).fill_nan(None))
-    frames = _with_chip_um(frames, rig).sort("camera", "t_ns")
-    frames = frames.select(
-        "camera",
-        "t_ns",
-        "x_px",
-        "y_px",
-        "u_um",
-        "v_um",
-        "status",
-        "peak",
-        "signal",
-        "size_px",
-        "background",
-        "noise",
-    )
-
-    roi_names = [r.name for r in rig.rois]
-    thermal = pl.DataFrame(
-        {
-            "t_ns": thermal_c["t_ns"],
-            "name": pl.Series(
-                np.asarray(roi_names, dtype=object)[thermal_c["roi"]]
-                if len(thermal_c["roi"])
-                else [],
-                dtype=pl.String,
-            ),
-            "temperature_c": thermal_c["max_c"],
-            "peak_c": thermal_c["peak_c"],
-            "x_px": thermal_c["x_px"].astype(np.int32),
-            "y_px": thermal_c["y_px"].astype(np.int32),
-        },
-        schema_overrides={"t_ns": pl.Int64},
-    )
-    ambient = pl.DataFrame(
-        {
-            "t_ns": ambient_c["t_ns"],
-            "name": pl.Series(["ambient"] * len(ambient_c["t_ns"]), dtype=pl.String),
-            "temperature_c": ambient_c["temperature_c"],
-            "peak_c": ambient_c["temperature_c"],
-            "x_px": pl.Series([None] * len(ambient_c["t_ns"]), dtype=pl.Int32),
-            "y_px": pl.Series([None] * len(ambient_c["t_ns"]), dtype=pl.Int32),
-        },
-        schema_overrides={"t_ns": pl.Int64},
-    )
-    temperatures = pl.concat([thermal, ambient]).sort("t_ns", "name")
-
+    frames = _frames_table(frames_c, rig)
+    temperatures = _temperatures_table(thermal_c, ambient_c, rig)
     pos = joints_c["position"]
     joints = pl.DataFrame(
         {"t_ns": joints_c["t_ns"], **{n: pos[:, i] for i, n in enumerate(rig.joint_names)}},
@@ -556,6 +311,70 @@ def extract(
         report=report,
         runs=runs,
     )
+
+
+def _labels(names: list[str], codes: np.ndarray) -> pl.Series:
+    """Names for the core's integer codes (camera, status, ROI), as a string column."""
+    if not len(codes):
+        return pl.Series([], dtype=pl.String)
+    return pl.Series(np.asarray(names, dtype=object)[codes], dtype=pl.String)
+
+
+def _frames_table(frames_c: dict[str, np.ndarray], rig: Rig) -> pl.DataFrame:
+    """The frames table from the core's columns: names for codes, chip µm, nulls for no spot."""
+    frames = pl.DataFrame(
+        {k: v for k, v in frames_c.items() if k not in ("camera", "status")}
+    ).with_columns(
+        camera=_labels([c.name for c in rig.cameras], frames_c["camera"]),
+        status=_labels(_native.status_names(), frames_c["status"]),
+    )
+    # No spot (or an invalid frame): null, not NaN, in every measured column.
+    frames = frames.with_columns(pl.col(pl.Float64).fill_nan(None))
+    frames = _with_chip_um(frames, rig).sort("camera", "t_ns")
+    return frames.select(
+        "camera",
+        "t_ns",
+        "x_px",
+        "y_px",
+        "u_um",
+        "v_um",
+        "status",
+        "peak",
+        "signal",
+        "size_px",
+        "background",
+        "noise",
+    )
+
+
+def _temperatures_table(
+    thermal_c: dict[str, np.ndarray], ambient_c: dict[str, np.ndarray], rig: Rig
+) -> pl.DataFrame:
+    """ROI maxima and peaks beside the ambient readings, one row per reading."""
+    thermal = pl.DataFrame(
+        {
+            "t_ns": thermal_c["t_ns"],
+            "name": _labels([r.name for r in rig.rois], thermal_c["roi"]),
+            "temperature_c": thermal_c["max_c"],
+            "peak_c": thermal_c["peak_c"],
+            "x_px": thermal_c["x_px"].astype(np.int32),
+            "y_px": thermal_c["y_px"].astype(np.int32),
+        },
+        schema_overrides={"t_ns": pl.Int64},
+    )
+    n = len(ambient_c["t_ns"])
+    ambient = pl.DataFrame(
+        {
+            "t_ns": ambient_c["t_ns"],
+            "name": pl.Series(["ambient"] * n, dtype=pl.String),
+            "temperature_c": ambient_c["temperature_c"],
+            "peak_c": ambient_c["temperature_c"],
+            "x_px": pl.Series([None] * n, dtype=pl.Int32),
+            "y_px": pl.Series([None] * n, dtype=pl.Int32),
+        },
+        schema_overrides={"t_ns": pl.Int64},
+    )
+    return pl.concat([thermal, ambient]).sort("t_ns", "name")
 
 
 def _check_rig_matches(path: Path, rig: Rig, rep: dict[str, Any]) -> None:

@@ -24,8 +24,8 @@ from typing import Any
 import polars as pl
 
 from thermrs import _native
+from thermrs.atomic import write_atomic, write_json, write_parquet_atomic
 from thermrs.errors import InputError
-from thermrs.ingest import atomic_tmp, publish, write_parquet_atomic
 from thermrs.rig import Rig, as_rig
 
 __all__ = ["Simulation", "simulate"]
@@ -77,12 +77,12 @@ def simulate(
     ScenarioError
         The scenario does not parse or validate (the message names the line and key).
     InputError
-        The scenario file cannot be read; ``out``'s folder does not exist or cannot be
-        written; the scenario does not fit the rig (e.g. an effect names a camera it does
-        not have); ``seed`` is out of range.
-    OSError
-        The recording cannot be written (a full disk, say): the message names ``out``; nothing
-        is left behind.
+        The scenario file cannot be read; ``out``'s folder does not exist; the scenario does
+        not fit the rig (e.g. an effect names a camera it does not have); ``seed`` is out of
+        range.
+    OutputError
+        The recording cannot be written (a read-only folder, a full disk): an ``OSError``
+        naming ``out`` with the system's errno; nothing is left behind.
     KeyboardInterrupt
         Ctrl-C (checked every few milliseconds); nothing is left behind.
 
@@ -112,18 +112,15 @@ def simulate(
     except OSError as e:
         raise InputError(f"scenario {scenario}: cannot read it ({e.strerror or e})") from None
     _check_default_nodes(text, scenario, rig)
-    tmp = atomic_tmp(out)
-    try:
-        try:
-            cols, sc_json = _native.simulate(
-                rig._native, text, str(tmp), source_name=str(scenario), seed=seed
-            )
-        except OSError as e:  # a failed write: name the file asked for, not the temporary
-            raise OSError(e.errno, e.strerror or str(e), str(out)) from None
-        publish(tmp, out)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    result: list[Any] = []
+
+    def record(tmp: Path) -> None:  # a failed write names the file asked for, not the temporary
+        result.extend(
+            _native.simulate(rig._native, text, str(tmp), source_name=str(scenario), seed=seed)
+        )
+
+    write_atomic(out, record)
+    cols, sc_json = result
     cams = [c.name for c in rig.cameras]
     runs = [r["name"] for r in json.loads(sc_json)["run"]]
     frames = pl.DataFrame(
@@ -151,10 +148,7 @@ def simulate(
     write_parquet_atomic(frames, out.with_name(f"{stem}.truth.parquet"))
     write_parquet_atomic(samples, out.with_name(f"{stem}.truth-samples.parquet"))
     doc = json.loads(sc_json)
-    json_path = out.with_name(f"{stem}.truth.json")
-    tmp_json = atomic_tmp(json_path)
-    tmp_json.write_text(json.dumps(doc, indent=2))
-    publish(tmp_json, json_path)
+    write_json(out.with_name(f"{stem}.truth.json"), doc)
     return Simulation(recording=out, frames=frames, samples=samples, scenario=doc)
 
 

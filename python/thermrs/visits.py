@@ -21,7 +21,7 @@ import math
 import polars as pl
 
 from thermrs.rig import Rig
-from thermrs.runs import label_runs
+from thermrs.rundetect import label_runs
 
 __all__ = [
     "DEFAULT_MAX_GAP_S",

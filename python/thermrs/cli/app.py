@@ -106,7 +106,7 @@ def main(argv: list[str] | None = None) -> None:
     Anything unexpected (a Python exception, or a Rust panic: pyo3's ``PanicException`` is a
     ``BaseException``) exits 1 with one line; ``THERMRS_DEBUG=1`` adds the traceback.
     """
-    from thermrs.errors import InternalError
+    from thermrs.errors import InternalError, OutputError
 
     if _EARLY and signal.getsignal(signal.SIGINT) is _interrupted_early:
         # From here Ctrl-C raises KeyboardInterrupt, so that whatever is being written is
@@ -130,6 +130,9 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(EXIT_BAD_INPUT)
     except (click.exceptions.Abort, KeyboardInterrupt, _Interrupted):
         _exit_interrupted()
+    except OutputError as e:  # an output the system would not take (full disk): exit 1
+        click.echo(f"thermrs: error: {e}", err=True)
+        sys.exit(EXIT_INTERNAL)
     except InternalError as e:  # a panic in the core, caught by the bindings: exit 1
         if _debug():
             traceback.print_exc()

@@ -6,13 +6,12 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import tomli_w
 
+from thermrs.atomic import write_text as write_text_atomic
 from thermrs.design.candidates import Candidate
-from thermrs.ingest import atomic_tmp, publish
 from thermrs.rig import Rig
 
 __all__ = ["rig_dict", "rig_toml", "scenario_toml", "write_text_atomic"]
@@ -90,14 +89,3 @@ def scenario_toml(
     if effects:
         d["effect"] = [dict(e) for e in effects]
     return tomli_w.dumps(_clean(d))
-
-
-def write_text_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically."""
-    tmp = atomic_tmp(path)
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        publish(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise

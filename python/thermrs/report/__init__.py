@@ -34,8 +34,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from thermrs.atomic import write_atomic, write_dir, write_text
 from thermrs.errors import InputError
-from thermrs.report.data import RunInput, Step, gather, load_run, load_runs, run_from_extraction
+from thermrs.report.blocks import Paragraph, Section
+from thermrs.report.data import (
+    ReportData,
+    RunInput,
+    Step,
+    gather,
+    load_run,
+    load_runs,
+    run_from_extraction,
+)
+from thermrs.report.document import compose
+from thermrs.report.render import to_html, to_markdown
 from thermrs.rig import Rig
 
 __all__ = [
@@ -68,12 +80,6 @@ def _version() -> str:
         return version("thermrs")
     except PackageNotFoundError:  # pragma: no cover - running from a source tree
         return "unknown"
-
-
-def _atomic_text(path: Path, text: str) -> None:
-    from thermrs.atomic import write_text
-
-    write_text(path, text)
 
 
 def write_report(
@@ -125,9 +131,6 @@ def write_report(
         No runs, a training run that is not given, two runs of one name, or (``pdf``) no
         Chromium to print with.
     """
-    from thermrs.report.document import Paragraph, compose
-    from thermrs.report.render import to_html, to_markdown
-
     out = Path(out)
     if pdf and find_chromium() is None:
         raise InputError("--pdf needs Chromium (`chromium` on PATH, or THERMRS_CHROMIUM)")
@@ -140,52 +143,66 @@ def write_report(
         paper_reference=paper_reference,
         step=step,
     )
-    if step is not None:
-        step("drawing figures")
+    _say(step, "drawing figures")
     sections = compose(data)
     if intro:
         sections[0].blocks.insert(0, Paragraph(intro))
-    meta = (
-        f"thermrs {_version()} · rig {Path(rig.source).name} · "
-        f"runs {', '.join(r.name for r in runs)} · "
-        f"α fitted on {', '.join(data.train)}"
-        + (f", held out {', '.join(data.holdout)}" if data.holdout else "")
-    )
-    if step is not None:
-        step("writing the report")
+    meta = _meta(data)
+    _say(step, "writing the report")
     text = to_html(sections, title=data.title, meta=meta)
-    _atomic_text(out, text)
-    md_path = None
-    figures: dict[str, Path] = {}
-    if markdown:
-        stem = out.name[: -len(".html")] if out.name.endswith(".html") else out.name
-        md_path = out.with_name(f"{stem}.md")
-        fig_dir = out.with_name(f"{stem}_files")
-        staging = Path(tempfile.mkdtemp(prefix=f".{stem}_files.", dir=out.parent))
-        try:
-            md, written = to_markdown(
-                sections, title=data.title, meta=meta, fig_dir=staging, rel=fig_dir.name
-            )
-            if fig_dir.exists():
-                shutil.rmtree(fig_dir)
-            staging.rename(fig_dir)
-            mask = os.umask(0)
-            os.umask(mask)
-            os.chmod(fig_dir, 0o777 & ~mask)  # mkdtemp makes it private
-        except BaseException:
-            shutil.rmtree(staging, ignore_errors=True)
-            raise
-        figures = {k: fig_dir / v.name for k, v in written.items()}
-        _atomic_text(md_path, md)
+    write_text(out, text)
+    md_path, figures = _write_markdown(out, sections, data, meta) if markdown else (None, {})
     pdf_path = None
     if pdf:
-        if step is not None:
-            step("printing to PDF")
-        pdf_path = out.with_suffix(".pdf")
-        print_pdf(out, pdf_path)
+        _say(step, "printing to PDF")
+        pdf_path = print_pdf(out, out.with_suffix(".pdf"))
     return Written(
         html=out, markdown=md_path, figures=figures, pdf=pdf_path, html_bytes=len(text.encode())
     )
+
+
+def _say(step: Step | None, what: str) -> None:
+    if step is not None:
+        step(what)
+
+
+def _meta(data: ReportData) -> str:
+    """The line under the title: version, rig, runs, which were fitted and held out."""
+    return (
+        f"thermrs {_version()} · rig {Path(data.rig.source).name} · "
+        f"runs {', '.join(r.name for r in data.runs)} · "
+        f"α fitted on {', '.join(data.train)}"
+        + (f", held out {', '.join(data.holdout)}" if data.holdout else "")
+    )
+
+
+def _write_markdown(
+    out: Path, sections: list[Section], data: ReportData, meta: str
+) -> tuple[Path, dict[str, Path]]:
+    """The Markdown twin ``OUT.md`` with its figures in ``OUT_files/`` (written whole)."""
+    stem = out.name[: -len(".html")] if out.name.endswith(".html") else out.name
+    md_path = out.with_name(f"{stem}.md")
+    fig_dir = out.with_name(f"{stem}_files")
+    rendered: list[tuple[str, dict[str, Path]]] = []
+
+    def draw(staging: Path) -> None:
+        rendered.append(
+            to_markdown(sections, title=data.title, meta=meta, fig_dir=staging, rel=fig_dir.name)
+        )
+
+    write_dir(fig_dir, draw)
+    md, written = rendered[0]
+    write_text(md_path, md)
+    return md_path, {k: fig_dir / v.name for k, v in written.items()}
+
+
+def _run(argv: list[str], **kw: Any) -> subprocess.CompletedProcess[str]:
+    """Run Chromium; one that cannot be started is bad input (``THERMRS_CHROMIUM``), not a
+    failed write."""
+    try:
+        return subprocess.run(argv, **kw)
+    except OSError as e:
+        raise InputError(f"cannot run Chromium {argv[0]}: {e.strerror or e}") from None
 
 
 def find_chromium() -> str | None:
@@ -204,16 +221,14 @@ def find_chromium() -> str | None:
 def print_pdf(html_path: str | Path, pdf_path: str | Path, *, timeout_s: float = 120.0) -> Path:
     """Print an HTML file to PDF with headless Chromium (A4, backgrounds, no header/footer),
     written atomically."""
-    from thermrs.ingest import atomic_tmp, publish
-
     exe = find_chromium()
     if exe is None:
         raise InputError("printing to PDF needs Chromium (`chromium` on PATH, or THERMRS_CHROMIUM)")
     html_path, pdf_path = Path(html_path).resolve(), Path(pdf_path)
-    tmp = atomic_tmp(pdf_path)
-    try:
+
+    def chromium_print(tmp: Path) -> None:
         with tempfile.TemporaryDirectory(prefix="thermrs-chromium-") as profile:
-            p = subprocess.run(
+            p = _run(
                 [
                     exe,
                     "--headless",
@@ -233,8 +248,6 @@ def print_pdf(html_path: str | Path, pdf_path: str | Path, *, timeout_s: float =
         if p.returncode != 0 or tmp.stat().st_size == 0:
             last = (p.stderr.strip().splitlines() or ["no output"])[-1]
             raise InputError(f"Chromium could not print {html_path} to PDF: {last}")
-        publish(tmp, pdf_path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+
+    write_atomic(pdf_path, chromium_print)
     return pdf_path

@@ -278,7 +278,7 @@ class ReportData:
     #: With an identified effect: the held-out runs predicted by the nominal model and by the
     #: diagnosed one (:func:`thermrs.compensate.shrink_table`), else None.
     diagnosed_prediction: pl.DataFrame | None = None
-    #: With an ambiguous diagnosis: the experiment that settles it (:mod:`.design_section`).
+    #: With an ambiguous diagnosis: the experiment that settles it (:mod:`.sections.design`).
     design_section: Any | None = None
     design_note: str | None = None
     notes: list[str] = field(default_factory=list)
@@ -366,24 +366,12 @@ def gather(
     """
     from thermrs.heating import heating_curves
     from thermrs.iso9283 import iso9283
-    from thermrs.predict import predict, prediction_table
-    from thermrs.workflows import fit_document, training_alphas
 
     def say(what: str) -> None:
         if step is not None:
             step(what)
 
-    if not runs:
-        raise InputError("no run to report on")
-    names = [r.name for r in runs]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise InputError(f"runs {dup} are given twice (every run needs its own name)")
-    train_names = list(train) if train else [names[0]]
-    unknown = [n for n in train_names if n not in names]
-    if unknown:
-        raise InputError(f"training run(s) {unknown} are not among the runs {names}")
-    holdout_names = [n for n in names if n not in train_names]
+    train_names, holdout_names = _roles(runs, train)
     by = {r.name: r for r in runs}
     tr = [by[n].table for n in train_names]
     ho = [by[n].table for n in holdout_names]
@@ -392,54 +380,17 @@ def gather(
     rig_view = rig.check()
 
     say("fitting α")
-    fit_doc: dict[str, Any] | None = None
-    alphas: dict[str, float] = {}
-    prediction: pl.DataFrame | None = None
-    series: pl.DataFrame | None = None
-    fit_note: str | None = None
-    in_sample = not ho
-    try:
-        result = fit_document(tr, rig)
-        f = result.fit
-        fit_doc = result.to_json()
-        alphas.update(training_alphas(result))
-        say("predicting")
-        targets = ho if ho else tr
-        # The paper compares drift along its cameras' y axis (v): so does its demo.
-        axis = "v" if paper_reference else "auto"
-        prediction = prediction_table(targets, rig, alphas=alphas, axis=axis)
-        series = predict(pl.concat(targets, how="diagonal_relaxed"), rig, alpha_per_k=f.alpha_per_k)
-    except InputError as e:
-        fit_note = f"α could not be fitted, so nothing was predicted: {e}."
+    fitted = _fit_and_predict(tr, ho, rig, paper_reference=paper_reference, say=say)
 
     say("fitting heating curves")
     every = pl.concat([r.table for r in runs], how="diagonal_relaxed")
     curves = heating_curves(every)
     iso = iso9283(every, window=ISO_WINDOW, tolerance_um=ISO_TOLERANCE_UM)
 
-    note = None
-    diag = diagnosis
+    diag, note = diagnosis, None
     if diag is None:
-        if fit_note is not None:
-            note = "No diagnosis: " + fit_note
-        elif not ho:
-            note = (
-                "One run only: a diagnosis needs runs held out from the fit, so none was made. "
-                "Give more runs to diagnose where the nominal model falls short."
-            )
-        else:
-            say("diagnosing")
-            diag, note = _diagnose(tr, ho, rig)
-    diagnosed = None
-    if diag is not None and ho:
-        from thermrs.compensate import diagnosed_model, predict_series, shrink_table
-
-        try:
-            model = diagnosed_model(diagnosis_json(diag), rig)
-        except InputError:  # a diagnosis without the effect's α: nothing to predict with
-            model = None
-        if model is not None and model.effects:
-            diagnosed = shrink_table(predict_series(ho, rig, model))
+        diag, note = _diagnosis(tr, ho, rig, fitted.note, say)
+    diagnosed = _diagnosed_prediction(diag, ho, rig) if diag is not None and ho else None
     design_sec, design_note = _design(tr, ho, rig, diag, say) if diag is not None else (None, None)
 
     return ReportData(
@@ -448,12 +399,12 @@ def gather(
         runs=list(runs),
         train=train_names,
         holdout=holdout_names,
-        fit=fit_doc,
-        fit_note=fit_note,
-        alphas=alphas,
-        prediction=prediction,
-        prediction_in_sample=in_sample,
-        series=series,
+        fit=fitted.doc,
+        fit_note=fitted.note,
+        alphas=fitted.alphas,
+        prediction=fitted.prediction,
+        prediction_in_sample=not ho,
+        series=fitted.series,
         curves=curves,
         iso=iso.to_json(),
         iso_windows=iso.windows,
@@ -468,6 +419,95 @@ def gather(
     )
 
 
+def _roles(runs: Sequence[RunInput], train: Sequence[str] | None) -> tuple[list[str], list[str]]:
+    """The names of the training runs (default: the first) and of the held-out ones."""
+    if not runs:
+        raise InputError("no run to report on")
+    names = [r.name for r in runs]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise InputError(f"runs {dup} are given twice (every run needs its own name)")
+    train_names = list(train) if train else [names[0]]
+    unknown = [n for n in train_names if n not in names]
+    if unknown:
+        raise InputError(f"training run(s) {unknown} are not among the runs {names}")
+    return train_names, [n for n in names if n not in train_names]
+
+
+@dataclass
+class _Fitted:
+    """α fitted on the training runs and what it predicts (or why nothing was)."""
+
+    doc: dict[str, Any] | None = None
+    alphas: dict[str, float] = field(default_factory=dict)
+    prediction: pl.DataFrame | None = None
+    series: pl.DataFrame | None = None
+    note: str | None = None
+
+
+def _fit_and_predict(
+    tr: list[pl.DataFrame],
+    ho: list[pl.DataFrame],
+    rig: Rig,
+    *,
+    paper_reference: bool,
+    say: Callable[[str], object],
+) -> _Fitted:
+    """α on the training runs; the held-out runs (else the training runs) predicted with it."""
+    from thermrs.predict import predict, prediction_table
+    from thermrs.workflows import fit_document, training_alphas
+
+    out = _Fitted()
+    try:
+        result = fit_document(tr, rig)
+        f = result.fit
+        out.doc = result.to_json()
+        out.alphas.update(training_alphas(result))
+        say("predicting")
+        targets = ho if ho else tr
+        # The paper compares drift along its cameras' y axis (v): so does its demo.
+        axis = "v" if paper_reference else "auto"
+        out.prediction = prediction_table(targets, rig, alphas=out.alphas, axis=axis)
+        out.series = predict(
+            pl.concat(targets, how="diagonal_relaxed"), rig, alpha_per_k=f.alpha_per_k
+        )
+    except InputError as e:
+        out.note = f"α could not be fitted, so nothing was predicted: {e}."
+    return out
+
+
+def _diagnosis(
+    tr: list[pl.DataFrame],
+    ho: list[pl.DataFrame],
+    rig: Rig,
+    fit_note: str | None,
+    say: Callable[[str], object],
+) -> tuple[Any | None, str | None]:
+    """A diagnosis made here, or why none was."""
+    if fit_note is not None:
+        return None, "No diagnosis: " + fit_note
+    if not ho:
+        return None, (
+            "One run only: a diagnosis needs runs held out from the fit, so none was made. "
+            "Give more runs to diagnose where the nominal model falls short."
+        )
+    say("diagnosing")
+    return _diagnose(tr, ho, rig)
+
+
+def _diagnosed_prediction(diag: Any, ho: list[pl.DataFrame], rig: Rig) -> pl.DataFrame | None:
+    """The held-out runs predicted by the nominal and the diagnosed model (with an effect)."""
+    from thermrs.compensate import diagnosed_model, predict_series, shrink_table
+
+    try:
+        model = diagnosed_model(diagnosis_json(diag), rig)
+    except InputError:  # a diagnosis without the effect's α: nothing to predict with
+        return None
+    if model is None or not model.effects:
+        return None
+    return shrink_table(predict_series(ho, rig, model))
+
+
 def _design(
     train: list[pl.DataFrame],
     holdout: list[pl.DataFrame],
@@ -479,7 +519,7 @@ def _design(
     doc = diagnosis_json(diag)
     if (doc.get("verdict") or {}).get("status") != "ambiguous":
         return None, None
-    from thermrs.report.design_section import section_for
+    from thermrs.report.sections.design import section_for
 
     say("designing the experiment that settles it")
     try:

@@ -12,7 +12,7 @@ import re
 from collections.abc import Sequence
 from pathlib import Path
 
-from thermrs.report.document import Figure, Missing, Paragraph, Section, Table
+from thermrs.report.blocks import Figure, Missing, Paragraph, Section, Table
 
 __all__ = ["to_html", "to_markdown"]
 
