@@ -161,7 +161,10 @@ def writable(path: Path | None, option: str, *, suffixes: Sequence[str] = ()) ->
     Raises
     ------
     InputError
-        One line naming the option, the path and what is wrong.
+        One line naming the option, the path and what is wrong (bad input: exit 2).
+    OutputError
+        The folder exists but takes no new file (no permission, a read-only or full disk):
+        a write failure, exit 1.
     """
     if path is None:
         return
