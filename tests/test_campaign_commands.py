@@ -314,6 +314,14 @@ def test_report_from_the_catalog_is_the_report_of_the_files(
         return text.split("## What extraction")[0]
 
     assert body(tmp_path / "a.md", got[1].name) == body(tmp_path / "b.md", "r1#run1")
+
+    # The extraction's own report, kept in the catalog, is the recording's: the same lines
+    # but for the section's title (where the run came from).
+    def extraction(md: Path, name: str) -> list[str]:
+        return md.read_text().replace(name, "RUN").split("## What extraction")[1].splitlines()[3:]
+
+    assert extraction(tmp_path / "a.md", got[1].name) == extraction(tmp_path / "b.md", "r1#run1")
+    assert any(line.startswith("Read ") for line in extraction(tmp_path / "a.md", "RUN"))
     # The library face writes the same report.
     thermrs.campaigns.report(camp["ds"], rig, tmp_path / "c.html", runs=[got[1].name])
     assert body(tmp_path / "c.md", got[1].name) == body(tmp_path / "b.md", "r1#run1")

@@ -56,6 +56,9 @@ CATALOG_SCHEMA: dict[str, Any] = {
     "thermrs_version": pl.String,
     "options": pl.String,
     "extracted_at": pl.String,
+    #: The extraction's whole report as JSON (:class:`thermrs.ingest.ExtractReport`: messages
+    #: read per topic, skipped and why, losses); null in datasets written before it was kept.
+    "report": pl.String,
 }
 
 

@@ -12,6 +12,7 @@ leaves an orphan, removed at the campaign's end, and only the client commits.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -131,6 +132,7 @@ def run_job(job: Job) -> dict[str, Any]:
         "thermrs_version": job.thermrs_version,
         "options": job.options,
         "extracted_at": datetime.now(UTC).isoformat(timespec="seconds"),
+        "report": json.dumps(dataclasses.asdict(ex.report)),
     }
     done = {"status": "extracted", "path": job.path, "row": row}
     if reachable(job.stage, job.token):

@@ -5,11 +5,13 @@ named ``<recording>#<run>`` (:mod:`thermrs.campaigns.inputs`)."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
 from typing import Any
 
 import polars as pl
 
+from thermrs.ingest import ExtractReport
 from thermrs.report.data import RunInput
 from thermrs.rig import Rig
 
@@ -53,6 +55,7 @@ def load_campaign_runs(
         return (lf.select(*cols) if cols else lf).collect()
 
     temps, joints = scan("temperatures"), scan("joints", "recording", "t_ns")
+    reports = _extract_reports(ds, recs)
     frames = scan("frames", "recording", "t_ns", "status")
     out = []
     for r, t in zip(runs.iter_rows(named=True), tables, strict=True):
@@ -72,6 +75,7 @@ def load_campaign_runs(
                 temperatures=cut(temps).drop("recording", "run"),
                 joints=cut(joints).height,
                 frames_by_status={str(k): int(v) for k, v in counts},
+                extract_report=reports.get(str(r["recording"])),
                 data_loss=bool(r["losses"]),
                 recording=str(r["recording"]),
             )
@@ -116,3 +120,14 @@ def campaign_report_runs(
     else:
         names = []
     return load_campaign_runs(ds, rig, where=where, names=names), train_names
+
+
+def _extract_reports(ds: Any, recordings: Sequence[str]) -> dict[str, ExtractReport]:
+    """Each recording's extraction report as the catalog keeps it (one object per recording,
+    shared by its runs; none for datasets written before the catalog kept it)."""
+    cat = ds.catalog().filter(pl.col("recording").is_in(list(recordings)))
+    return {
+        str(rid): ExtractReport(**json.loads(text))
+        for rid, text in cat.select("recording", "report").iter_rows()
+        if text
+    }
