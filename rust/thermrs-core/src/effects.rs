@@ -23,9 +23,9 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::error::{Error, NameKind, Result, UnknownName};
 use crate::model::{JointOffset, LaserTilt, ModelParams};
-use crate::rig::{LengthRef, Rig};
+use crate::rig::{LengthRef, Rig, AMBIENT};
 
 /// Effect names of SPEC §6 (the contract), in the SPEC's order.
 pub const EFFECT_NAMES: [&str; 8] = [
@@ -334,83 +334,88 @@ impl Effect {
     /// The names an effect uses exist in `rig`: cameras, joints, temperatures (a ROI or
     /// `ambient`), lengths (not already listed in `[expansion]`).
     pub fn check(&self, rig: &Rig) -> Result<()> {
-        let name = self.name();
-        let bad = |m: String| Err(Error::Input(format!("effect {name}: {m}")));
+        let context = format!("effect {}", self.name());
         let rois: Vec<String> = rig
             .thermal
             .iter()
             .flat_map(|t| t.roi.iter().map(|r| r.name.clone()))
             .collect();
-        let temperature_ok = |t: &str| t == "ambient" || rois.iter().any(|r| r == t);
-        let temps_known = || {
-            let mut v = rois.clone();
-            v.push("ambient".into());
-            v.join(", ")
-        };
-        let camera_ok = |c: &str| rig.camera_index(c).is_some();
-        let cameras = || {
-            rig.camera
-                .iter()
-                .map(|c| c.name.clone())
-                .collect::<Vec<_>>()
-                .join(", ")
+        let temperature = |context: &str, t: &str| -> Result<()> {
+            if t == AMBIENT || rois.iter().any(|r| r == t) {
+                return Ok(());
+            }
+            let mut known = rois.clone();
+            known.push(AMBIENT.into());
+            Err(UnknownName::new(context, NameKind::Temperature, t, known).into())
         };
         match self {
             Effect::AlphaPerLink { alpha_per_k } => {
                 for t in alpha_per_k.keys() {
-                    if !temperature_ok(t) {
-                        return bad(format!(
-                            "alpha_per_k names temperature {t:?}, neither a ROI of the rig nor ambient ({})",
-                            temps_known()
-                        ));
-                    }
+                    temperature(&format!("{context}: alpha_per_k"), t)?;
                 }
             }
             Effect::UnmodelledLength {
                 length,
-                temperature,
+                temperature: t,
             } => {
-                if !temperature_ok(temperature) {
-                    return bad(format!(
-                        "temperature {temperature:?} is neither a ROI of the rig nor ambient ({})",
-                        temps_known()
-                    ));
-                }
+                temperature(&context, t)?;
                 if rig.expansion.length.iter().any(|l| l.name == *length) {
-                    return bad(format!(
-                        "length {length:?} already expands (the rig's [expansion] lists it)"
-                    ));
+                    return Err(Error::LengthAlreadyExpands {
+                        length: length.clone(),
+                    });
                 }
             }
             Effect::FixtureDrift { camera, .. } | Effect::SensorDrift { camera, .. } => {
-                if !camera_ok(camera) {
-                    return bad(format!(
-                        "camera {camera:?} is not in the rig ({})",
-                        cameras()
-                    ));
+                if rig.camera_index(camera).is_none() {
+                    let known = rig.camera.iter().map(|c| c.name.clone()).collect();
+                    return Err(UnknownName::new(context, NameKind::Camera, camera, known).into());
                 }
             }
             Effect::JointOffset {
-                joint, temperature, ..
+                joint,
+                temperature: t,
+                ..
             } => {
                 if joint_index(rig, joint).is_none() {
-                    return bad(format!(
-                        "joint {joint:?} is not a joint of the rig ({}, or 1..6)",
-                        rig.robot.joint_names.join(", ")
-                    ));
+                    let known = rig.robot.joint_names.clone();
+                    return Err(UnknownName::new(context, NameKind::Joint, joint, known).into());
                 }
-                if !temperature_ok(temperature) {
-                    return bad(format!(
-                        "temperature {temperature:?} is neither a ROI of the rig nor ambient ({})",
-                        temps_known()
-                    ));
-                }
+                temperature(&context, t)?;
             }
             Effect::ThermalLag { .. }
             | Effect::LaserTilt { .. }
             | Effect::NonlinearAlpha { .. } => {}
         }
         Ok(())
+    }
+
+    /// One effect from JSON (`{"name": …, key: value, …}`), its values validated.
+    pub fn from_json(json: &str) -> Result<Effect> {
+        let e: Effect = serde_json::from_str(json).map_err(|source| Error::EffectJson {
+            what: "effect",
+            source,
+        })?;
+        e.validated()
+    }
+
+    /// A JSON list of effects (`[{"name": …, …}, …]`), each one's values validated.
+    pub fn list_from_json(json: &str) -> Result<Vec<Effect>> {
+        let list: Vec<Effect> = serde_json::from_str(json).map_err(|source| Error::EffectJson {
+            what: "effects",
+            source,
+        })?;
+        list.into_iter().map(Effect::validated).collect()
+    }
+
+    /// The effect, if its values validate ([`Effect::validate`]); the error names it and the key.
+    pub fn validated(self) -> Result<Effect> {
+        match self.validate() {
+            Ok(()) => Ok(self),
+            Err(error) => Err(Error::EffectValue {
+                effect: self.name(),
+                error,
+            }),
+        }
     }
 }
 
@@ -489,8 +494,10 @@ impl Effects {
         };
         let mut seen: Vec<String> = Vec::new();
         for e in effects {
-            e.validate()
-                .map_err(|k| Error::Input(format!("effect {}: {k}", e.name())))?;
+            e.validate().map_err(|error| Error::EffectValue {
+                effect: e.name(),
+                error,
+            })?;
             e.check(rig)?;
             // One of each, except where several instances are distinct mechanisms.
             let key = match e {
@@ -501,7 +508,7 @@ impl Effects {
                 other => other.name().to_string(),
             };
             if seen.contains(&key) {
-                return Err(Error::Input(format!("effect {key} is given twice")));
+                return Err(Error::DuplicateEffect { key });
             }
             seen.push(key);
             set.add(rig, e);
