@@ -580,12 +580,19 @@ mod tests {
         assert_eq!(back, s);
     }
 
+    /// Each scenario text fails on `key` with a one-line message containing `msg`.
+    fn assert_named(cases: &[(String, &str, &str)]) {
+        for (text, key, msg) in cases {
+            let e = Scenario::from_toml(text, "s.toml").unwrap_err();
+            assert!(e.key.starts_with(key), "{key}: {e}");
+            assert!(e.to_string().contains(msg), "{msg}: {e}");
+            assert!(!e.to_string().contains('\n'));
+        }
+    }
+
     #[test]
     fn bad_nodes_name_the_key() {
-        let sat = |r0: &str, span: &str, s0: &str| {
-            format!("{MIN}{NODE}rise_saturating = {{ r0_k = {r0}, span_k = {span}, s0 = {s0} }}\n")
-        };
-        let cases = [
+        assert_named(&[
             (format!("{MIN}{NODE}"), "node[0]", "needs its steady rise"),
             (
                 format!(
@@ -616,6 +623,24 @@ mod tests {
                 "node[0].rise_k",
                 "",
             ),
+            (
+                format!("{MIN}{NODE}rise_k = [0, 1, 0]\nrise = 3\n"),
+                "node[0]",
+                "rise",
+            ),
+        ]);
+        // the second node is named
+        let text = format!("{MIN}{NODE}rise_k = [0, 1, 0]\n{NODE}rise_k = [0, 1, -0.6]\n");
+        let e = Scenario::from_toml(&text, "s.toml").unwrap_err();
+        assert_eq!(e.key, "node[1].rise_k", "{e}");
+    }
+
+    #[test]
+    fn bad_saturating_nodes_name_the_key() {
+        let sat = |r0: &str, span: &str, s0: &str| {
+            format!("{MIN}{NODE}rise_saturating = {{ r0_k = {r0}, span_k = {span}, s0 = {s0} }}\n")
+        };
+        assert_named(&[
             (
                 sat("1", "-0.1", "0.1"),
                 "node[0].rise_saturating.span_k",
@@ -649,22 +674,7 @@ mod tests {
                 "node[0].rise_saturating",
                 "tau",
             ),
-            (
-                format!("{MIN}{NODE}rise_k = [0, 1, 0]\nrise = 3\n"),
-                "node[0]",
-                "rise",
-            ),
-        ];
-        for (text, key, msg) in cases {
-            let e = Scenario::from_toml(&text, "s.toml").unwrap_err();
-            assert!(e.key.starts_with(key), "{key}: {e}");
-            assert!(e.to_string().contains(msg), "{msg}: {e}");
-            assert!(!e.to_string().contains('\n'));
-        }
-        // the second node is named
-        let text = format!("{MIN}{NODE}rise_k = [0, 1, 0]\n{NODE}rise_k = [0, 1, -0.6]\n");
-        let e = Scenario::from_toml(&text, "s.toml").unwrap_err();
-        assert_eq!(e.key, "node[1].rise_k", "{e}");
+        ]);
     }
 
     #[test]
