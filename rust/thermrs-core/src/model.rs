@@ -602,11 +602,34 @@ mod tests {
             )
             .unwrap_err();
         assert!(e.to_string().contains("link3"), "{e}");
-        assert!(m
-            .camera_index("C")
-            .unwrap_err()
-            .to_string()
-            .contains("A, B"));
+        assert!(
+            matches!(
+                e,
+                Error::Shape {
+                    expected: 2,
+                    got: 1,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        assert!(matches!(
+            m.flange_batch(&[0.0; 5], None, FlangeOutput::Position, &mut out),
+            Err(Error::Ragged {
+                len: 5,
+                width: 6,
+                ..
+            })
+        ));
+        let e = m.camera_index("C").unwrap_err();
+        assert!(e.to_string().contains("A, B"));
+        match e {
+            Error::UnknownName(u) => {
+                assert_eq!((u.kind, u.name.as_str()), (NameKind::Camera, "C"));
+                assert_eq!(u.known, ["A", "B"]);
+            }
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]
