@@ -1,4 +1,15 @@
-"""Type stubs of the compiled core bindings (``rust/thermrs-py``)."""
+"""Type stubs of the compiled core bindings (``rust/thermrs-py``).
+
+Errors (the one mapping, ``rust/thermrs-py/src/errors.rs``, names every core variant):
+bad input is a :class:`ThermrsError` subclass -- :class:`RigError` (a rig file, or a pose whose
+own camera the laser misses), :class:`ScenarioError`, :class:`RecordingError` (not MCAP, none
+of the rig's topics, a chunk that does not decompress), :class:`InputError` (names, values,
+shapes, effects, unreadable files) -- and the CLI exits 2 for it. A failed write (a full disk,
+no permission, a closed pipe) is **not** a ``ThermrsError``: it is ``OSError(errno, strerror,
+filename)`` (Python picks the subclass by errno, e.g. ``PermissionError``) naming the file,
+and the CLI exits 1 for it. A panic in the core is :class:`InternalError` (exit 1); Ctrl-C is
+``KeyboardInterrupt`` (exit 130).
+"""
 
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -109,4 +120,6 @@ def simulate(
     *,
     source_name: str = "<string>",
     seed: int | None = None,
-) -> tuple[dict[str, Any], str]: ...
+) -> tuple[dict[str, Any], str]:
+    """Simulate; a failed write raises ``OSError`` naming ``out_path`` (not a ThermrsError)."""
+    ...

@@ -15,7 +15,7 @@ of that home for Python:
   signature columns the effect adds to the nominal model and reading its fitted amplitudes
   back as the effect's SPEC parameters.
 
-Adding an effect: a variant in ``rust/thermrs-core/src/effects.rs``, a class here (registered
+Adding an effect: a variant in ``rust/thermrs-core/src/effects/mod.rs``, a class here (registered
 with :func:`register`), and a row in the SPEC table. A user may also register an effect of their
 own whose :meth:`Effect.families` compute signature columns in Python; the diagnoser treats it
 like the built-in ones.

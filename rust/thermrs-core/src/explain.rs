@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, LaserMiss, Result};
 use crate::model::{pose_joints_rad, ForwardModel};
 use crate::rig::Rig;
 
@@ -35,7 +35,7 @@ pub struct PoseView {
 pub struct RigView {
     pub poses: BTreeMap<String, PoseView>,
     /// One line per problem: a pose whose own camera the laser misses.
-    pub problems: Vec<String>,
+    pub problems: Vec<LaserMiss>,
 }
 
 impl RigView {
@@ -85,17 +85,12 @@ pub fn explain(rig: &Rig) -> Result<RigView> {
                 distance_mm: hit.map(|h| h.distance_mm),
             };
             if cam.pose == pose.name && view.spot_px.is_none() {
-                let where_ = match hit {
-                    Some(h) => format!(
-                        "it meets the chip plane at x = {:.1} px, y = {:.1} px, off the {}x{} chip",
-                        h.x_px, h.y_px, chip.size_px[0], chip.size_px[1]
-                    ),
-                    None => "the ray never meets the chip plane in front of the laser".to_string(),
-                };
-                problems.push(format!(
-                    "pose {:?}: the laser misses camera {:?}'s chip: {where_}",
-                    pose.name, cam.name
-                ));
+                problems.push(LaserMiss {
+                    pose: pose.name.clone(),
+                    camera: cam.name.clone(),
+                    hit_px: hit.map(|h| [h.x_px, h.y_px]),
+                    chip_px: chip.size_px,
+                });
             }
             cameras.insert(cam.name.clone(), view);
         }
@@ -116,7 +111,7 @@ pub fn explain(rig: &Rig) -> Result<RigView> {
 pub fn check(rig: &Rig) -> Result<RigView> {
     let view = explain(rig)?;
     match view.problems.first() {
-        Some(p) => Err(Error::Input(p.clone())),
+        Some(p) => Err(Error::LaserMisses(p.clone())),
         None => Ok(view),
     }
 }

@@ -253,10 +253,10 @@ fn extract_by(
         })?
         .len();
     if len < MAGIC.len() as u64 {
-        return Err(Error::Recording(format!(
-            "{}: not an MCAP file ({len} bytes)",
-            path.display()
-        )));
+        return Err(Error::NotMcap {
+            path: path.display().to_string(),
+            bytes: len,
+        });
     }
     // SAFETY: the map is read-only; a file truncated by another process while mapped would
     // fault, which no safe API can prevent; recordings are not written while being read.
@@ -307,9 +307,10 @@ fn extract_in(
     let source =
         source.filter(|s| std::ptr::eq(s.map.as_ptr(), buf.as_ptr()) && s.map.len() == buf.len());
     if buf.len() < MAGIC.len() || &buf[..MAGIC.len()] != MAGIC {
-        return Err(Error::Recording(format!(
-            "{name}: not an MCAP file (no MCAP magic at the start)"
-        )));
+        return Err(Error::NotMcap {
+            path: name.to_string(),
+            bytes: buf.len() as u64,
+        });
     }
     let mut ctx = Context::new(rig, opts.spot.clone(), source, route);
     ctx.verify_crc = opts.verify_crc;
@@ -329,15 +330,11 @@ fn extract_in(
         let mut have: Vec<&str> = present.clone();
         have.sort_unstable();
         have.dedup();
-        return Err(Error::Recording(format!(
-            "{name}: none of the rig's topics ({}) is in the recording (it has: {})",
-            wanted.join(", "),
-            if have.is_empty() {
-                "no channels".to_string()
-            } else {
-                have.join(", ")
-            }
-        )));
+        return Err(Error::NoRigTopics {
+            path: name.to_string(),
+            topics: wanted.iter().map(|t| t.to_string()).collect(),
+            present: have.iter().map(|t| t.to_string()).collect(),
+        });
     }
     Ok((walk.tables, walk.report))
 }
@@ -364,10 +361,10 @@ pub fn decompress_chunks(path: &Path) -> Result<ChunkScan> {
         source,
     })?;
     if buf.len() < MAGIC.len() || &buf[..MAGIC.len()] != MAGIC {
-        return Err(Error::Recording(format!(
-            "{}: not an MCAP file",
-            path.display()
-        )));
+        return Err(Error::NotMcap {
+            path: path.display().to_string(),
+            bytes: buf.len() as u64,
+        });
     }
     let mut scan = ChunkScan::default();
     let mut out = Vec::new();
@@ -401,7 +398,10 @@ pub fn decompress_chunks(path: &Path) -> Result<ChunkScan> {
         opcode != op::DATA_END
     });
     match err {
-        Some(e) => Err(Error::Recording(format!("{}: {e}", path.display()))),
+        Some(reason) => Err(Error::BadChunk {
+            path: path.display().to_string(),
+            reason,
+        }),
         None => Ok(scan),
     }
 }

@@ -70,7 +70,7 @@ pub struct Inventory {
 /// are wanted (from the message indexes).
 ///
 /// # Errors
-/// [`Error::Io`] if the file cannot be opened or mapped; [`Error::Recording`] if it is not
+/// [`Error::Io`] if the file cannot be opened or mapped; [`Error::NotMcap`] if it is not
 /// an MCAP file.
 pub fn inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
     let io = |source| Error::Io {
@@ -83,10 +83,10 @@ pub fn inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
     let map = unsafe { memmap2::Mmap::map(&file) }.map_err(io)?;
     let buf: &[u8] = &map;
     if buf.len() < 8 || !buf.starts_with(mcap::MAGIC) {
-        return Err(Error::Recording(format!(
-            "{}: not an MCAP recording (no MCAP magic at its start)",
-            path.display()
-        )));
+        return Err(Error::NotMcap {
+            path: path.display().to_string(),
+            bytes: buf.len() as u64,
+        });
     }
     let mut inv = Inventory {
         bytes: buf.len() as u64,
@@ -468,7 +468,7 @@ mod tests {
     fn not_mcap_is_a_recording_error() {
         let p = std::env::temp_dir().join(format!("thermrs-inv-no-{}.mcap", std::process::id()));
         std::fs::write(&p, b"hello world, not mcap").unwrap();
-        assert!(matches!(inventory(&p, &[]), Err(Error::Recording(_))));
+        assert!(matches!(inventory(&p, &[]), Err(Error::NotMcap { .. })));
         std::fs::remove_file(&p).unwrap();
     }
 }

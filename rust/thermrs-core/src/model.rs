@@ -26,7 +26,7 @@ use std::collections::BTreeMap;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, NameKind, Result, UnknownName};
 use crate::kinematics::{Chain, Frame};
 use crate::optics::{Chip, Ray};
 use crate::rig::{LengthRef, Rig};
@@ -161,94 +161,33 @@ pub type TemperatureColumns<'a> = Option<&'a [&'a [f64]]>;
 impl ForwardModel {
     /// Build the model of a validated rig.
     pub fn new(rig: &Rig, params: &ModelParams) -> Result<ForwardModel> {
-        for (what, v) in [
-            ("alpha_per_k", params.alpha_per_k),
-            ("reference_c", params.reference_c),
-            ("kappa_per_k", params.kappa_per_k),
-        ] {
-            if !v.is_finite() {
-                return Err(Error::Input(format!(
-                    "{what} is {v}, expected a finite number"
-                )));
-            }
-        }
-        // Temperatures: the rig's mapped ones, then those the effects add, first use first.
-        let mut temperature_names = rig.mapped_temperatures();
-        let known: Vec<String> = rig
-            .rois()
-            .into_keys()
-            .chain(rig.ambient.iter().map(|_| crate::rig::AMBIENT.to_string()))
-            .collect();
-        let mut need = |name: &str, what: &str| -> Result<usize> {
-            if !known.iter().any(|k| k == name) {
-                return Err(Error::Input(format!(
-                    "{what}: temperature {name:?} is neither a ROI of the rig nor ambient (known: {})",
-                    known.join(", ")
-                )));
-            }
-            Ok(match temperature_names.iter().position(|n| n == name) {
-                Some(i) => i,
-                None => {
-                    temperature_names.push(name.to_string());
-                    temperature_names.len() - 1
-                }
-            })
-        };
-        let mut lengths: Vec<(LengthRef, usize)> = Vec::new();
-        for (l, t) in rig.length_map() {
-            lengths.push((l, need(&t, "expansion")?));
-        }
-        for (l, t) in &params.extra_lengths {
-            if lengths.iter().any(|(m, _)| m == l) {
-                return Err(Error::Input(format!(
-                    "unmodelled_length {l}: the rig already expands it"
-                )));
-            }
-            let row = &rig.robot.dh[l.row()];
-            let v = match l {
-                LengthRef::A(_) => row.a_mm,
-                LengthRef::D(_) => row.d_mm,
-            };
-            if v == 0.0 {
-                return Err(Error::Input(format!(
-                    "unmodelled_length {l}: it is 0 mm in robot.dh, so it cannot expand"
-                )));
-            }
-            lengths.push((*l, need(t, "unmodelled_length")?));
-        }
+        finite("alpha_per_k", params.alpha_per_k)?;
+        finite("reference_c", params.reference_c)?;
+        finite("kappa_per_k", params.kappa_per_k)?;
+        let mut temps = Temperatures::of(rig);
+        let lengths = expanding_lengths(rig, params, &mut temps)?;
         let mut joint_offsets = Vec::new();
         for o in &params.joint_offsets {
-            if o.joint >= 6 || !o.rad_per_k.is_finite() {
-                return Err(Error::Input(format!(
-                    "joint_offset: joint index {} (0-based) or {} rad/K is out of range",
-                    o.joint, o.rad_per_k
-                )));
+            if o.joint >= 6 {
+                return Err(Error::OutOfRange {
+                    name: "joint_offset.joint".to_string(),
+                    value: o.joint as f64,
+                    allowed: "a joint index 0..=5 (0-based)".to_string(),
+                });
             }
-            joint_offsets.push((o.joint, need(&o.temperature, "joint_offset")?, o.rad_per_k));
+            finite("joint_offset.rad_per_k", o.rad_per_k)?;
+            let t = temps.index(&o.temperature, "joint_offset")?;
+            joint_offsets.push((o.joint, t, o.rad_per_k));
         }
-        for name in params.alpha_by_temperature.keys() {
-            if !temperature_names.contains(name) {
-                return Err(Error::Input(format!(
-                    "alpha for temperature {name:?}: no length expands with it (temperatures: {})",
-                    temperature_names.join(", ")
-                )));
-            }
-        }
-        let alpha = temperature_names
-            .iter()
-            .map(|n| {
-                *params
-                    .alpha_by_temperature
-                    .get(n)
-                    .unwrap_or(&params.alpha_per_k)
-            })
-            .collect();
+        let temperature_names = temps.names;
+        let alpha = alphas(params, &temperature_names)?;
         let l = &rig.laser;
         let direction = Vector3::from(l.direction);
         let laser_direction = match &params.laser_tilt {
-            Some(t) if t.tilt_deg.is_finite() && t.azimuth_deg.is_finite() => t.apply(&direction),
             Some(t) => {
-                return Err(Error::Input(format!("laser_tilt: {t:?} is not finite")));
+                finite("laser_tilt.tilt_deg", t.tilt_deg)?;
+                finite("laser_tilt.azimuth_deg", t.azimuth_deg)?;
+                t.apply(&direction)
             }
             None => direction,
         };
@@ -291,10 +230,7 @@ impl ForwardModel {
             .iter()
             .position(|c| c == name)
             .ok_or_else(|| {
-                Error::Input(format!(
-                    "camera {name:?} is not in the rig (cameras: {})",
-                    self.camera_names.join(", ")
-                ))
+                UnknownName::new("", NameKind::Camera, name, self.camera_names.clone()).into()
             })
     }
 
@@ -347,27 +283,31 @@ impl ForwardModel {
     /// Check a batch's shapes; returns its sample count N.
     pub fn batch_len(&self, q: &[f64], temps: TemperatureColumns<'_>) -> Result<usize> {
         if q.len() % 6 != 0 {
-            return Err(Error::Input(format!(
-                "joints: {} values is not a whole number of 6-joint samples",
-                q.len()
-            )));
+            return Err(Error::Ragged {
+                what: "joints".to_string(),
+                len: q.len(),
+                width: 6,
+            });
         }
         let n = q.len() / 6;
         if let Some(cols) = temps {
             if cols.len() != self.temperature_names.len() {
-                return Err(Error::Input(format!(
-                    "{} temperature columns given, the rig maps {} ({})",
-                    cols.len(),
-                    self.temperature_names.len(),
-                    self.temperature_names.join(", ")
-                )));
+                return Err(Error::Shape {
+                    what: format!(
+                        "temperature columns (the model needs {})",
+                        self.temperature_names.join(", ")
+                    ),
+                    expected: self.temperature_names.len(),
+                    got: cols.len(),
+                });
             }
             for (c, name) in cols.iter().zip(&self.temperature_names) {
                 if c.len() != n {
-                    return Err(Error::Input(format!(
-                        "temperature {name:?} has {} samples, joints have {n}",
-                        c.len()
-                    )));
+                    return Err(Error::Shape {
+                        what: format!("samples of temperature {name:?} (one per joint sample)"),
+                        expected: n,
+                        got: c.len(),
+                    });
                 }
             }
         }
@@ -419,11 +359,11 @@ impl ForwardModel {
         let n = self.batch_len(q, temps)?;
         let width = what.width();
         if out.len() != n * width {
-            return Err(Error::Input(format!(
-                "output has {} values, need {}",
-                out.len(),
-                n * width
-            )));
+            return Err(Error::Shape {
+                what: "output values".to_string(),
+                expected: n * width,
+                got: out.len(),
+            });
         }
         self.for_samples(n, temps, out, width, |i, t, row| {
             let f = self.flange(&q[6 * i..6 * i + 6], t);
@@ -452,18 +392,17 @@ impl ForwardModel {
         out: &mut [f64],
     ) -> Result<()> {
         let n = self.batch_len(q, temps)?;
-        let chip = self.chips.get(camera).ok_or_else(|| {
-            Error::Input(format!(
-                "camera index {camera} out of range ({} cameras)",
-                self.chips.len()
-            ))
+        let chip = self.chips.get(camera).ok_or_else(|| Error::OutOfRange {
+            name: "camera index".to_string(),
+            value: camera as f64,
+            allowed: format!("0..{} ({} cameras)", self.chips.len(), self.chips.len()),
         })?;
         if out.len() != n * SPOT_WIDTH {
-            return Err(Error::Input(format!(
-                "output has {} values, need {}",
-                out.len(),
-                n * SPOT_WIDTH
-            )));
+            return Err(Error::Shape {
+                what: "output values".to_string(),
+                expected: n * SPOT_WIDTH,
+                got: out.len(),
+            });
         }
         self.for_samples(n, temps, out, SPOT_WIDTH, |i, t, row| {
             let f = self.flange(&q[6 * i..6 * i + 6], t);
@@ -474,6 +413,106 @@ impl ForwardModel {
         });
         Ok(())
     }
+}
+
+/// `Ok` if `value` is finite, else an error naming it.
+fn finite(name: &str, value: f64) -> Result<()> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::OutOfRange {
+            name: name.to_string(),
+            value,
+            allowed: "a finite number".to_string(),
+        })
+    }
+}
+
+/// The temperatures a model follows: the rig's mapped ones, then those the effects add, first
+/// use first; each must be a ROI of the rig or ambient.
+struct Temperatures {
+    names: Vec<String>,
+    known: Vec<String>,
+}
+
+impl Temperatures {
+    fn of(rig: &Rig) -> Temperatures {
+        Temperatures {
+            names: rig.mapped_temperatures(),
+            known: rig
+                .rois()
+                .into_keys()
+                .chain(rig.ambient.iter().map(|_| crate::rig::AMBIENT.to_string()))
+                .collect(),
+        }
+    }
+
+    /// The index of temperature `name` (added if new); `what` uses it (named in the error).
+    fn index(&mut self, name: &str, what: &str) -> Result<usize> {
+        if !self.known.iter().any(|k| k == name) {
+            let known = self.known.clone();
+            return Err(UnknownName::new(what, NameKind::Temperature, name, known).into());
+        }
+        Ok(match self.names.iter().position(|n| n == name) {
+            Some(i) => i,
+            None => {
+                self.names.push(name.to_string());
+                self.names.len() - 1
+            }
+        })
+    }
+}
+
+/// The lengths that expand, each with its temperature's index: the rig's `[expansion]`, then
+/// the effects' extra ones (`unmodelled_length`: not already expanding, not 0 mm).
+fn expanding_lengths(
+    rig: &Rig,
+    params: &ModelParams,
+    temps: &mut Temperatures,
+) -> Result<Vec<(LengthRef, usize)>> {
+    let mut lengths: Vec<(LengthRef, usize)> = Vec::new();
+    for (l, t) in rig.length_map() {
+        lengths.push((l, temps.index(&t, "expansion")?));
+    }
+    for (l, t) in &params.extra_lengths {
+        if lengths.iter().any(|(m, _)| m == l) {
+            return Err(Error::LengthAlreadyExpands {
+                length: l.to_string(),
+            });
+        }
+        let row = &rig.robot.dh[l.row()];
+        let v = match l {
+            LengthRef::A(_) => row.a_mm,
+            LengthRef::D(_) => row.d_mm,
+        };
+        if v == 0.0 {
+            return Err(Error::ZeroLength {
+                length: l.to_string(),
+            });
+        }
+        lengths.push((*l, temps.index(t, "unmodelled_length")?));
+    }
+    Ok(lengths)
+}
+
+/// α per temperature (its own where `alpha_per_link` gives one, else the nominal); an own α
+/// for a temperature no length follows is an error.
+fn alphas(params: &ModelParams, names: &[String]) -> Result<Vec<f64>> {
+    for name in params.alpha_by_temperature.keys() {
+        if !names.contains(name) {
+            let known = names.to_vec();
+            return Err(UnknownName::new("", NameKind::ExpandingTemperature, name, known).into());
+        }
+    }
+    Ok(names
+        .iter()
+        .map(|n| {
+            *params
+                .alpha_by_temperature
+                .get(n)
+                .unwrap_or(&params.alpha_per_k)
+        })
+        .collect())
 }
 
 /// Number of threads the parallel loops use (rayon's pool; `RAYON_NUM_THREADS` sets it).
@@ -563,11 +602,34 @@ mod tests {
             )
             .unwrap_err();
         assert!(e.to_string().contains("link3"), "{e}");
-        assert!(m
-            .camera_index("C")
-            .unwrap_err()
-            .to_string()
-            .contains("A, B"));
+        assert!(
+            matches!(
+                e,
+                Error::Shape {
+                    expected: 2,
+                    got: 1,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        assert!(matches!(
+            m.flange_batch(&[0.0; 5], None, FlangeOutput::Position, &mut out),
+            Err(Error::Ragged {
+                len: 5,
+                width: 6,
+                ..
+            })
+        ));
+        let e = m.camera_index("C").unwrap_err();
+        assert!(e.to_string().contains("A, B"));
+        match e {
+            Error::UnknownName(u) => {
+                assert_eq!((u.kind, u.name.as_str()), (NameKind::Camera, "C"));
+                assert_eq!(u.known, ["A", "B"]);
+            }
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]

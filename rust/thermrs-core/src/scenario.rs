@@ -310,7 +310,6 @@ impl Scenario {
 
     /// The checks types cannot express. Returns (key, message) of the first problem.
     pub fn validate(&self) -> Result<(), KeyError> {
-        let fail = |k: &str, m: String| Err(KeyError::new(k.to_string(), m));
         if self.format != SCENARIO_FORMAT {
             return fail(
                 "format",
@@ -324,17 +323,6 @@ impl Scenario {
 
     /// The `[[run]]`s: names once each, speeds, durations, cycles, starts.
     fn validate_runs(&self) -> Result<(), KeyError> {
-        let fail = |k: &str, m: String| Err(KeyError::new(k.to_string(), m));
-        let pos = |v: f64, k: &str| -> Result<(), KeyError> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(KeyError::new(
-                    k.to_string(),
-                    format!("is {v}, expected a positive number"),
-                ))
-            }
-        };
         if self.run.is_empty() {
             return fail("run", "no [[run]] given; at least one is needed".into());
         }
@@ -350,8 +338,8 @@ impl Scenario {
                     format!("is {}, expected 0 < speed ≤ 100", r.speed_pct),
                 );
             }
-            pos(r.duration_min, &k("duration_min"))?;
-            pos(r.cycle_s, &k("cycle_s"))?;
+            positive(r.duration_min, &k("duration_min"))?;
+            positive(r.cycle_s, &k("cycle_s"))?;
             if !(r.idle_before_min.is_finite() && r.idle_before_min >= 0.0) {
                 return fail(
                     &k("idle_before_min"),
@@ -362,20 +350,16 @@ impl Scenario {
         Ok(())
     }
 
-    /// The sensor and motion models: `[ambient]`, `[camera]`, `[ir]`, `[motion]`, `[output]`.
-    // One check per key of five small tables, in file order (87 lines, flat).
+    /// The sensor and motion models: `[ambient]`, `[camera]`, `[ir]`, `[motion]`, `[output]`,
+    /// in file order.
     fn validate_models(&self) -> Result<(), KeyError> {
-        let fail = |k: &str, m: String| Err(KeyError::new(k.to_string(), m));
-        let pos = |v: f64, k: &str| -> Result<(), KeyError> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(KeyError::new(
-                    k.to_string(),
-                    format!("is {v}, expected a positive number"),
-                ))
-            }
-        };
+        self.validate_ambient()?;
+        self.validate_camera()?;
+        self.validate_motion_and_output()
+    }
+
+    /// `[ambient]`: finite temperatures, noise ≥ 0.
+    fn validate_ambient(&self) -> Result<(), KeyError> {
         let a = &self.ambient;
         for (k, v) in [
             ("ambient.start_c", a.start_c),
@@ -389,6 +373,12 @@ impl Scenario {
         if !(a.noise_c.is_finite() && a.noise_c >= 0.0) {
             return fail("ambient.noise_c", format!("is {}, expected ≥ 0", a.noise_c));
         }
+        Ok(())
+    }
+
+    /// `[camera]`: mode, rates, bits, the spot and noise model (the exposure is checked with
+    /// the motion, after it, as it always was).
+    fn validate_camera(&self) -> Result<(), KeyError> {
         let c = &self.camera;
         if c.mode != "visits" && c.mode != "continuous" {
             return fail(
@@ -396,7 +386,7 @@ impl Scenario {
                 format!("is {:?}, expected \"visits\" or \"continuous\"", c.mode),
             );
         }
-        pos(c.frame_rate_hz, "camera.frame_rate_hz")?;
+        positive(c.frame_rate_hz, "camera.frame_rate_hz")?;
         if c.frames_per_visit == 0 {
             return fail(
                 "camera.frames_per_visit",
@@ -406,9 +396,9 @@ impl Scenario {
         if c.bits != 8 && c.bits != 16 {
             return fail("camera.bits", format!("is {}, expected 8 or 16", c.bits));
         }
-        pos(c.sigma_px, "camera.sigma_px")?;
-        pos(c.peak_dn, "camera.peak_dn")?;
-        pos(c.dn_per_electron, "camera.dn_per_electron")?;
+        positive(c.sigma_px, "camera.sigma_px")?;
+        positive(c.peak_dn, "camera.peak_dn")?;
+        positive(c.dn_per_electron, "camera.dn_per_electron")?;
         for (k, v) in [
             ("camera.background_dn", c.background_dn),
             ("camera.read_noise_dn", c.read_noise_dn),
@@ -417,17 +407,23 @@ impl Scenario {
                 return fail(k, format!("is {v}, expected ≥ 0"));
             }
         }
+        Ok(())
+    }
+
+    /// `[ir]` encoding, `[motion]` rates and dwell, the camera's exposure, `[output]`.
+    fn validate_motion_and_output(&self) -> Result<(), KeyError> {
         if self.ir.encoding != "16UC1" && self.ir.encoding != "32FC1" {
             return fail(
                 "ir.encoding",
                 format!("is {:?}, expected \"16UC1\" or \"32FC1\"", self.ir.encoding),
             );
         }
-        pos(self.motion.dwell_s, "motion.dwell_s")?;
-        pos(self.motion.joint_rate_hz, "motion.joint_rate_hz")?;
+        positive(self.motion.dwell_s, "motion.dwell_s")?;
+        positive(self.motion.joint_rate_hz, "motion.joint_rate_hz")?;
         for (j, v) in self.motion.max_rate_deg_s.iter().enumerate() {
-            pos(*v, &format!("motion.max_rate_deg_s[{j}]"))?;
+            positive(*v, &format!("motion.max_rate_deg_s[{j}]"))?;
         }
+        let c = &self.camera;
         if !(c.exposure_s.is_finite()
             && c.exposure_s >= 0.0
             && c.exposure_s < 1.0 / c.frame_rate_hz)
@@ -454,19 +450,8 @@ impl Scenario {
 
     /// The `[[node]]`s (time constant, one steady rise) and `[[effect]]`s (SPEC §6 values).
     fn validate_nodes_and_effects(&self) -> Result<(), KeyError> {
-        let fail = |k: &str, m: String| Err(KeyError::new(k.to_string(), m));
-        let pos = |v: f64, k: &str| -> Result<(), KeyError> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(KeyError::new(
-                    k.to_string(),
-                    format!("is {v}, expected a positive number"),
-                ))
-            }
-        };
         for (i, n) in self.node.iter().enumerate() {
-            pos(n.tau_min, &format!("node[{i}].tau_min"))?;
+            positive(n.tau_min, &format!("node[{i}].tau_min"))?;
             let Some(rise) = n.rise() else {
                 let m = if n.rise_k.is_some() {
                     "gives both `rise_k` and `rise_saturating`; give exactly one"
@@ -491,6 +476,20 @@ impl Scenario {
             }
         }
         Ok(())
+    }
+}
+
+/// A problem with `key`.
+fn fail(key: &str, message: String) -> Result<(), KeyError> {
+    Err(KeyError::new(key.to_string(), message))
+}
+
+/// `Ok` if `v` is a finite positive number, else an error naming `key`.
+fn positive(v: f64, key: &str) -> Result<(), KeyError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        fail(key, format!("is {v}, expected a positive number"))
     }
 }
 
@@ -581,12 +580,19 @@ mod tests {
         assert_eq!(back, s);
     }
 
+    /// Each scenario text fails on `key` with a one-line message containing `msg`.
+    fn assert_named(cases: &[(String, &str, &str)]) {
+        for (text, key, msg) in cases {
+            let e = Scenario::from_toml(text, "s.toml").unwrap_err();
+            assert!(e.key.starts_with(key), "{key}: {e}");
+            assert!(e.to_string().contains(msg), "{msg}: {e}");
+            assert!(!e.to_string().contains('\n'));
+        }
+    }
+
     #[test]
     fn bad_nodes_name_the_key() {
-        let sat = |r0: &str, span: &str, s0: &str| {
-            format!("{MIN}{NODE}rise_saturating = {{ r0_k = {r0}, span_k = {span}, s0 = {s0} }}\n")
-        };
-        let cases = [
+        assert_named(&[
             (format!("{MIN}{NODE}"), "node[0]", "needs its steady rise"),
             (
                 format!(
@@ -617,6 +623,24 @@ mod tests {
                 "node[0].rise_k",
                 "",
             ),
+            (
+                format!("{MIN}{NODE}rise_k = [0, 1, 0]\nrise = 3\n"),
+                "node[0]",
+                "rise",
+            ),
+        ]);
+        // the second node is named
+        let text = format!("{MIN}{NODE}rise_k = [0, 1, 0]\n{NODE}rise_k = [0, 1, -0.6]\n");
+        let e = Scenario::from_toml(&text, "s.toml").unwrap_err();
+        assert_eq!(e.key, "node[1].rise_k", "{e}");
+    }
+
+    #[test]
+    fn bad_saturating_nodes_name_the_key() {
+        let sat = |r0: &str, span: &str, s0: &str| {
+            format!("{MIN}{NODE}rise_saturating = {{ r0_k = {r0}, span_k = {span}, s0 = {s0} }}\n")
+        };
+        assert_named(&[
             (
                 sat("1", "-0.1", "0.1"),
                 "node[0].rise_saturating.span_k",
@@ -650,22 +674,7 @@ mod tests {
                 "node[0].rise_saturating",
                 "tau",
             ),
-            (
-                format!("{MIN}{NODE}rise_k = [0, 1, 0]\nrise = 3\n"),
-                "node[0]",
-                "rise",
-            ),
-        ];
-        for (text, key, msg) in cases {
-            let e = Scenario::from_toml(&text, "s.toml").unwrap_err();
-            assert!(e.key.starts_with(key), "{key}: {e}");
-            assert!(e.to_string().contains(msg), "{msg}: {e}");
-            assert!(!e.to_string().contains('\n'));
-        }
-        // the second node is named
-        let text = format!("{MIN}{NODE}rise_k = [0, 1, 0]\n{NODE}rise_k = [0, 1, -0.6]\n");
-        let e = Scenario::from_toml(&text, "s.toml").unwrap_err();
-        assert_eq!(e.key, "node[1].rise_k", "{e}");
+        ]);
     }
 
     #[test]

@@ -10,13 +10,7 @@ use crate::rig::PyRig;
 /// A JSON list of effects (`[{"name": …, key: value, …}, …]`), each one's values validated;
 /// the error names the effect and the key.
 pub(crate) fn parse_list(json: &str) -> Result<Vec<Effect>, CoreError> {
-    let list: Vec<Effect> =
-        serde_json::from_str(json).map_err(|e| CoreError::Input(format!("effects: {e}")))?;
-    for e in &list {
-        e.validate()
-            .map_err(|k| CoreError::Input(format!("effect {}: {k}", e.name())))?;
-    }
-    Ok(list)
+    Effect::list_from_json(json)
 }
 
 /// One effect as JSON, checked (values in range; with `rig`, the names it uses exist there);
@@ -25,10 +19,7 @@ pub(crate) fn parse_list(json: &str) -> Result<Vec<Effect>, CoreError> {
 #[pyo3(signature = (json, rig = None))]
 fn effect_check(json: &str, rig: Option<&PyRig>) -> PyResult<String> {
     call("checking an effect", || {
-        let e: Effect =
-            serde_json::from_str(json).map_err(|e| CoreError::Input(format!("effect: {e}")))?;
-        e.validate()
-            .map_err(|k| CoreError::Input(format!("effect {}: {k}", e.name())))?;
+        let e = Effect::from_json(json)?;
         if let Some(r) = rig {
             e.check(&r.inner)?;
         }

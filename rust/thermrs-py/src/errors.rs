@@ -48,11 +48,25 @@ pub fn to_py(e: CoreError) -> PyErr {
             FileKind::Rig => RigError::new_err(r.to_string()),
             FileKind::Scenario => ScenarioError::new_err(r.to_string()),
         },
-        e @ CoreError::Io { .. } => InputError::new_err(e.to_string()),
+        e @ CoreError::LaserMisses(_) => RigError::new_err(e.to_string()),
         CoreError::Write { target, source } => write_error(&target, &source),
-        CoreError::Heat(h) => InputError::new_err(h.to_string()),
-        CoreError::Input(m) => InputError::new_err(m),
-        CoreError::Recording(m) => RecordingError::new_err(m),
+        e @ (CoreError::NotMcap { .. }
+        | CoreError::NoRigTopics { .. }
+        | CoreError::BadChunk { .. }) => RecordingError::new_err(e.to_string()),
+        e @ (CoreError::Io { .. }
+        | CoreError::Heat(_)
+        | CoreError::UnknownName(_)
+        | CoreError::OutOfRange { .. }
+        | CoreError::Shape { .. }
+        | CoreError::Ragged { .. }
+        | CoreError::EffectValue { .. }
+        | CoreError::EffectJson { .. }
+        | CoreError::DuplicateEffect { .. }
+        | CoreError::LengthAlreadyExpands { .. }
+        | CoreError::ZeroLength { .. }
+        | CoreError::NoThermalCamera
+        | CoreError::NodeRise { .. }
+        | CoreError::CycleTooShort { .. }) => InputError::new_err(e.to_string()),
         CoreError::Interrupted => PyKeyboardInterrupt::new_err("interrupted"),
     }
 }

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
+use pyo3::types::{PyDict, PyTuple};
 use thermrs_core::ingest;
 
 use crate::convert::{array, columns, rows};
@@ -26,16 +26,6 @@ fn extract<'py>(
     threshold_sigma: Option<f64>,
     verify_crc: bool,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let mut opts = ingest::ExtractOptions {
-        verify_crc,
-        ..ingest::ExtractOptions::default()
-    };
-    if let Some(v) = min_sigma_px {
-        opts.spot.min_sigma_px = v;
-    }
-    if let Some(v) = threshold_sigma {
-        opts.spot.detect_sigmas = v;
-    }
     let pending = Pending::default();
     let cb = |done: u64, total: u64, frames: u64| -> bool {
         pending.attach(|py| {
@@ -49,41 +39,40 @@ fn extract<'py>(
     let inner = &rig.inner;
     let res = py.detach(|| {
         call(&format!("reading {}", path.display()), || {
-            ingest::extract(&path, inner, &opts, &cb)
+            let opts = options(min_sigma_px, threshold_sigma, verify_crc);
+            let (tables, report) = ingest::extract(&path, inner, &opts, &cb)?;
+            let report = serde_json::to_string(&report).expect("report serialises");
+            Ok((tables, report))
         })
     });
     if let Some(e) = pending.take() {
         return Err(e);
     }
-    let (t, report) = res?;
-    let f = t.frames;
-    let frames = columns(
-        py,
-        vec![
-            ("camera", array(py, f.camera)),
-            ("t_ns", array(py, f.t_ns)),
-            ("x_px", array(py, f.x_px)),
-            ("y_px", array(py, f.y_px)),
-            ("peak", array(py, f.peak)),
-            ("signal", array(py, f.signal)),
-            ("size_px", array(py, f.size_px)),
-            ("background", array(py, f.background)),
-            ("noise", array(py, f.noise)),
-            ("status", array(py, f.status)),
-        ],
-    )?;
-    let th = t.thermal;
-    let thermal = columns(
-        py,
-        vec![
-            ("t_ns", array(py, th.t_ns)),
-            ("roi", array(py, th.roi)),
-            ("max_c", array(py, th.max_c)),
-            ("peak_c", array(py, th.peak_c)),
-            ("x_px", array(py, th.x_px)),
-            ("y_px", array(py, th.y_px)),
-        ],
-    )?;
+    let (tables, report) = res?;
+    to_py(py, tables, report)
+}
+
+/// The extraction options from `extract`'s keyword arguments (`None`: the core's default).
+fn options(
+    min_sigma_px: Option<f64>,
+    threshold_sigma: Option<f64>,
+    verify_crc: bool,
+) -> ingest::ExtractOptions {
+    let mut opts = ingest::ExtractOptions {
+        verify_crc,
+        ..ingest::ExtractOptions::default()
+    };
+    if let Some(v) = min_sigma_px {
+        opts.spot.min_sigma_px = v;
+    }
+    if let Some(v) = threshold_sigma {
+        opts.spot.detect_sigmas = v;
+    }
+    opts
+}
+
+/// The tables as (frames, thermal, joints, ambient) dicts of numpy columns, and the report.
+fn to_py<'py>(py: Python<'py>, t: ingest::Tables, report: String) -> PyResult<Bound<'py, PyTuple>> {
     let n = t.joints.t_ns.len();
     let joints = columns(
         py,
@@ -99,15 +88,48 @@ fn extract<'py>(
             ("temperature_c", array(py, t.ambient.temperature_c)),
         ],
     )?;
-    let report = serde_json::to_string(&report).expect("report serialises");
     PyTuple::new(
         py,
         [
-            frames.into_any(),
-            thermal.into_any(),
+            frames(py, t.frames)?.into_any(),
+            thermal(py, t.thermal)?.into_any(),
             joints.into_any(),
             ambient.into_any(),
             report.into_pyobject(py)?.into_any(),
+        ],
+    )
+}
+
+/// One row per CCD frame.
+fn frames<'py>(py: Python<'py>, f: ingest::FrameTable) -> PyResult<Bound<'py, PyDict>> {
+    columns(
+        py,
+        vec![
+            ("camera", array(py, f.camera)),
+            ("t_ns", array(py, f.t_ns)),
+            ("x_px", array(py, f.x_px)),
+            ("y_px", array(py, f.y_px)),
+            ("peak", array(py, f.peak)),
+            ("signal", array(py, f.signal)),
+            ("size_px", array(py, f.size_px)),
+            ("background", array(py, f.background)),
+            ("noise", array(py, f.noise)),
+            ("status", array(py, f.status)),
+        ],
+    )
+}
+
+/// One row per thermal frame and ROI.
+fn thermal<'py>(py: Python<'py>, th: ingest::ThermalTable) -> PyResult<Bound<'py, PyDict>> {
+    columns(
+        py,
+        vec![
+            ("t_ns", array(py, th.t_ns)),
+            ("roi", array(py, th.roi)),
+            ("max_c", array(py, th.max_c)),
+            ("peak_c", array(py, th.peak_c)),
+            ("x_px", array(py, th.x_px)),
+            ("y_px", array(py, th.y_px)),
         ],
     )
 }

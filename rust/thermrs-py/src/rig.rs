@@ -39,10 +39,12 @@ impl PyRig {
     /// The rig explained pose by pose (SPEC §7 `thermrs rig --json`, extended) as JSON, plus
     /// a `problems` list (poses whose own camera the laser misses).
     fn explain_json(&self) -> PyResult<String> {
-        let view = call("explaining a rig", || explain::explain(&self.inner))?;
-        let mut v = view.to_spec_json();
-        v["problems"] = serde_json::json!(view.problems);
-        Ok(v.to_string())
+        call("explaining a rig", || {
+            let view = explain::explain(&self.inner)?;
+            let mut v = view.to_spec_json();
+            v["problems"] = serde_json::json!(view.problems);
+            Ok(v.to_string())
+        })
     }
 
     /// The temperature names the nominal model maps lengths to, in column order.

@@ -28,12 +28,14 @@ fn simulate<'py>(
     source_name: &str,
     seed: Option<u64>,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
-    let mut sc = call("reading a scenario", || {
-        Ok(Scenario::from_toml(scenario_toml, source_name)?)
+    let (sc, sc_json) = call("reading a scenario", || {
+        let mut sc = Scenario::from_toml(scenario_toml, source_name)?;
+        if let Some(s) = seed {
+            sc.seed = s;
+        }
+        let json = serde_json::to_string(&sc).expect("scenario serialises");
+        Ok((sc, json))
     })?;
-    if let Some(s) = seed {
-        sc.seed = s;
-    }
     // Load NumPy's C API now: loading it later, with a Ctrl-C pending, would panic.
     let _ = numpy::PyArray1::<f64>::zeros(py, 0, false);
     let inner = &rig.inner;
@@ -88,7 +90,7 @@ fn simulate<'py>(
     )?;
     d.set_item("node_names", truth.node_names)?;
     d.set_item("length_names", truth.length_names)?;
-    Ok((d, serde_json::to_string(&sc).expect("scenario serialises")))
+    Ok((d, sc_json))
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -21,6 +21,13 @@ pub enum RecordCompression {
 }
 
 impl RecordCompression {
+    /// Every compression, in the order they are named.
+    pub const ALL: [RecordCompression; 3] = [
+        RecordCompression::None,
+        RecordCompression::Zstd,
+        RecordCompression::Lz4,
+    ];
+
     /// `"none"`, `"zstd"` or `"lz4"`.
     pub fn as_str(self) -> &'static str {
         match self {

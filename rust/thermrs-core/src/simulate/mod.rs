@@ -99,13 +99,11 @@ pub fn simulate_cancellable<W: Write + Seek>(
             let t_ir = cycle_t + rig.camera.len() as f64 * slot;
             let t = trajectory::end_of(&segs);
             if t > t_ir {
-                return Err(Error::Input(format!(
-                    "run {:?}: moves and dwells take {:.1} s, more than the {:.1} s of the cycle \
-                     before the thermal frame (lengthen cycle_s or shorten motion.dwell_s)",
-                    run.name,
-                    t - cycle_t,
-                    t_ir - cycle_t
-                )));
+                return Err(Error::CycleTooShort {
+                    run: run.name.clone(),
+                    motion_s: t - cycle_t,
+                    available_s: t_ir - cycle_t,
+                });
             }
             let c = Cycle {
                 ri,

@@ -5,7 +5,7 @@
 use std::io::{Seek, Write};
 
 use crate::effects::Effects;
-use crate::error::{Error, Result};
+use crate::error::{Error, NameKind, Result, UnknownName};
 use crate::heat::{self, NodeParams};
 use crate::model::ForwardModel;
 use crate::record::{MsgType, RecordCompression, RecordError, RecordOptions, RecordingWriter};
@@ -37,10 +37,7 @@ pub(super) struct Setup<'a> {
 impl<'a> Setup<'a> {
     /// Check the rig and scenario fit together and build what the cycles use.
     pub(super) fn new(rig: &'a Rig, sc: &'a Scenario) -> Result<Setup<'a>> {
-        let th = rig
-            .thermal
-            .as_ref()
-            .ok_or_else(|| Error::Input("the rig has no [thermal] camera to simulate".into()))?;
+        let th = rig.thermal.as_ref().ok_or(Error::NoThermalCamera)?;
         let fx = effects(rig, sc)?;
         let model = ForwardModel::new(rig, &fx.params)?;
         let nodes = nodes(rig, sc)?;
@@ -75,7 +72,17 @@ impl<'a> Setup<'a> {
                 .output
                 .compression
                 .parse::<RecordCompression>()
-                .map_err(|e| Error::Input(e.to_string()))?,
+                .map_err(|_| {
+                    UnknownName::new(
+                        "output",
+                        NameKind::Compression,
+                        &sc.output.compression,
+                        RecordCompression::ALL
+                            .iter()
+                            .map(|c| c.to_string())
+                            .collect(),
+                    )
+                })?,
             chunk_size: sc.output.chunk_size,
             ..RecordOptions::default()
         };
@@ -123,11 +130,8 @@ fn nodes(rig: &Rig, sc: &Scenario) -> Result<Vec<NodeParams>> {
         sc.node
             .iter()
             .map(|n| {
-                let rise = n.rise().ok_or_else(|| {
-                    Error::Input(format!(
-                        "thermal node {:?}: give exactly one of rise_k and rise_saturating",
-                        n.name
-                    ))
+                let rise = n.rise().ok_or_else(|| Error::NodeRise {
+                    node: n.name.clone(),
                 })?;
                 Ok(NodeParams::new(n.name.clone(), n.tau_min, rise)?)
             })
@@ -136,11 +140,8 @@ fn nodes(rig: &Rig, sc: &Scenario) -> Result<Vec<NodeParams>> {
     let rois = rig.rois();
     for n in &nodes {
         if !rois.contains_key(&n.name) {
-            return Err(Error::Input(format!(
-                "thermal node {:?} is not a ROI of the rig ({})",
-                n.name,
-                rois.keys().cloned().collect::<Vec<_>>().join(", ")
-            )));
+            let known = rois.keys().cloned().collect();
+            return Err(UnknownName::new("", NameKind::ThermalNode, &n.name, known).into());
         }
     }
     Ok(nodes)
@@ -160,9 +161,8 @@ fn temperature_sources(model: &ForwardModel, nodes: &[NodeParams]) -> Result<Vec
                     .position(|n| n.name == *t)
                     .map(Some)
                     .ok_or_else(|| {
-                        Error::Input(format!(
-                            "the model needs temperature {t:?} but no thermal node simulates it"
-                        ))
+                        let known = nodes.iter().map(|n| n.name.clone()).collect();
+                        UnknownName::new("", NameKind::SimulatedTemperature, t, known).into()
                     })
             }
         })

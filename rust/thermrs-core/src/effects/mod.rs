@@ -23,9 +23,9 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::error::{Error, NameKind, Result, UnknownName};
 use crate::model::{JointOffset, LaserTilt, ModelParams};
-use crate::rig::{LengthRef, Rig};
+use crate::rig::{LengthRef, Rig, AMBIENT};
 
 /// Effect names of SPEC §6 (the contract), in the SPEC's order.
 pub const EFFECT_NAMES: [&str; 8] = [
@@ -334,83 +334,88 @@ impl Effect {
     /// The names an effect uses exist in `rig`: cameras, joints, temperatures (a ROI or
     /// `ambient`), lengths (not already listed in `[expansion]`).
     pub fn check(&self, rig: &Rig) -> Result<()> {
-        let name = self.name();
-        let bad = |m: String| Err(Error::Input(format!("effect {name}: {m}")));
+        let context = format!("effect {}", self.name());
         let rois: Vec<String> = rig
             .thermal
             .iter()
             .flat_map(|t| t.roi.iter().map(|r| r.name.clone()))
             .collect();
-        let temperature_ok = |t: &str| t == "ambient" || rois.iter().any(|r| r == t);
-        let temps_known = || {
-            let mut v = rois.clone();
-            v.push("ambient".into());
-            v.join(", ")
-        };
-        let camera_ok = |c: &str| rig.camera_index(c).is_some();
-        let cameras = || {
-            rig.camera
-                .iter()
-                .map(|c| c.name.clone())
-                .collect::<Vec<_>>()
-                .join(", ")
+        let temperature = |context: &str, t: &str| -> Result<()> {
+            if t == AMBIENT || rois.iter().any(|r| r == t) {
+                return Ok(());
+            }
+            let mut known = rois.clone();
+            known.push(AMBIENT.into());
+            Err(UnknownName::new(context, NameKind::Temperature, t, known).into())
         };
         match self {
             Effect::AlphaPerLink { alpha_per_k } => {
                 for t in alpha_per_k.keys() {
-                    if !temperature_ok(t) {
-                        return bad(format!(
-                            "alpha_per_k names temperature {t:?}, neither a ROI of the rig nor ambient ({})",
-                            temps_known()
-                        ));
-                    }
+                    temperature(&format!("{context}: alpha_per_k"), t)?;
                 }
             }
             Effect::UnmodelledLength {
                 length,
-                temperature,
+                temperature: t,
             } => {
-                if !temperature_ok(temperature) {
-                    return bad(format!(
-                        "temperature {temperature:?} is neither a ROI of the rig nor ambient ({})",
-                        temps_known()
-                    ));
-                }
+                temperature(&context, t)?;
                 if rig.expansion.length.iter().any(|l| l.name == *length) {
-                    return bad(format!(
-                        "length {length:?} already expands (the rig's [expansion] lists it)"
-                    ));
+                    return Err(Error::LengthAlreadyExpands {
+                        length: length.clone(),
+                    });
                 }
             }
             Effect::FixtureDrift { camera, .. } | Effect::SensorDrift { camera, .. } => {
-                if !camera_ok(camera) {
-                    return bad(format!(
-                        "camera {camera:?} is not in the rig ({})",
-                        cameras()
-                    ));
+                if rig.camera_index(camera).is_none() {
+                    let known = rig.camera.iter().map(|c| c.name.clone()).collect();
+                    return Err(UnknownName::new(context, NameKind::Camera, camera, known).into());
                 }
             }
             Effect::JointOffset {
-                joint, temperature, ..
+                joint,
+                temperature: t,
+                ..
             } => {
                 if joint_index(rig, joint).is_none() {
-                    return bad(format!(
-                        "joint {joint:?} is not a joint of the rig ({}, or 1..6)",
-                        rig.robot.joint_names.join(", ")
-                    ));
+                    let known = rig.robot.joint_names.clone();
+                    return Err(UnknownName::new(context, NameKind::Joint, joint, known).into());
                 }
-                if !temperature_ok(temperature) {
-                    return bad(format!(
-                        "temperature {temperature:?} is neither a ROI of the rig nor ambient ({})",
-                        temps_known()
-                    ));
-                }
+                temperature(&context, t)?;
             }
             Effect::ThermalLag { .. }
             | Effect::LaserTilt { .. }
             | Effect::NonlinearAlpha { .. } => {}
         }
         Ok(())
+    }
+
+    /// One effect from JSON (`{"name": …, key: value, …}`), its values validated.
+    pub fn from_json(json: &str) -> Result<Effect> {
+        let e: Effect = serde_json::from_str(json).map_err(|source| Error::EffectJson {
+            what: "effect",
+            source,
+        })?;
+        e.validated()
+    }
+
+    /// A JSON list of effects (`[{"name": …, …}, …]`), each one's values validated.
+    pub fn list_from_json(json: &str) -> Result<Vec<Effect>> {
+        let list: Vec<Effect> = serde_json::from_str(json).map_err(|source| Error::EffectJson {
+            what: "effects",
+            source,
+        })?;
+        list.into_iter().map(Effect::validated).collect()
+    }
+
+    /// The effect, if its values validate ([`Effect::validate`]); the error names it and the key.
+    pub fn validated(self) -> Result<Effect> {
+        match self.validate() {
+            Ok(()) => Ok(self),
+            Err(error) => Err(Error::EffectValue {
+                effect: self.name(),
+                error,
+            }),
+        }
     }
 }
 
@@ -489,8 +494,10 @@ impl Effects {
         };
         let mut seen: Vec<String> = Vec::new();
         for e in effects {
-            e.validate()
-                .map_err(|k| Error::Input(format!("effect {}: {k}", e.name())))?;
+            e.validate().map_err(|error| Error::EffectValue {
+                effect: e.name(),
+                error,
+            })?;
             e.check(rig)?;
             // One of each, except where several instances are distinct mechanisms.
             let key = match e {
@@ -501,7 +508,7 @@ impl Effects {
                 other => other.name().to_string(),
             };
             if seen.contains(&key) {
-                return Err(Error::Input(format!("effect {key} is given twice")));
+                return Err(Error::DuplicateEffect { key });
             }
             seen.push(key);
             set.add(rig, e);
@@ -619,168 +626,4 @@ pub fn sensor_drift_um(um: [f64; 2], tau_min: f64, t_since_start_s: f64) -> [f64
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn rig() -> Rig {
-        Rig::from_toml(
-            include_str!("../../../python/thermrs/data/kr15-paper.toml"),
-            "kr15",
-        )
-        .unwrap()
-    }
-
-    #[test]
-    fn every_name_has_its_keys_and_round_trips_through_json() {
-        for name in EFFECT_NAMES {
-            assert!(Effect::keys(name).is_some(), "{name}");
-        }
-        let all = [
-            r#"{"name":"alpha_per_link","alpha_per_k":{"link2":2e-5}}"#,
-            r#"{"name":"thermal_lag","tau_min":25.0}"#,
-            r#"{"name":"unmodelled_length","length":"a3","temperature":"link3"}"#,
-            r#"{"name":"fixture_drift","camera":"A","um_per_k":[1.0,2.0]}"#,
-            r#"{"name":"laser_tilt","tilt_deg":0.5}"#,
-            r#"{"name":"joint_offset","joint":"joint_a2","temperature":"link2","urad_per_k":5.0}"#,
-            r#"{"name":"nonlinear_alpha","kappa_per_k":0.01}"#,
-            r#"{"name":"sensor_drift","camera":"B","tau_min":30.0,"um":[3.0,-1.0]}"#,
-        ];
-        let mut names = Vec::new();
-        for j in all {
-            let e: Effect = serde_json::from_str(j).unwrap();
-            e.validate().unwrap();
-            e.check(&rig()).unwrap();
-            let back: Effect = serde_json::from_str(&serde_json::to_string(&e).unwrap()).unwrap();
-            assert_eq!(back, e);
-            names.push(e.name());
-        }
-        assert_eq!(names, EFFECT_NAMES);
-        assert!(serde_json::from_str::<Effect>(r#"{"name":"thermal_lag","tau":3}"#).is_err());
-    }
-
-    #[test]
-    fn values_out_of_range_are_named() {
-        let bad = [
-            (r#"{"name":"thermal_lag","tau_min":-3.0}"#, "tau_min"),
-            (r#"{"name":"thermal_lag","tau_min":0.0}"#, "tau_min"),
-            (
-                r#"{"name":"sensor_drift","camera":"A","tau_min":1e9,"um":[1,1]}"#,
-                "tau_min",
-            ),
-            (
-                r#"{"name":"alpha_per_link","alpha_per_k":{"link2":23.2}}"#,
-                "alpha_per_k.link2",
-            ),
-            (
-                r#"{"name":"alpha_per_link","alpha_per_k":{}}"#,
-                "alpha_per_k",
-            ),
-            (
-                r#"{"name":"nonlinear_alpha","kappa_per_k":5.0}"#,
-                "kappa_per_k",
-            ),
-            (r#"{"name":"laser_tilt","tilt_deg":45.0}"#, "tilt_deg"),
-            (
-                r#"{"name":"unmodelled_length","length":"b3","temperature":"link3"}"#,
-                "length",
-            ),
-            (
-                r#"{"name":"fixture_drift","camera":"A","um_per_k":[1e6,0]}"#,
-                "um_per_k",
-            ),
-        ];
-        for (j, key) in bad {
-            let e: Effect = serde_json::from_str(j).unwrap();
-            let KeyError { key: k, message: m } = e.validate().unwrap_err();
-            assert_eq!(k, key, "{j}: {m}");
-        }
-    }
-
-    #[test]
-    fn names_are_checked_against_the_rig() {
-        let r = rig();
-        for (j, needle) in [
-            (
-                r#"{"name":"fixture_drift","camera":"Z","um_per_k":[1,1]}"#,
-                "camera \"Z\"",
-            ),
-            (
-                r#"{"name":"joint_offset","joint":"joint_a9","temperature":"link2","urad_per_k":1}"#,
-                "joint_a9",
-            ),
-            (
-                r#"{"name":"unmodelled_length","length":"a2","temperature":"link2"}"#,
-                "already expands",
-            ),
-            (
-                r#"{"name":"unmodelled_length","length":"a3","temperature":"link9"}"#,
-                "link9",
-            ),
-            (
-                r#"{"name":"alpha_per_link","alpha_per_k":{"link9":1e-5}}"#,
-                "link9",
-            ),
-        ] {
-            let e: Effect = serde_json::from_str(j).unwrap();
-            let m = e.check(&r).unwrap_err().to_string();
-            assert!(m.contains(needle), "{m}");
-        }
-        let twice = [
-            Effect::ThermalLag { tau_min: 3.0 },
-            Effect::ThermalLag { tau_min: 4.0 },
-        ];
-        assert!(Effects::build(&r, &twice, 2e-5, 20.0).is_err());
-    }
-
-    #[test]
-    fn spec_keys_are_checked_like_the_scenario_file() {
-        let s = EffectSpec {
-            name: "thermal_lag".into(),
-            tau_min: Some(3.0),
-            um: Some([1.0, 2.0]),
-            ..Default::default()
-        };
-        assert_eq!(Effect::from_spec(&s).unwrap_err().key, "um");
-        let s = EffectSpec {
-            name: "thermal_lag".into(),
-            ..Default::default()
-        };
-        assert!(Effect::from_spec(&s)
-            .unwrap_err()
-            .message
-            .contains("needs `tau_min`"));
-        let s = EffectSpec {
-            name: "thermal_lag".into(),
-            tau_min: Some(-1.0),
-            ..Default::default()
-        };
-        assert_eq!(Effect::from_spec(&s).unwrap_err().key, "tau_min");
-    }
-
-    #[test]
-    fn chip_shifts_have_their_closed_forms() {
-        let r = rig();
-        let fx = Effects::build(
-            &r,
-            &[
-                Effect::FixtureDrift {
-                    camera: "A".into(),
-                    um_per_k: [2.0, -1.0],
-                },
-                Effect::SensorDrift {
-                    camera: "A".into(),
-                    tau_min: 10.0,
-                    um: [4.0, 0.0],
-                },
-            ],
-            2e-5,
-            20.0,
-        )
-        .unwrap();
-        let d = fx.chip_shift_um(0, 23.0, 600.0);
-        let f = 1.0 - (-1.0f64).exp();
-        assert!((d[0] - (6.0 + 4.0 * f)).abs() < 1e-12);
-        assert!((d[1] + 3.0).abs() < 1e-12);
-        assert_eq!(fx.chip_shift_um(1, 23.0, 600.0), [0.0, 0.0]);
-    }
-}
+mod tests;

@@ -1,0 +1,200 @@
+//! Tests of the SPEC §6 effects: validation, checks against a rig, their actions.
+
+use super::*;
+
+fn rig() -> Rig {
+    Rig::from_toml(
+        include_str!("../../../../python/thermrs/data/kr15-paper.toml"),
+        "kr15",
+    )
+    .unwrap()
+}
+
+#[test]
+fn every_name_has_its_keys_and_round_trips_through_json() {
+    for name in EFFECT_NAMES {
+        assert!(Effect::keys(name).is_some(), "{name}");
+    }
+    let all = [
+        r#"{"name":"alpha_per_link","alpha_per_k":{"link2":2e-5}}"#,
+        r#"{"name":"thermal_lag","tau_min":25.0}"#,
+        r#"{"name":"unmodelled_length","length":"a3","temperature":"link3"}"#,
+        r#"{"name":"fixture_drift","camera":"A","um_per_k":[1.0,2.0]}"#,
+        r#"{"name":"laser_tilt","tilt_deg":0.5}"#,
+        r#"{"name":"joint_offset","joint":"joint_a2","temperature":"link2","urad_per_k":5.0}"#,
+        r#"{"name":"nonlinear_alpha","kappa_per_k":0.01}"#,
+        r#"{"name":"sensor_drift","camera":"B","tau_min":30.0,"um":[3.0,-1.0]}"#,
+    ];
+    let mut names = Vec::new();
+    for j in all {
+        let e: Effect = serde_json::from_str(j).unwrap();
+        e.validate().unwrap();
+        e.check(&rig()).unwrap();
+        let back: Effect = serde_json::from_str(&serde_json::to_string(&e).unwrap()).unwrap();
+        assert_eq!(back, e);
+        names.push(e.name());
+    }
+    assert_eq!(names, EFFECT_NAMES);
+    assert!(serde_json::from_str::<Effect>(r#"{"name":"thermal_lag","tau":3}"#).is_err());
+}
+
+#[test]
+fn values_out_of_range_are_named() {
+    let bad = [
+        (r#"{"name":"thermal_lag","tau_min":-3.0}"#, "tau_min"),
+        (r#"{"name":"thermal_lag","tau_min":0.0}"#, "tau_min"),
+        (
+            r#"{"name":"sensor_drift","camera":"A","tau_min":1e9,"um":[1,1]}"#,
+            "tau_min",
+        ),
+        (
+            r#"{"name":"alpha_per_link","alpha_per_k":{"link2":23.2}}"#,
+            "alpha_per_k.link2",
+        ),
+        (
+            r#"{"name":"alpha_per_link","alpha_per_k":{}}"#,
+            "alpha_per_k",
+        ),
+        (
+            r#"{"name":"nonlinear_alpha","kappa_per_k":5.0}"#,
+            "kappa_per_k",
+        ),
+        (r#"{"name":"laser_tilt","tilt_deg":45.0}"#, "tilt_deg"),
+        (
+            r#"{"name":"unmodelled_length","length":"b3","temperature":"link3"}"#,
+            "length",
+        ),
+        (
+            r#"{"name":"fixture_drift","camera":"A","um_per_k":[1e6,0]}"#,
+            "um_per_k",
+        ),
+    ];
+    for (j, key) in bad {
+        let e: Effect = serde_json::from_str(j).unwrap();
+        let KeyError { key: k, message: m } = e.validate().unwrap_err();
+        assert_eq!(k, key, "{j}: {m}");
+    }
+}
+
+#[test]
+fn names_are_checked_against_the_rig() {
+    let r = rig();
+    for (j, needle) in [
+        (
+            r#"{"name":"fixture_drift","camera":"Z","um_per_k":[1,1]}"#,
+            "camera \"Z\"",
+        ),
+        (
+            r#"{"name":"joint_offset","joint":"joint_a9","temperature":"link2","urad_per_k":1}"#,
+            "joint_a9",
+        ),
+        (
+            r#"{"name":"unmodelled_length","length":"a2","temperature":"link2"}"#,
+            "already expands",
+        ),
+        (
+            r#"{"name":"unmodelled_length","length":"a3","temperature":"link9"}"#,
+            "link9",
+        ),
+        (
+            r#"{"name":"alpha_per_link","alpha_per_k":{"link9":1e-5}}"#,
+            "link9",
+        ),
+    ] {
+        let e: Effect = serde_json::from_str(j).unwrap();
+        let m = e.check(&r).unwrap_err().to_string();
+        assert!(m.contains(needle), "{m}");
+    }
+    let twice = [
+        Effect::ThermalLag { tau_min: 3.0 },
+        Effect::ThermalLag { tau_min: 4.0 },
+    ];
+    assert!(matches!(
+        Effects::build(&r, &twice, 2e-5, 20.0),
+        Err(Error::DuplicateEffect { key }) if key == "thermal_lag"
+    ));
+}
+
+#[test]
+fn errors_carry_their_cause() {
+    let r = rig();
+    // The cause as data: which kind of name, which one, which the rig has.
+    let e = Effect::from_json(r#"{"name":"fixture_drift","camera":"Z","um_per_k":[1,1]}"#).unwrap();
+    match e.check(&r) {
+        Err(Error::UnknownName(u)) => {
+            assert_eq!((u.kind, u.name.as_str()), (NameKind::Camera, "Z"));
+            assert_eq!(u.known, ["A", "B"]);
+        }
+        other => panic!("{other:?}"),
+    }
+    let e =
+        Effect::from_json(r#"{"name":"unmodelled_length","length":"a2","temperature":"link2"}"#)
+            .unwrap();
+    assert!(matches!(
+        e.check(&r),
+        Err(Error::LengthAlreadyExpands { length }) if length == "a2"
+    ));
+    assert!(matches!(
+        Effect::from_json(r#"{"name":"thermal_lag","tau_min":-1}"#),
+        Err(Error::EffectValue { effect: "thermal_lag", error }) if error.key == "tau_min"
+    ));
+    assert!(matches!(
+        Effect::list_from_json("not json"),
+        Err(Error::EffectJson {
+            what: "effects",
+            ..
+        })
+    ));
+}
+
+#[test]
+fn spec_keys_are_checked_like_the_scenario_file() {
+    let s = EffectSpec {
+        name: "thermal_lag".into(),
+        tau_min: Some(3.0),
+        um: Some([1.0, 2.0]),
+        ..Default::default()
+    };
+    assert_eq!(Effect::from_spec(&s).unwrap_err().key, "um");
+    let s = EffectSpec {
+        name: "thermal_lag".into(),
+        ..Default::default()
+    };
+    assert!(Effect::from_spec(&s)
+        .unwrap_err()
+        .message
+        .contains("needs `tau_min`"));
+    let s = EffectSpec {
+        name: "thermal_lag".into(),
+        tau_min: Some(-1.0),
+        ..Default::default()
+    };
+    assert_eq!(Effect::from_spec(&s).unwrap_err().key, "tau_min");
+}
+
+#[test]
+fn chip_shifts_have_their_closed_forms() {
+    let r = rig();
+    let fx = Effects::build(
+        &r,
+        &[
+            Effect::FixtureDrift {
+                camera: "A".into(),
+                um_per_k: [2.0, -1.0],
+            },
+            Effect::SensorDrift {
+                camera: "A".into(),
+                tau_min: 10.0,
+                um: [4.0, 0.0],
+            },
+        ],
+        2e-5,
+        20.0,
+    )
+    .unwrap();
+    let d = fx.chip_shift_um(0, 23.0, 600.0);
+    let f = 1.0 - (-1.0f64).exp();
+    assert!((d[0] - (6.0 + 4.0 * f)).abs() < 1e-12);
+    assert!((d[1] + 3.0).abs() < 1e-12);
+    assert_eq!(fx.chip_shift_um(1, 23.0, 600.0), [0.0, 0.0]);
+}
