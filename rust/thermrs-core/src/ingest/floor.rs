@@ -32,10 +32,10 @@ pub fn checksum_chunks(path: &Path) -> Result<ChecksumScan> {
     // SAFETY: read-only map of a file not being written (as in `extract`).
     let map = unsafe { memmap2::Mmap::map(&file) }.map_err(io)?;
     if map.len() < MAGIC.len() || &map[..MAGIC.len()] != MAGIC {
-        return Err(Error::Recording(format!(
-            "{}: not an MCAP file",
-            path.display()
-        )));
+        return Err(Error::NotMcap {
+            path: path.display().to_string(),
+            bytes: map.len() as u64,
+        });
     }
     let src = Source {
         file: &file,
