@@ -188,6 +188,7 @@ def designed(
     return res, tmp
 
 
+@pytest.mark.slow
 def test_designed_experiment_identifies_the_truth(
     paper_rig: thermrs.Rig,
     short_runs: dict[str, pl.DataFrame],
@@ -219,6 +220,7 @@ def test_designed_experiment_identifies_the_truth(
     assert v["params"]["urad_per_k"] == pytest.approx(12.8, rel=0.2)
 
 
+@pytest.mark.slow
 def test_report_subsection_shows_the_experiment(designed: tuple[DesignResult, Path]) -> None:
     """The report's subsection: the recommendation (or why none), the rivals' predicted drift
     on the new chip (they must differ there: that is what the experiment reads) and the proof
