@@ -106,6 +106,7 @@ def extract(
     min_sigma_px: float | None = None,
     threshold_sigma: float | None = None,
     verify_crc: bool = True,
+    content_hash: bool = False,
 ) -> tuple[
     dict[str, npt.NDArray[Any]],
     dict[str, npt.NDArray[Any]],

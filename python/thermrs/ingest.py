@@ -73,6 +73,9 @@ class ExtractReport:
     metadata: list[dict[str, Any]] = field(default_factory=list)
     crc_failures: int = 0
     lost_messages: dict[str, int] = field(default_factory=dict)
+    #: BLAKE3 of the whole file (hex), taken in the extraction's own pass when asked for
+    #: (``extract(..., content_hash=True)``), else None.
+    content_hash: str | None = None
 
     @property
     def data_loss(self) -> bool:
@@ -219,6 +222,7 @@ def extract(
     run_gap_factor: float = DEFAULT_GAP_FACTOR,
     run_min_gap_s: float = DEFAULT_MIN_GAP_S,
     verify_crc: bool = True,
+    content_hash: bool = False,
 ) -> Extraction:
     """Extract every table of a recording.
 
@@ -243,6 +247,9 @@ def extract(
     verify_crc
         Check each chunk's CRC-32 where the writer stored one; a chunk that fails is skipped
         and reported as a loss (default). ``False`` trusts the chunks (benchmarks).
+    content_hash
+        Also hash the whole file (BLAKE3, ``report.content_hash``) in the same pass, so that
+        the file is read once for both (campaigns).
 
     Returns
     -------
@@ -284,6 +291,7 @@ def extract(
         min_sigma_px=min_sigma_px,
         threshold_sigma=threshold_sigma,
         verify_crc=verify_crc,
+        content_hash=content_hash,
     )
     frames = _frames_table(frames_c, rig)
     temperatures = _temperatures_table(thermal_c, ambient_c, rig)

@@ -157,6 +157,7 @@ def run_campaign(
             version,
             options,
             frozenset(by_hash),
+            known_sizes=frozenset(int(n) for n in same["size_bytes"].drop_nulls()),
             stage=str(stage),
             token=token,
         )
@@ -244,7 +245,12 @@ def _as_completed(client: Any, jobs: list[Job]) -> Generator[dict[str, Any], Non
     right after, so that the cluster holds no finished result)."""
     from distributed import as_completed
 
-    futures = client.map(run_job, jobs, key=[f"thermrs-extract-{j.path}" for j in jobs], pure=False)
+    # Keys name the campaign (its staging token) as well as the file: a task of an interrupted
+    # campaign that a worker is still running must not be taken for this campaign's (its result
+    # names a staging folder this campaign has cleaned away).
+    futures = client.map(
+        run_job, jobs, key=[f"thermrs-extract-{j.token}-{j.path}" for j in jobs], pure=False
+    )
     try:
         for fut in as_completed(futures):  # type: ignore[no-untyped-call]
             res = fut.result()

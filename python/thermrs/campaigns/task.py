@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -24,7 +25,7 @@ import polars as pl
 
 from thermrs.campaigns.sources import content_hash, recording_id
 from thermrs.campaigns.staging import reachable, write_stage
-from thermrs.errors import ThermrsError
+from thermrs.errors import InputError, ThermrsError
 
 __all__ = ["TABLES", "Job", "run_job", "run_stats"]
 
@@ -50,6 +51,9 @@ class Job:
     known
         Content hashes already extracted with this rig, version and options: a file holding
         one of them is not extracted again.
+    known_sizes
+        The sizes of those files: a file of another size cannot hold their bytes, so it is
+        hashed in the extraction's own pass rather than read once more before it.
     stage, token
         The dataset's staging folder and the token file the client left in it: a worker that
         sees the token writes the tables there (empty: always return them).
@@ -62,12 +66,14 @@ class Job:
     thermrs_version: str
     options: str = "{}"
     known: frozenset[str] = frozenset()
+    known_sizes: frozenset[int] = frozenset()
     stage: str = ""
     token: str = ""
 
 
 def run_job(job: Job) -> dict[str, Any]:
-    """Hash and extract one recording.
+    """Hash and extract one recording (the hash first where the file may be one already
+    extracted, else in the same pass).
 
     Returns
     -------
@@ -82,17 +88,25 @@ def run_job(job: Job) -> dict[str, Any]:
     from thermrs.rig import Rig
 
     try:
-        digest = content_hash(job.path)
-        rid = recording_id(job.path, digest)
-        if digest in job.known:
-            return {
-                "status": "unchanged",
-                "path": job.path,
-                "content_hash": digest,
-                "recording": rid,
-            }
         rig = Rig.from_toml(job.rig_text, source_name=job.rig_source)
-        ex = extract(job.path, rig, **json.loads(job.options))
+        options = json.loads(job.options)
+        if _size(job.path) in job.known_sizes:
+            # It may hold bytes already extracted (a renamed or touched file): hash first.
+            digest = content_hash(job.path)
+            if digest in job.known:
+                return {
+                    "status": "unchanged",
+                    "path": job.path,
+                    "content_hash": digest,
+                    "recording": recording_id(job.path, digest),
+                }
+            ex = extract(job.path, rig, **options)
+        else:
+            # No extracted recording has its size, so none has its bytes: the hash is taken
+            # in the extraction's own pass (the file is read once).
+            ex = extract(job.path, rig, content_hash=True, **options)
+            digest = str(ex.report.content_hash)
+        rid = recording_id(job.path, digest)
     except ThermrsError as e:
         return {"status": "failed", "path": job.path, "error": str(e)}
     from thermrs.runs import label_runs
@@ -198,3 +212,17 @@ def run_stats(
         "speed_deg_s": pl.Float64,
     }
     return pl.DataFrame(rows, schema=schema)
+
+
+def _size(path: str) -> int:
+    """The file's size in bytes.
+
+    Raises
+    ------
+    InputError
+        The file cannot be read.
+    """
+    try:
+        return os.stat(path).st_size
+    except OSError as e:
+        raise InputError(f"recording {path}: {e.strerror or e}") from None

@@ -78,6 +78,9 @@ pub struct ExtractOptions {
     /// Check each chunk's CRC-32 (where the writer stored one); a chunk that fails is skipped
     /// and reported.
     pub verify_crc: bool,
+    /// Also hash the whole file (BLAKE3, [`Report::content_hash`]) in the same pass, window by
+    /// window as the walk goes, so that the file is read once for both.
+    pub content_hash: bool,
 }
 
 impl Default for ExtractOptions {
@@ -86,6 +89,7 @@ impl Default for ExtractOptions {
             spot: SpotParams::default(),
             window_bytes: 64 << 20,
             verify_crc: true,
+            content_hash: false,
         }
     }
 }
@@ -315,6 +319,9 @@ fn extract_in(
     let mut ctx = Context::new(rig, opts.spot.clone(), source, route);
     ctx.verify_crc = opts.verify_crc;
     let mut walk = Walk::new(buf, &ctx, opts.window_bytes, progress);
+    if opts.content_hash {
+        walk.hash_content();
+    }
     if !walk.run() {
         return Err(Error::Interrupted);
     }
@@ -514,6 +521,16 @@ mod tests {
             assert!(map.1 > 5, "several chunks");
             assert_eq!(map, read);
             assert_eq!(map, auto);
+            // The content hash taken window by window (windows of ~1 chunk here) is the
+            // hash of the file's bytes taken at once, whole or cut.
+            let opts = ExtractOptions {
+                content_hash: true,
+                window_bytes: 1 << 20,
+                ..ExtractOptions::default()
+            };
+            let (_, r) = extract(&path, &rig, &opts, &|_, _, _| true).unwrap();
+            let want = blake3::hash(&full[..len]).to_hex().to_string();
+            assert_eq!(r.content_hash.as_deref(), Some(want.as_str()));
         }
         std::fs::remove_file(&path).unwrap();
     }

@@ -16,7 +16,7 @@ use crate::rig::PyRig;
 /// (handed over without copying) and the report as JSON. Runs without the GIL; `progress` is
 /// called as progress(bytes_done, bytes_total, frames_done); Ctrl-C stops it.
 #[pyfunction]
-#[pyo3(signature = (path, rig, *, progress = None, min_sigma_px = None, threshold_sigma = None, verify_crc = true))]
+#[pyo3(signature = (path, rig, *, progress = None, min_sigma_px = None, threshold_sigma = None, verify_crc = true, content_hash = false))]
 fn extract<'py>(
     py: Python<'py>,
     path: PathBuf,
@@ -25,6 +25,7 @@ fn extract<'py>(
     min_sigma_px: Option<f64>,
     threshold_sigma: Option<f64>,
     verify_crc: bool,
+    content_hash: bool,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let pending = Pending::default();
     let cb = |done: u64, total: u64, frames: u64| -> bool {
@@ -39,7 +40,7 @@ fn extract<'py>(
     let inner = &rig.inner;
     let res = py.detach(|| {
         call(&format!("reading {}", path.display()), || {
-            let opts = options(min_sigma_px, threshold_sigma, verify_crc);
+            let opts = options(min_sigma_px, threshold_sigma, verify_crc, content_hash);
             let (tables, report) = ingest::extract(&path, inner, &opts, &cb)?;
             let report = serde_json::to_string(&report).expect("report serialises");
             Ok((tables, report))
@@ -57,9 +58,11 @@ fn options(
     min_sigma_px: Option<f64>,
     threshold_sigma: Option<f64>,
     verify_crc: bool,
+    content_hash: bool,
 ) -> ingest::ExtractOptions {
     let mut opts = ingest::ExtractOptions {
         verify_crc,
+        content_hash,
         ..ingest::ExtractOptions::default()
     };
     if let Some(v) = min_sigma_px {

@@ -58,6 +58,9 @@ pub struct Report {
     pub crc_failures: u64,
     /// Messages lost per topic, summed over `losses` (where known).
     pub lost_messages: BTreeMap<String, u64>,
+    /// BLAKE3 of the whole file (hex), when asked for ([`super::ExtractOptions::content_hash`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub content_hash: Option<String>,
 }
 
 /// One MCAP Metadata record: its name and string map.

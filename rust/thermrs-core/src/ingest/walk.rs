@@ -42,6 +42,8 @@ pub(super) struct Walk<'b, 'c> {
     /// Messages per channel that each chunk's message index records count (by file offset),
     /// so that a lost chunk's messages can be told by topic where there is no summary.
     indexed: HashMap<u64, BTreeMap<u16, u64>>,
+    /// The file's content hash so far, and the bytes of `buf` it covers.
+    hasher: Option<(blake3::Hasher, usize)>,
 }
 
 impl<'b, 'c> Walk<'b, 'c> {
@@ -74,9 +76,30 @@ impl<'b, 'c> Walk<'b, 'c> {
             frames_done: 0,
             last_chunk: None,
             indexed: HashMap::new(),
+            hasher: None,
         };
         walk.read_summary();
         walk
+    }
+
+    /// Hash the whole file as the walk goes (each window's bytes after it ran, while they
+    /// are still in the page cache and mapped): [`Report::content_hash`].
+    pub(super) fn hash_content(&mut self) {
+        self.hasher = Some((blake3::Hasher::new(), 0));
+    }
+
+    /// Hash `buf` up to `to` (an offset in `buf`).
+    fn hash_upto(&mut self, to: usize) {
+        if let Some((h, done)) = self.hasher.as_mut() {
+            if to > *done {
+                if rayon::current_num_threads() > 1 {
+                    h.update_rayon(&self.buf[*done..to]);
+                } else {
+                    h.update(&self.buf[*done..to]);
+                }
+                *done = to;
+            }
+        }
     }
 
     fn read_summary(&mut self) {
@@ -147,6 +170,10 @@ impl<'b, 'c> Walk<'b, 'c> {
             return false;
         }
         recovery::name_losses(&mut self.report, &self.indexed, &self.reg);
+        self.hash_upto(self.buf.len());
+        if let Some((h, _)) = self.hasher.take() {
+            self.report.content_hash = Some(h.finalize().to_hex().to_string());
+        }
         true
     }
 
@@ -363,6 +390,7 @@ impl<'b, 'c> Walk<'b, 'c> {
             self.report.merge(&p.report);
         }
         self.window.clear();
+        self.hash_upto(MAGIC.len() + upto);
         if let Some(src) = ctx.source {
             src.release(
                 MAGIC.len() + self.window_start.min(upto),
