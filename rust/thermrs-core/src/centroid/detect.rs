@@ -49,23 +49,74 @@ pub(super) fn scan_reach(k: usize, min_sigma_px: f64) -> f64 {
     }
 }
 
-// Long (~200 lines) on purpose for now: the scan, candidate runs and blob choice share the
-// per-frame thresholds and the sample buffer in one hot loop that the benchmark
-// (`bench_find_spot`) times; splitting it is tracked in ARCHITECTURE.md.
+/// Finds and measures the spot of one frame: the sparse scan, the frame's levels, the
+/// candidate runs, the blobs, then the measurement of the brightest (see the module
+/// documentation).
 pub(super) fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
-    let (w, h) = (f.width, f.height);
-    let k = scan_stride(p.min_sigma_px).min(h.max(1));
+    let k = scan_stride(p.min_sigma_px).min(f.height.max(1));
+    let rows = ScanRows::new(f.height, k);
+    let (row_max, samples) = scan::<P>(f, rows);
+    let lv = match Levels::new::<P>(p, k, &row_max, &samples) {
+        Ok(lv) => lv,
+        Err(none) => return none,
+    };
+    let runs = candidate_runs::<P>(f, rows, &row_max, &lv);
+    if runs.is_empty() {
+        return lv.none(0);
+    }
+    let blobs = blobs_of(&runs, k);
+    let primary = brightest_blob(&blobs);
     let sat = p.saturation_dn.unwrap_or(P::MAX);
+    match measure::<P>(f, p, blobs[primary], k, lv.bg, lv.noise, sat) {
+        Some(m) => spot_of(&m, &blobs, primary, p),
+        None => lv.none(blobs.len()),
+    }
+}
 
-    // Rows to scan: (k−1)/2, +k, …, and the last row if the stride leaves it uncovered.
-    let first = ((k - 1) / 2).min(h - 1);
-    let n_scan = (h - 1 - first) / k + 1;
-    let last = first + (n_scan - 1) * k;
-    let extra = h - 1 - last > (k - 1) / 2;
-    let scan_row = |i: usize| if i < n_scan { first + i * k } else { h - 1 };
-    let n_rows = n_scan + extra as usize;
+/// The rows the sparse scan reads: `(k−1)/2`, `+k`, …, and the last row of the frame if the
+/// stride leaves it uncovered.
+#[derive(Clone, Copy)]
+struct ScanRows {
+    first: usize,
+    k: usize,
+    n_scan: usize,
+    /// Rows read: `n_scan`, plus the last row if it is added.
+    n_rows: usize,
+    last: usize,
+}
 
-    // 1. Row maxima of the scanned rows, and a background sample from some of them.
+impl ScanRows {
+    /// The scanned rows of a frame of `h ≥ 1` rows with stride `1 ≤ k ≤ h`.
+    fn new(h: usize, k: usize) -> Self {
+        let first = ((k - 1) / 2).min(h - 1);
+        let n_scan = (h - 1 - first) / k + 1;
+        let last = first + (n_scan - 1) * k;
+        let extra = h - 1 - last > (k - 1) / 2;
+        ScanRows {
+            first,
+            k,
+            n_scan,
+            n_rows: n_scan + extra as usize,
+            last: h - 1,
+        }
+    }
+
+    /// The frame row of the `i`-th scanned row.
+    #[inline]
+    fn row(&self, i: usize) -> usize {
+        if i < self.n_scan {
+            self.first + i * self.k
+        } else {
+            self.last
+        }
+    }
+}
+
+/// Step 1, the sparse scan: the maximum of every scanned row, and a background sample on a
+/// grid of some of them, taken while they are in cache.
+fn scan<P: Px>(f: &FrameView, rows: ScanRows) -> (Vec<u32>, Vec<u16>) {
+    let w = f.width;
+    let n_rows = rows.n_rows;
     let sample_every = (n_rows / SAMPLE_GRID).max(1);
     let col_step = (w / SAMPLE_GRID).max(1);
     let col_first = col_step / 2;
@@ -74,13 +125,13 @@ pub(super) fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
     // Rows are asked for `AHEAD` scanned rows before they are read (see `frame::prefetch`).
     const AHEAD: usize = 4;
     for i in 0..AHEAD.min(n_rows) {
-        prefetch(f.row(scan_row(i)));
+        prefetch(f.row(rows.row(i)));
     }
     for i in 0..n_rows {
         if i + AHEAD < n_rows {
-            prefetch(f.row(scan_row(i + AHEAD)));
+            prefetch(f.row(rows.row(i + AHEAD)));
         }
-        let row = f.row(scan_row(i));
+        let row = f.row(rows.row(i));
         row_max.push(P::max_of(row));
         if i % sample_every == 0 {
             let mut x = col_first;
@@ -90,111 +141,128 @@ pub(super) fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
             }
         }
     }
-    let (bg, noise) = robust_stats(&samples);
-    let excess = (p.detect_sigmas * noise.max(0.5)).max(p.min_peak_dn);
-    let thr_f = bg + if excess.is_finite() { excess } else { 0.0 };
-    // A spot whose peak is above T shows at least `reach` of its excess on a scanned row.
-    let scan_f = bg + scan_reach(k, p.min_sigma_px) * (thr_f - bg);
-    let best = row_max.iter().copied().max().unwrap_or(0);
-    let detectable = thr_f < P::MAX as f64 && scan_f <= thr_f; // false for NaN
-    if !detectable || (best as f64) <= scan_f {
-        return Spot::none(bg, noise, best as f64 - bg, 0);
-    }
-    let thr = thr_f.floor() as u32; // pixel > thr  ⇔  pixel > thr_f
-    let scan_thr = scan_f.floor() as u32;
-    let half_thr = (bg + 0.5 * (thr_f - bg)).floor() as u32;
+    (row_max, samples)
+}
 
-    // 2. Candidates in the bright scanned rows: stretches of pixels above the scan threshold
-    //    (gaps of ≤ 2 px bridged). Each is checked on the rows around it (up to the next
-    //    scanned rows): it is kept as a run if a pixel there is above T and passes the blob
-    //    test, and the brightest such pixel is its peak.
+/// The frame's background and noise, its brightest scanned pixel, and the thresholds: `T`
+/// (`thr`), the lowered one of the scanned rows (`scan_thr`) and the blob test's
+/// (`half_thr`), as the largest pixel values at or below them.
+struct Levels {
+    bg: f64,
+    noise: f64,
+    best: u32,
+    thr: u32,
+    scan_thr: u32,
+    half_thr: u32,
+}
+
+impl Levels {
+    /// The levels from the scan; `Err` the `no_spot` result when no scanned row exceeds
+    /// the lowered threshold (or the threshold is out of the pixels' range, or NaN).
+    fn new<P: Px>(
+        p: &SpotParams,
+        k: usize,
+        row_max: &[u32],
+        samples: &[u16],
+    ) -> Result<Self, Spot> {
+        let (bg, noise) = robust_stats(samples);
+        let excess = (p.detect_sigmas * noise.max(0.5)).max(p.min_peak_dn);
+        let thr_f = bg + if excess.is_finite() { excess } else { 0.0 };
+        // A spot whose peak is above T shows at least `reach` of its excess on a scanned row.
+        let scan_f = bg + scan_reach(k, p.min_sigma_px) * (thr_f - bg);
+        let best = row_max.iter().copied().max().unwrap_or(0);
+        let detectable = thr_f < P::MAX as f64 && scan_f <= thr_f; // false for NaN
+        if !detectable || (best as f64) <= scan_f {
+            return Err(Spot::none(bg, noise, best as f64 - bg, 0));
+        }
+        Ok(Levels {
+            bg,
+            noise,
+            best,
+            thr: thr_f.floor() as u32, // pixel > thr  ⇔  pixel > thr_f
+            scan_thr: scan_f.floor() as u32,
+            half_thr: (bg + 0.5 * (thr_f - bg)).floor() as u32,
+        })
+    }
+
+    /// `no_spot` with these levels, after `blobs` blobs were found.
+    fn none(&self, blobs: usize) -> Spot {
+        Spot::none(self.bg, self.noise, self.best as f64 - self.bg, blobs)
+    }
+}
+
+/// Step 2, candidates in the bright scanned rows (at most [`MAX_RUNS`] rows' worth):
+/// stretches of pixels above the scan threshold, each kept as a run if [`verify_run`]
+/// finds its peak on the rows around it.
+fn candidate_runs<P: Px>(f: &FrameView, rows: ScanRows, row_max: &[u32], lv: &Levels) -> Vec<Run> {
     let mut runs: Vec<Run> = Vec::new();
+    for (i, &m) in row_max.iter().enumerate() {
+        if m <= lv.scan_thr || runs.len() >= MAX_RUNS {
+            continue;
+        }
+        row_runs::<P>(f, i, rows.row(i), rows.k, lv, &mut runs);
+    }
+    runs
+}
+
+/// The runs of scanned row `i` (frame row `y`) onto `runs`: stretches of pixels above the
+/// scan threshold (gaps of ≤ 2 px bridged; 32-pixel chunks skipped unless their maximum is
+/// above it), each checked on the rows around it (up to the next scanned rows, `k` away).
+#[inline]
+fn row_runs<P: Px>(f: &FrameView, i: usize, y: usize, k: usize, lv: &Levels, runs: &mut Vec<Run>) {
     let keep = |r: Run, runs: &mut Vec<Run>| {
-        if let Some(r) = verify_run::<P>(f, r, k, thr, half_thr) {
+        if let Some(r) = verify_run::<P>(f, r, k, lv.thr, lv.half_thr) {
             runs.push(r);
         }
     };
-    for (i, &m) in row_max.iter().enumerate() {
-        if m <= scan_thr || runs.len() >= MAX_RUNS {
-            continue;
-        }
-        let y = scan_row(i);
-        let row = f.row(y);
-        let mut cur: Option<Run> = None;
-        let mut x0 = 0usize;
-        while x0 < w {
-            let x1 = (x0 + 32).min(w);
-            if P::max_of(&row[x0 * P::BPP..x1 * P::BPP]) > scan_thr {
-                for x in x0..x1 {
-                    let v = P::get(row, x);
-                    if v <= scan_thr {
-                        continue;
+    let (w, scan_thr) = (f.width, lv.scan_thr);
+    let row = f.row(y);
+    let mut cur: Option<Run> = None;
+    let mut x0 = 0usize;
+    while x0 < w {
+        let x1 = (x0 + 32).min(w);
+        if P::max_of(&row[x0 * P::BPP..x1 * P::BPP]) > scan_thr {
+            for x in x0..x1 {
+                let v = P::get(row, x);
+                if v <= scan_thr {
+                    continue;
+                }
+                match cur.as_mut() {
+                    Some(r) if x <= r.x1 + 3 => {
+                        r.x1 = x;
+                        if v > r.peak {
+                            r.peak = v;
+                            r.peak_x = x;
+                        }
                     }
-                    match cur.as_mut() {
-                        Some(r) if x <= r.x1 + 3 => {
-                            r.x1 = x;
-                            if v > r.peak {
-                                r.peak = v;
-                                r.peak_x = x;
-                            }
+                    _ => {
+                        if let Some(r) = cur.take() {
+                            keep(r, runs);
                         }
-                        _ => {
-                            if let Some(r) = cur.take() {
-                                keep(r, &mut runs);
-                            }
-                            cur = Some(Run {
-                                scan_idx: i,
-                                y,
-                                x0: x,
-                                x1: x,
-                                peak: v,
-                                peak_x: x,
-                                peak_y: y,
-                            });
-                        }
+                        cur = Some(Run {
+                            scan_idx: i,
+                            y,
+                            x0: x,
+                            x1: x,
+                            peak: v,
+                            peak_x: x,
+                            peak_y: y,
+                        });
                     }
                 }
             }
-            x0 = x1;
         }
-        if let Some(r) = cur {
-            keep(r, &mut runs);
-        }
+        x0 = x1;
     }
-    if runs.is_empty() {
-        return Spot::none(bg, noise, best as f64 - bg, 0);
+    if let Some(r) = cur {
+        keep(r, runs);
     }
+}
 
-    // Union–find of runs overlapping (± k px) between neighbouring scanned rows.
-    let mut parent: Vec<usize> = (0..runs.len()).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
-    let mut prev_start = 0usize; // first run of the previous scanned row
-    let mut cur_start = 0usize; // first run of the current scanned row
-    for i in 0..runs.len() {
-        if i > 0 && runs[i].scan_idx != runs[i - 1].scan_idx {
-            prev_start = if runs[i].scan_idx == runs[i - 1].scan_idx + 1 {
-                cur_start
-            } else {
-                i // no runs on the previous scanned row
-            };
-            cur_start = i;
-        }
-        for j in prev_start..cur_start {
-            let (a, b) = (&runs[i], &runs[j]);
-            if a.x0 <= b.x1 + k + 1 && b.x0 <= a.x1 + k + 1 {
-                let (ra, rb) = (root(&mut parent, i), root(&mut parent, j));
-                if ra != rb {
-                    parent[ra] = rb;
-                }
-            }
-        }
-    }
+/// Step 3, blobs: runs joined into blobs, each with its brightest run's peak, in the order
+/// of their first run.
+fn blobs_of(runs: &[Run], k: usize) -> Vec<Blob> {
+    let mut parent = join_runs(runs, k);
     let mut blobs: Vec<Blob> = Vec::new();
     let mut blob_of_root = vec![usize::MAX; runs.len()];
     for (i, run) in runs.iter().enumerate() {
@@ -216,19 +284,60 @@ pub(super) fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
             }
         }
     }
+    blobs
+}
+
+/// Union–find of runs overlapping (± `k` px) between neighbouring scanned rows: the parent
+/// of every run (runs in scan order).
+fn join_runs(runs: &[Run], k: usize) -> Vec<usize> {
+    let mut parent: Vec<usize> = (0..runs.len()).collect();
+    let mut prev_start = 0usize; // first run of the previous scanned row
+    let mut cur_start = 0usize; // first run of the current scanned row
+    for i in 0..runs.len() {
+        if i > 0 && runs[i].scan_idx != runs[i - 1].scan_idx {
+            prev_start = if runs[i].scan_idx == runs[i - 1].scan_idx + 1 {
+                cur_start
+            } else {
+                i // no runs on the previous scanned row
+            };
+            cur_start = i;
+        }
+        for j in prev_start..cur_start {
+            let (a, b) = (&runs[i], &runs[j]);
+            if a.x0 <= b.x1 + k + 1 && b.x0 <= a.x1 + k + 1 {
+                let (ra, rb) = (root(&mut parent, i), root(&mut parent, j));
+                if ra != rb {
+                    parent[ra] = rb;
+                }
+            }
+        }
+    }
+    parent
+}
+
+/// The root of `i` in the union–find `parent` (halving the path on the way).
+fn root(parent: &mut [usize], mut i: usize) -> usize {
+    while parent[i] != i {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+    }
+    i
+}
+
+/// The blob with the brightest peak (the first of equals); `blobs` is not empty.
+fn brightest_blob(blobs: &[Blob]) -> usize {
     let mut primary = 0usize;
     for (i, b) in blobs.iter().enumerate() {
         if b.peak > blobs[primary].peak {
             primary = i;
         }
     }
-    let seed = blobs[primary];
+    primary
+}
 
-    // 3. Measurement in a window.
-    let m = match measure::<P>(f, p, seed, k, bg, noise, sat) {
-        Some(m) => m,
-        None => return Spot::none(bg, noise, best as f64 - bg, blobs.len()),
-    };
+/// Step 4, the result: the measurement of blob `primary` and its status (the first that
+/// applies of `multiple`, `at_border`, `streak`, `saturated`, `ok`).
+fn spot_of(m: &Measured, blobs: &[Blob], primary: usize, p: &SpotParams) -> Spot {
     let margin = p.ring_px as f64;
     let far = blobs.iter().enumerate().any(|(i, b)| {
         i != primary
