@@ -443,18 +443,16 @@ mod tests {
         ]
     }
 
-    #[test]
-    fn chunk_routes_give_the_same_tables_whole_or_cut() {
-        let rig = paper_rig();
+    /// 40 uncompressed frames of camera A in 1 MiB chunks, a spot in every third.
+    fn write_spots(path: &std::path::Path, rig: &Rig) {
         let cam = &rig.camera[0];
         let (w, h) = (cam.size_px[0] as usize, cam.size_px[1] as usize);
-        let path = std::env::temp_dir().join(format!("thermrs-routes-{}.mcap", std::process::id()));
         let opts = RecordOptions {
             compression: RecordCompression::None,
             chunk_size: 1 << 20,
             ..RecordOptions::default()
         };
-        let f = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+        let f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
         let mut wr = RecordingWriter::new(f, &opts).unwrap();
         wr.add_channel(&cam.topic, MsgType::Image).unwrap();
         for i in 0..40u32 {
@@ -483,6 +481,13 @@ mod tests {
             .unwrap();
         }
         drop(wr.finish().unwrap());
+    }
+
+    #[test]
+    fn chunk_routes_give_the_same_tables_whole_or_cut() {
+        let rig = paper_rig();
+        let path = std::env::temp_dir().join(format!("thermrs-routes-{}.mcap", std::process::id()));
+        write_spots(&path, &rig);
         let full = std::fs::read(&path).unwrap();
         let run = |route: Option<Route>| {
             let (t, r) = extract_by(

@@ -17,6 +17,7 @@ use crate::rig::PyRig;
 /// called as progress(bytes_done, bytes_total, frames_done); Ctrl-C stops it.
 #[pyfunction]
 #[pyo3(signature = (path, rig, *, progress = None, min_sigma_px = None, threshold_sigma = None, verify_crc = true, content_hash = false))]
+#[allow(clippy::too_many_arguments)] // the Python function's keyword arguments, one each
 fn extract<'py>(
     py: Python<'py>,
     path: PathBuf,
