@@ -115,11 +115,9 @@ def make_runs(
         t_fine, rise = w.surface_rise(state, speed)
         amb_fine = _AMBIENT_C + 0.5 * ri + slope * t_fine / 3600.0
         ir_off = {k: rng.uniform(-0.03, 0.03) if perturb else 0.0 for k in links}
+        run = _Run(name, ri, t_fine, rise, amb_fine, ir_off)
         ar = np.zeros((len(w.cams), 6))
-        rows = [
-            w.camera_table(name, ri, ci, t_fine, rise, amb_fine, ir_off, ar)
-            for ci in range(len(w.cams))
-        ]
+        rows = [w.camera_table(run, ci, ar) for ci in range(len(w.cams))]
         tables.append(pl.concat(rows))
     return tables
 
@@ -140,6 +138,19 @@ def _split_effect(effect: Effect | None) -> tuple[float | None, Effect | None, l
     if effect.name in ("fixture_drift", "sensor_drift"):
         return None, effect, []
     return None, None, [effect]
+
+
+@dataclass(frozen=True)
+class _Run:
+    """One run of the bench: its name and index, the surface rise per link and the ambient
+    on its fine time grid (s from its start), and the thermal camera's offset drift per link."""
+
+    name: str
+    index: int
+    t_fine: FloatArray
+    rise: dict[str, FloatArray]
+    amb_fine: FloatArray
+    ir_off: dict[str, float]
 
 
 @dataclass
@@ -173,35 +184,25 @@ class _World:
             state[k] = float(rise[k][-1])
         return t_fine, rise
 
-    def camera_table(
-        self,
-        name: str,
-        ri: int,
-        ci: int,
-        t_fine: FloatArray,
-        rise: dict[str, FloatArray],
-        amb_fine: FloatArray,
-        ir_off: dict[str, float],
-        ar: FloatArray,
-    ) -> pl.DataFrame:
-        """Run ``name``'s visits to camera ``ci``: true spots, then what the instruments
-        report."""
+    def camera_table(self, run: _Run, ci: int, ar: FloatArray) -> pl.DataFrame:
+        """The run's visits to camera ``ci``: true spots, then what the instruments report
+        (``ar``: the cameras' AR(1) joint noise states)."""
         n, cam = self.n, self.cams[ci]
         slot = self.cycle_s / (len(self.cams) + 1)
         t_v: FloatArray = np.asarray(np.arange(n) * self.cycle_s + ci * slot, dtype=np.float64)
-        amb_v = np.interp(t_v, t_fine, amb_fine)
-        temps = self._temperatures(t_v, t_fine, rise, amb_fine, amb_v)
+        amb_v = np.interp(t_v, run.t_fine, run.amb_fine)
+        temps = self._temperatures(run, t_v, amb_v)
         sp = self.model.spots(cam, self._joints(cam, ar[ci]), temperatures=temps)
         u = sp.u_um + self.rng.normal(0, 0.3, n)
         v = sp.v_um + self.rng.normal(0, 0.3, n)
         u, v = self._on_chip(cam, u, v, t_v, amb_v)
-        obs = self._observed(t_v, t_fine, rise, amb_fine, amb_v, ir_off)
+        obs = self._observed(run, t_v, amb_v)
         return pl.DataFrame(
             {
-                "run": [name] * n,
+                "run": [run.name] * n,
                 "camera": [cam] * n,
                 "visit": np.arange(n),
-                "t_ns": (_T0_NS + (ri * 30 * 3600 + t_v) * 1e9).astype(np.int64),
+                "t_ns": (_T0_NS + (run.index * 30 * 3600 + t_v) * 1e9).astype(np.int64),
                 "u_um": u,
                 "v_um": v,
                 "drift_u_um": u - u[0],
@@ -210,23 +211,16 @@ class _World:
             }
         )
 
-    def _temperatures(
-        self,
-        t_v: FloatArray,
-        t_fine: FloatArray,
-        rise: dict[str, FloatArray],
-        amb_fine: FloatArray,
-        amb_v: FloatArray,
-    ) -> dict[str, FloatArray]:
+    def _temperatures(self, run: _Run, t_v: FloatArray, amb_v: FloatArray) -> dict[str, FloatArray]:
         """The structure's true temperatures at the visits, by the model's names (lagged
         with a thermal lag; a thermal-camera gain below 1 when perturbed)."""
         gain = 0.9 if self.perturb else 1.0
         struct = {}
         for k in self.links:
-            s_fine = amb_fine + rise[k]
+            s_fine = run.amb_fine + run.rise[k]
             if self.lag_tau is not None:
-                s_fine = _lag(t_fine, s_fine, self.lag_tau)
-            s_v = np.interp(t_v, t_fine, s_fine)
+                s_fine = _lag(run.t_fine, s_fine, self.lag_tau)
+            s_v = np.interp(t_v, run.t_fine, s_fine)
             struct[k] = amb_v + gain * (s_v - amb_v)
         temps = {k: struct[k] for k in self.model.temperature_names if k in struct}
         if "ambient" in self.model.temperature_names:
@@ -266,15 +260,7 @@ class _World:
                 v = v + chip.um[1] * f  # type: ignore[attr-defined]
         return u, v
 
-    def _observed(
-        self,
-        t_v: FloatArray,
-        t_fine: FloatArray,
-        rise: dict[str, FloatArray],
-        amb_fine: FloatArray,
-        amb_v: FloatArray,
-        ir_off: dict[str, float],
-    ) -> dict[str, FloatArray]:
+    def _observed(self, run: _Run, t_v: FloatArray, amb_v: FloatArray) -> dict[str, FloatArray]:
         """What the instruments report: IR at the thermal camera's (offset) clock, its offset
         drifting, its noise; ambient with thermometer noise."""
         n = self.n
@@ -282,9 +268,11 @@ class _World:
         obs = {}
         for k in self.links:
             t_ir = t_v - clock_s
-            drift = ir_off[k] * t_ir / (n * self.cycle_s)
+            drift = run.ir_off[k] * t_ir / (n * self.cycle_s)
             obs[f"{k}_c"] = (
-                np.interp(t_ir, t_fine, amb_fine + rise[k]) + drift + self.rng.normal(0, 0.03, n)
+                np.interp(t_ir, run.t_fine, run.amb_fine + run.rise[k])
+                + drift
+                + self.rng.normal(0, 0.03, n)
             )
         obs["ambient_c"] = amb_v + self.rng.normal(0, 0.02, n)
         return obs
