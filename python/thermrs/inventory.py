@@ -196,6 +196,38 @@ def inventory(
     if not p.exists():
         raise InputError(f"{p}: no such file")
     r = as_rig(rig) if rig is not None else None
+    topic_camera, role = _roles(r)
+    doc = _read(p, r, topic_camera)
+    topics = _topics(doc, role)
+    counts = dict(zip(topics["topic"].to_list(), topics["messages"].to_list(), strict=True))
+    visits = _visits(doc["log_times"], topic_camera)
+    runs = _runs(doc, visits, gap_factor=gap_factor, min_gap_s=min_gap_s)
+    m = _Mapped.of(r, counts) if r is not None else _Mapped()
+    return Inventory(
+        path=p,
+        bytes=int(doc["bytes"]),
+        from_summary=bool(doc["from_summary"]),
+        profile=str(doc["profile"]),
+        library=str(doc["library"]),
+        start_ns=doc["start_ns"],
+        end_ns=doc["end_ns"],
+        chunks=int(doc["chunks"]),
+        compression=list(doc["compression"]),
+        messages=int(doc["messages"]),
+        topics=topics,
+        runs=runs,
+        cameras=m.cameras,
+        rois=m.rois,
+        thermal_frames=m.thermal,
+        ambient_readings=m.ambient,
+        joint_states=m.joints,
+        losses=list(doc["losses"]),
+        metadata=list(doc["metadata"]),
+    )
+
+
+def _roles(r: Rig | None) -> tuple[dict[str, str], dict[str, str]]:
+    """The rig's camera per CCD topic, and each topic's role (both empty without a rig)."""
     topic_camera: dict[str, str] = {}
     role: dict[str, str] = {}
     if r is not None:
@@ -207,12 +239,24 @@ def inventory(
         if r.ambient_topic:
             role[r.ambient_topic] = "ambient temperature"
         role[r.joint_states_topic] = "joint states"
-        doc = json.loads(_native.inventory(str(p), list(topic_camera)))
-    else:
-        probe = json.loads(_native.inventory(str(p), []))
-        ccd = [c["topic"] for c in probe["channels"] if c["schema"].endswith("/Image")]
-        doc = json.loads(_native.inventory(str(p), ccd)) if ccd else probe
-    topics = pl.DataFrame(
+    return topic_camera, role
+
+
+def _read(p: Path, r: Rig | None, topic_camera: dict[str, str]) -> dict[str, Any]:
+    """The core's inventory of ``p``, with the log times of the rig's CCD topics (without a
+    rig: of every ``sensor_msgs/msg/Image`` topic)."""
+    if r is not None:
+        doc: dict[str, Any] = json.loads(_native.inventory(str(p), list(topic_camera)))
+        return doc
+    probe = json.loads(_native.inventory(str(p), []))
+    ccd = [c["topic"] for c in probe["channels"] if c["schema"].endswith("/Image")]
+    doc = json.loads(_native.inventory(str(p), ccd)) if ccd else probe
+    return doc
+
+
+def _topics(doc: dict[str, Any], role: dict[str, str]) -> pl.DataFrame:
+    """One row per channel: topic, schema, encoding, messages and role."""
+    return pl.DataFrame(
         [
             {
                 "topic": c["topic"],
@@ -231,9 +275,13 @@ def inventory(
             "role": pl.String,
         },
     )
-    counts = dict(zip(topics["topic"].to_list(), topics["messages"].to_list(), strict=True))
-    visits = _visits(doc["log_times"], topic_camera)
-    # As the extraction finds them: markers, and visits no marker covers split by idle gaps.
+
+
+def _runs(
+    doc: dict[str, Any], visits: pl.DataFrame, *, gap_factor: float, min_gap_s: float
+) -> pl.DataFrame:
+    """The runs as the extraction finds them (markers, and visits no marker covers split by
+    idle gaps), with their visits counted."""
     runs = find_runs(
         doc["metadata"],
         visits.with_columns(t_ns=pl.col("t_start_ns")),
@@ -245,10 +293,21 @@ def inventory(
         for a, b in zip(runs["start_ns"].to_list(), runs["end_ns"].to_list(), strict=True)
     ]
     runs = runs.select(*(pl.col(c).cast(t) for c, t in RUNS_SCHEMA.items()))
-    runs = runs.with_columns(visits=pl.Series(n_visits, dtype=pl.Int64))
-    cameras = rois = None
-    thermal = ambient = joints = None
-    if r is not None:
+    return runs.with_columns(visits=pl.Series(n_visits, dtype=pl.Int64))
+
+
+@dataclass(frozen=True)
+class _Mapped:
+    """What the rig maps, counted in the recording (all None without a rig)."""
+
+    cameras: pl.DataFrame | None = None
+    rois: pl.DataFrame | None = None
+    thermal: int | None = None
+    ambient: int | None = None
+    joints: int | None = None
+
+    @classmethod
+    def of(cls, r: Rig, counts: dict[str, int]) -> _Mapped:
         cameras = pl.DataFrame(
             [
                 {
@@ -268,27 +327,10 @@ def inventory(
             [{"roi": x.name, "rect_px": list(x.rect_px), "drives": drives[x.name]} for x in r.rois],
             schema={"roi": pl.String, "rect_px": pl.List(pl.Int64), "drives": pl.String},
         )
-        thermal = counts.get(r.thermal_topic or "", 0) if r.thermal_topic else None
-        ambient = counts.get(r.ambient_topic or "", 0) if r.ambient_topic else None
-        joints = counts.get(r.joint_states_topic, 0)
-    return Inventory(
-        path=p,
-        bytes=int(doc["bytes"]),
-        from_summary=bool(doc["from_summary"]),
-        profile=str(doc["profile"]),
-        library=str(doc["library"]),
-        start_ns=doc["start_ns"],
-        end_ns=doc["end_ns"],
-        chunks=int(doc["chunks"]),
-        compression=list(doc["compression"]),
-        messages=int(doc["messages"]),
-        topics=topics,
-        runs=runs,
-        cameras=cameras,
-        rois=rois,
-        thermal_frames=thermal,
-        ambient_readings=ambient,
-        joint_states=joints,
-        losses=list(doc["losses"]),
-        metadata=list(doc["metadata"]),
-    )
+        return cls(
+            cameras=cameras,
+            rois=rois,
+            thermal=counts.get(r.thermal_topic or "", 0) if r.thermal_topic else None,
+            ambient=counts.get(r.ambient_topic or "", 0) if r.ambient_topic else None,
+            joints=counts.get(r.joint_states_topic, 0),
+        )

@@ -369,19 +369,9 @@ def lstsq_qr(
     LeastSquares
         The fit; :meth:`LeastSquares.interval` gives the interval.
     """
-    xa = np.asarray(x, dtype=np.float64)
-    ya = np.asarray(y, dtype=np.float64)
-    if xa.ndim != 2 or ya.shape != (xa.shape[0],):
-        raise ValueError(f"x has shape {xa.shape} and y {ya.shape}: expected (n, p) and (n,)")
+    xa, ya, w = _checked(x, y, weights)
     n, p = xa.shape
-    w = np.ones(n) if weights is None else np.asarray(weights, dtype=np.float64)
-    if w.shape != (n,) or np.any(~np.isfinite(w)) or np.any(w <= 0):
-        raise ValueError("weights must be one positive finite value per row")
-    if not (np.all(np.isfinite(xa)) and np.all(np.isfinite(ya))):
-        raise ValueError("x and y must be finite")
     dof = n - p
-    if dof < 1:
-        raise ValueError(f"{n} rows for {p} coefficients: no degree of freedom left")
     sw = np.sqrt(w)
     xw, yw = xa * sw[:, None], ya * sw
     coef, bread = _qr_solve(xw, yw)
@@ -405,36 +395,11 @@ def lstsq_qr(
         )
     if covariance != "hac":
         raise ValueError(f"covariance must be 'iid' or 'hac', got {covariance!r}")
-    # Influence of each unit on the coefficients: (XᵀWX)⁻¹ Σ_rows √wᵢxᵢ·√wᵢeᵢ.
-    scores = np.zeros((n_units, p))
-    np.add.at(scores, unit, xw * ew[:, None])
-    infl = scores @ bread
-    # Prewhitening: each series its own AR(1) per coefficient (series of one rig may differ:
-    # a pooled φ understates the long-run variance of the most correlated one).
-    phis = np.zeros((len(chains), p))
-    white = infl.copy()
-    if prewhiten:
-        for i, c in enumerate(chains):
-            # A negative φ would shrink the variance below the independent-visit value; the
-            # interval never claims that (on simulated recordings with independent visit
-            # errors φ̂ came out near −0.1 and the interval covered in 8 of 10 runs).
-            phis[i] = np.maximum(_pooled_ar1(infl, [c], bias_correction=True), 0.0)
-            white[c[1:]] = infl[c[1:]] - phis[i] * infl[c[:-1]]
+    phis, white = _influences(xw, ew, bread, unit, n_units, chains, prewhiten=prewhiten)
     bw = andrews_bandwidth(white, chains) if bandwidth is None else int(bandwidth)
     if bw < 0:
         raise ValueError(f"bandwidth must be ≥ 0, got {bw}")
-    cov = np.zeros((p, p))
-    v0, nu = np.zeros(len(chains)), np.zeros(len(chains))
-    for i, c in enumerate(chains):
-        recolor = 1.0 / (1.0 - phis[i])
-        part = _hac_meat(white, [c], bw) * np.outer(recolor, recolor)
-        cov += part
-        # Degrees of freedom of this series' share (Satterthwaite-style): a sum of squared
-        # influences carries (Σψ²)²/Σψ⁴ "samples" (fewer the heavier the tails of ψ),
-        # thinned by (1−φ) by the estimated AR(1) recolouring (see LeastSquares.t_dof).
-        psi2 = white[c, 0] ** 2
-        n4 = float(psi2.sum() ** 2 / np.sum(psi2**2)) if np.sum(psi2**2) > 0 else len(c)
-        v0[i], nu[i] = part[0, 0], max(n4 * (1 - phis[i, 0]), 1.0)
+    cov, v0, nu = _series_shares(white, chains, phis, bw)
     cov = (cov + cov.T) / 2 * (n / dof)
     ratio = cov_iid[0, 0] / cov[0, 0] if cov[0, 0] > 0 else 1.0
     n_eff = float(np.clip(n_units * ratio, 1.0, n_units))
@@ -465,6 +430,83 @@ def lstsq_qr(
         t_dof,
         phi,
     )
+
+
+def _checked(
+    x: npt.ArrayLike, y: npt.ArrayLike, weights: npt.ArrayLike | None
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """:func:`lstsq_qr`'s inputs as float arrays, checked (shapes, finite values, positive
+    weights, at least one degree of freedom).
+
+    Raises
+    ------
+    ValueError
+        Naming what is wrong.
+    """
+    xa = np.asarray(x, dtype=np.float64)
+    ya = np.asarray(y, dtype=np.float64)
+    if xa.ndim != 2 or ya.shape != (xa.shape[0],):
+        raise ValueError(f"x has shape {xa.shape} and y {ya.shape}: expected (n, p) and (n,)")
+    n, p = xa.shape
+    w = np.ones(n) if weights is None else np.asarray(weights, dtype=np.float64)
+    if w.shape != (n,) or np.any(~np.isfinite(w)) or np.any(w <= 0):
+        raise ValueError("weights must be one positive finite value per row")
+    if not (np.all(np.isfinite(xa)) and np.all(np.isfinite(ya))):
+        raise ValueError("x and y must be finite")
+    if n - p < 1:
+        raise ValueError(f"{n} rows for {p} coefficients: no degree of freedom left")
+    return xa, ya, w
+
+
+def _influences(
+    xw: FloatArray,
+    ew: FloatArray,
+    bread: FloatArray,
+    unit: IntArray,
+    n_units: int,
+    chains: list[IntArray],
+    *,
+    prewhiten: bool,
+) -> tuple[FloatArray, FloatArray]:
+    """Each unit's influence on the coefficients, (XᵀWX)⁻¹ Σ_rows √wᵢxᵢ·√wᵢeᵢ, and per series
+    and coefficient its AR(1) φ (≥ 0; zeros without ``prewhiten``): ``(phis, whitened)``."""
+    p = xw.shape[1]
+    scores = np.zeros((n_units, p))
+    np.add.at(scores, unit, xw * ew[:, None])
+    infl = scores @ bread
+    # Prewhitening: each series its own AR(1) per coefficient (series of one rig may differ:
+    # a pooled φ understates the long-run variance of the most correlated one).
+    phis = np.zeros((len(chains), p))
+    white = infl.copy()
+    if prewhiten:
+        for i, c in enumerate(chains):
+            # A negative φ would shrink the variance below the independent-visit value; the
+            # interval never claims that (on simulated recordings with independent visit
+            # errors φ̂ came out near −0.1 and the interval covered in 8 of 10 runs).
+            phis[i] = np.maximum(_pooled_ar1(infl, [c], bias_correction=True), 0.0)
+            white[c[1:]] = infl[c[1:]] - phis[i] * infl[c[:-1]]
+    return phis, white
+
+
+def _series_shares(
+    white: FloatArray, chains: list[IntArray], phis: FloatArray, bw: int
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The recoloured Newey–West sum over series, and per series its share of the first
+    coefficient's variance and the degrees of freedom behind it: ``(cov, v0, nu)``."""
+    p = white.shape[1]
+    cov = np.zeros((p, p))
+    v0, nu = np.zeros(len(chains)), np.zeros(len(chains))
+    for i, c in enumerate(chains):
+        recolor = 1.0 / (1.0 - phis[i])
+        part = _hac_meat(white, [c], bw) * np.outer(recolor, recolor)
+        cov += part
+        # Degrees of freedom of this series' share (Satterthwaite-style): a sum of squared
+        # influences carries (Σψ²)²/Σψ⁴ "samples" (fewer the heavier the tails of ψ),
+        # thinned by (1−φ) by the estimated AR(1) recolouring (see LeastSquares.t_dof).
+        psi2 = white[c, 0] ** 2
+        n4 = float(psi2.sum() ** 2 / np.sum(psi2**2)) if np.sum(psi2**2) > 0 else len(c)
+        v0[i], nu[i] = part[0, 0], max(n4 * (1 - phis[i, 0]), 1.0)
+    return cov, v0, nu
 
 
 def _pooled_ar1(

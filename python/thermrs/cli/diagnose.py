@@ -49,6 +49,20 @@ def _params(p: dict[str, Any]) -> str:
 
 def render_diagnosis(doc: dict[str, Any]) -> None:
     """Print a diagnosis document (``Diagnosis.to_json()``) as tables."""
+    _say_baseline(doc)
+    _say_floor(doc)
+    _say_where(doc)
+    _say_which(doc)
+    for c in doc["confounded"]:
+        out.print(
+            f"Confounded: {' and '.join(c['families'])} (canonical correlation {c['cos']:.2f}); "
+            f"to separate them: {c['separate_by']}"
+        )
+    _say_verdict(doc)
+
+
+def _say_baseline(doc: dict[str, Any]) -> None:
+    """The nominal fit: α, training and held-out rms, the noise floor."""
     b = doc["baseline"]
     a = b["alpha_per_k"]
     out.print(
@@ -57,26 +71,35 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
         f"{b['train_rms_um']:.2f} µm training, {b['holdout_rms_um']:.2f} µm held out "
         f"(max {b['holdout_max_um']:.2f}); noise floor {doc['noise_floor_um']:.2f} µm"
     )
+
+
+def _say_floor(doc: dict[str, Any]) -> None:
+    """The noise floor's parts, when the document has them."""
     nf = doc.get("noise_floor") or {}
     parts = nf.get("parts") or {}
-    if parts:
-        cen = parts.get("centroid_um")
-        corr_t = parts.get("pose_correlation_time_min")
-        out.print(
-            "[bold]Floor[/bold] (noise by physics): visit repeatability "
-            f"{parts.get('visit_white_um', float('nan')):.2f} µm white + "
-            f"{parts.get('pose_correlated_um', float('nan')):.2f} µm correlated"
-            + (f" over {corr_t:.1f} min" if corr_t else "")
-            + f" (allowed ≤ {nf.get('correlation_time_max_min', float('nan')):.1f} min, a tenth "
-            "of the shortest thermal time constant); centroid "
-            + (f"{cen:.2f} µm" if cen is not None else "not separable (one frame per visit)")
-            + "; per held-out run "
-            + ", ".join(
-                f"{r} {v:.2f} µm"
-                for r, v in (nf.get("per_run_um") or {}).items()
-                if any(x.get("run") == r and x.get("role") == "holdout" for x in doc["location"])
-            )
+    if not parts:
+        return
+    cen = parts.get("centroid_um")
+    corr_t = parts.get("pose_correlation_time_min")
+    out.print(
+        "[bold]Floor[/bold] (noise by physics): visit repeatability "
+        f"{parts.get('visit_white_um', float('nan')):.2f} µm white + "
+        f"{parts.get('pose_correlated_um', float('nan')):.2f} µm correlated"
+        + (f" over {corr_t:.1f} min" if corr_t else "")
+        + f" (allowed ≤ {nf.get('correlation_time_max_min', float('nan')):.1f} min, a tenth "
+        "of the shortest thermal time constant); centroid "
+        + (f"{cen:.2f} µm" if cen is not None else "not separable (one frame per visit)")
+        + "; per held-out run "
+        + ", ".join(
+            f"{r} {v:.2f} µm"
+            for r, v in (nf.get("per_run_um") or {}).items()
+            if any(x.get("run") == r and x.get("role") == "holdout" for x in doc["location"])
         )
+    )
+
+
+def _say_where(doc: dict[str, Any]) -> None:
+    """Where the residual lies, and its strongest driver."""
     t = Table(title="Where: largest shares of the residual (run, camera, chip axis, phase)")
     for c in ("run", "role", "camera", "axis", "phase", "visits", "rms µm", "share"):
         t.add_column(c, justify="right" if c in ("visits", "rms µm", "share") else "left",
@@ -95,6 +118,10 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
             + ("white" if doc["whiteness"].get("white") else "not white")
             + f" (Ljung–Box p = {_f(doc['whiteness'].get('ljung_box_p'), 3)})"
         )
+
+
+def _say_which(doc: dict[str, Any]) -> None:
+    """Each effect's fit and evidence, then those whose parameters are implausible."""
     t = Table(title="Which: each effect fitted on the training runs, scored on the held-out runs")
     for c in ("effect", "parameters", "held-out rms µm", "shrink", "gain z", "gap closed",
               "placebo rms", "stability", "ok"):  # fmt: skip
@@ -122,11 +149,10 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
     out.print(t)
     for line in beyond:
         out.print(f"Implausible, outside the effect's own bounds: {line}")
-    for c in doc["confounded"]:
-        out.print(
-            f"Confounded: {' and '.join(c['families'])} (canonical correlation {c['cos']:.2f}); "
-            f"to separate them: {c['separate_by']}"
-        )
+
+
+def _say_verdict(doc: dict[str, Any]) -> None:
+    """The verdict and how far the residual shrinks."""
     v = doc["verdict"]
     hf = doc["how_far"]
     out.print(f"[bold]Verdict: {v['status']}[/bold] — {v['reason']}")

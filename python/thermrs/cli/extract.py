@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -18,6 +19,12 @@ from thermrs.cli.common import (
     writable,
 )
 from thermrs.defaults import VISIT_TOLERANCE_DEG
+
+if TYPE_CHECKING:  # pragma: no cover
+    from rich.console import Console
+
+    from thermrs.ingest import Extraction
+    from thermrs.rig import Rig
 
 
 @click.command()
@@ -82,6 +89,30 @@ def extract(
         )
         return
     recording = input_file.convert(recordings[0], None, click.get_current_context())
+    from thermrs.rig import load_rig
+
+    writable(out_path, "-o", suffixes=(".parquet",))
+    r = load_rig(rig_path)
+    err = console(stderr=True)
+    ex, elapsed = _extract_with_progress(
+        recording, r, err, quiet=quiet, visit_tolerance_deg=visit_tolerance_deg
+    )
+    paths = ex.write(out_path)
+    rep = ex.report
+    if not quiet:
+        _say_extracted(err, ex, elapsed, paths)
+    # The loss is reported even with --quiet: exit 3 never goes unexplained.
+    for loss in rep.losses:
+        click.echo(f"thermrs: data loss: {recording}: {loss['detail']}", err=True)
+    if rep.data_loss:
+        sys.exit(EXIT_DATA_LOSS)
+
+
+def _extract_with_progress(
+    recording: Path, r: Rig, err: Console, *, quiet: bool, visit_tolerance_deg: float
+) -> tuple[Extraction, float]:
+    """Extract ``recording`` under a progress bar (on a terminal only); the extraction and
+    the seconds it took."""
     from rich.progress import (
         BarColumn,
         DownloadColumn,
@@ -92,11 +123,7 @@ def extract(
     )
 
     from thermrs.ingest import extract as run_extract
-    from thermrs.rig import load_rig
 
-    writable(out_path, "-o", suffixes=(".parquet",))
-    r = load_rig(rig_path)
-    err = console(stderr=True)
     with Progress(
         TextColumn("[bold]extract[/bold]"),
         BarColumn(),
@@ -119,32 +146,28 @@ def extract(
             recording, r, progress=on_progress, visit_tolerance_deg=visit_tolerance_deg
         )
         elapsed = time.perf_counter() - t0
-    paths = ex.write(out_path)
+    return ex, elapsed
+
+
+def _say_extracted(err: Console, ex: Extraction, elapsed: float, paths: dict[str, Path]) -> None:
+    """The summary: counts and speed, frames by status, skipped messages, what was written."""
     rep = ex.report
-    if not quiet:
-        n = ex.frames.height
-        err.print(
-            f"{n:,} frames in {elapsed:.2f} s ({n / max(elapsed, 1e-9):,.0f} frames/s), "
-            f"{ex.visits.height} visits, "
-            f"{ex.temperatures.height:,} temperature rows, {ex.joints.height:,} joint states"
-        )
-        t = table("Frames by status", [("status", "left"), ("frames", "right")])
-        for k, v in rep.frames_by_status.items():
-            t.add_row(k, f"{v:,}")
-        err.print(t)
-        if rep.skipped:
-            s = table(
-                "Skipped messages", [("topic: reason (first seen)", "left"), ("count", "right")]
-            )
-            for k, v in rep.skipped.items():
-                s.add_row(rep.skipped_examples.get(k, k), f"{v:,}")
-            err.print(s)
-        if rep.recovered_messages:
-            err.print(f"recovered {rep.recovered_messages} complete messages from the cut chunk")
-        for name, p in paths.items():
-            err.print(f"wrote {name}: {p}")
-    # The loss is reported even with --quiet: exit 3 never goes unexplained.
-    for loss in rep.losses:
-        click.echo(f"thermrs: data loss: {recording}: {loss['detail']}", err=True)
-    if rep.data_loss:
-        sys.exit(EXIT_DATA_LOSS)
+    n = ex.frames.height
+    err.print(
+        f"{n:,} frames in {elapsed:.2f} s ({n / max(elapsed, 1e-9):,.0f} frames/s), "
+        f"{ex.visits.height} visits, "
+        f"{ex.temperatures.height:,} temperature rows, {ex.joints.height:,} joint states"
+    )
+    t = table("Frames by status", [("status", "left"), ("frames", "right")])
+    for k, v in rep.frames_by_status.items():
+        t.add_row(k, f"{v:,}")
+    err.print(t)
+    if rep.skipped:
+        s = table("Skipped messages", [("topic: reason (first seen)", "left"), ("count", "right")])
+        for k, v in rep.skipped.items():
+            s.add_row(rep.skipped_examples.get(k, k), f"{v:,}")
+        err.print(s)
+    if rep.recovered_messages:
+        err.print(f"recovered {rep.recovered_messages} complete messages from the cut chunk")
+    for name, p in paths.items():
+        err.print(f"wrote {name}: {p}")

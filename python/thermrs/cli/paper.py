@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -11,6 +12,12 @@ from thermrs.cli.common import (
     out,
     table,
 )
+
+if TYPE_CHECKING:  # pragma: no cover
+    import polars as pl
+    from rich.table import Table
+
+    from thermrs.paper import PaperData
 
 
 @click.command()
@@ -34,6 +41,26 @@ def paper(as_json: bool, train_run: int, exact: bool) -> None:
         click.echo(json.dumps(doc, indent=2))
         return
     printed = data.printed if train_run == 1 else {}
+    out.print(_table6(data, printed, train_run, rounding))
+    out.print(_table7(data, printed, train_run, rounding))
+    out.print(_forward_table(fm_alpha, fm_table))
+    if rounding:
+        out.print(
+            "[dim]Paper's arithmetic: α rounded to 0.01×10⁻⁶, drifts to 0.01 µm before the % "
+            "error. Run 2 measured values include the paper's +1 °C start adjustment.[/dim]"
+        )
+    out.print(
+        "[dim]Forward model: link temperatures from Table 4 drive the rig's mapped lengths "
+        "(a2←link2, d4←link3); measured = raw Table 4 drift. At poses A and B the forearm (d4) "
+        "stands nearly vertical, so link 3 moves the spot along the chip x axis, not y: the "
+        "rig's geometry needs about twice the paper's α to explain the y drift.[/dim]"
+    )
+
+
+def _table6(data: PaperData, printed: dict[str, Any], train_run: int, rounding: bool) -> Table:
+    """Table 6: α per estimator beside the paper's printed values."""
+    from thermrs import paper as paper_mod
+
     p6 = printed.get("table6", {})
     t6 = table(
         f"Table 6 — α from Run {train_run} (×10⁻⁶ /°C)",
@@ -52,7 +79,12 @@ def paper(as_json: bool, train_run: int, exact: bool) -> None:
         )
     if "alpha_6061_t6" in p6:
         t6.add_row("α_6061-T6 (handbook)", "", fmt(p6["alpha_6061_t6"]), "")
-    out.print(t6)
+    return t6
+
+
+def _table7(data: PaperData, printed: dict[str, Any], train_run: int, rounding: bool) -> Table:
+    """Table 7: predicted against measured drift per α, camera and run, beside the paper's."""
+    from thermrs import paper as paper_mod
 
     p7 = {(r["alpha"], r["camera"]): r for r in printed.get("table7", [])}
     t7 = table(
@@ -87,7 +119,11 @@ def paper(as_json: bool, train_run: int, exact: bool) -> None:
             fmt(ref.get("measured_um")),
             fmt(ref.get("error_pct")),
         )
-    out.print(t7)
+    return t7
+
+
+def _forward_table(fm_alpha: dict[str, float], fm_table: pl.DataFrame) -> Table:
+    """The same protocol through the forward model (the embedded rig)."""
     tf = table(
         "Generalised — the same protocol through the SPEC §4 forward model "
         "(embedded rig; drift along the chip y axis)",
@@ -106,15 +142,4 @@ def paper(as_json: bool, train_run: int, exact: bool) -> None:
             fmt(r["measured_um"]),
             fmt(r["error_pct"]),
         )
-    out.print(tf)
-    if rounding:
-        out.print(
-            "[dim]Paper's arithmetic: α rounded to 0.01×10⁻⁶, drifts to 0.01 µm before the % "
-            "error. Run 2 measured values include the paper's +1 °C start adjustment.[/dim]"
-        )
-    out.print(
-        "[dim]Forward model: link temperatures from Table 4 drive the rig's mapped lengths "
-        "(a2←link2, d4←link3); measured = raw Table 4 drift. At poses A and B the forearm (d4) "
-        "stands nearly vertical, so link 3 moves the spot along the chip x axis, not y: the "
-        "rig's geometry needs about twice the paper's α to explain the y drift.[/dim]"
-    )
+    return tf

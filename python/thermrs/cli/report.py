@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import click
 from rich.console import Console
@@ -23,10 +25,17 @@ from thermrs.cli.common import (
 from thermrs.errors import InputError
 
 if TYPE_CHECKING:  # pragma: no cover
+    from thermrs.report import Written
     from thermrs.report.data import RunInput
     from thermrs.rig import Rig
 
 __all__ = ["report"]
+
+
+class _Stage(Protocol):
+    """Progress: the stage ``what``, with bytes ``done`` of ``total`` when known."""
+
+    def __call__(self, what: str, done: int = 0, total: int = 0) -> None: ...
 
 
 @click.command()
@@ -101,9 +110,55 @@ def report(
 
     Exits 3 (after writing the report) if part of a recording was lost.
     """
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
     err = Console(stderr=True, highlight=False)
+    _check_options(demo, rig_path, runs, train, campaign_path, query)
+    out = out_path or Path("thermrs-demo-report.html" if demo else "thermrs-report.html")
+    writable(out, "-o")
+    t_start = time.perf_counter()
+    with _progress(err, quiet) as stage:
+        loss = False
+        if demo:
+            from thermrs.report.demo import run_demo
+
+            res = run_demo(out, workdir=workdir, pdf=pdf, markdown=not no_markdown, progress=stage)
+            written = res.written
+        else:
+            from thermrs.report import write_report
+            from thermrs.rig import load_rig
+
+            assert rig_path is not None
+            rig = load_rig(rig_path)
+            if campaign_path is not None:  # the runs of a campaign dataset, by query and name
+                stage(f"reading {campaign_path}")
+                loaded, train_names = _campaign_runs(campaign_path, rig, query, runs, train)
+                loss = any(r.data_loss for r in loaded)
+            else:
+                loaded, train_names, loss = _file_runs(err, rig, runs, train, stage)
+            written = write_report(
+                out,
+                runs=loaded,
+                rig=rig,
+                train=train_names or None,
+                title=title,
+                markdown=not no_markdown,
+                pdf=pdf,
+                step=stage,
+            )
+    if not quiet:
+        _say_written(err, written, time.perf_counter() - t_start)
+    if loss:
+        sys.exit(EXIT_DATA_LOSS)
+
+
+def _check_options(
+    demo: bool,
+    rig_path: Path | None,
+    runs: tuple[Path, ...],
+    train: tuple[Path, ...],
+    campaign_path: Path | None,
+    query: str | None,
+) -> None:
+    """The options go together, and every run file given exists (one line, exit 2)."""
     if demo and (runs or train or rig_path is not None or campaign_path is not None):
         raise click.UsageError("--demo takes no --rig, --run or --train (nor --campaign)")
     no_campaign(campaign_path, query)
@@ -119,9 +174,14 @@ def report(
             raise InputError(f"{f}: is a directory, expected a recording (.mcap) or tables")
         if not f.exists():
             raise InputError(f"{f}: no such file")
-    out = out_path or Path("thermrs-demo-report.html" if demo else "thermrs-report.html")
-    writable(out, "-o")
-    t_start = time.perf_counter()
+
+
+@contextmanager
+def _progress(err: Console, quiet: bool) -> Iterator[_Stage]:
+    """A progress bar on stderr; yields ``stage(what, done=0, total=0)`` (bytes when
+    ``total``), which also prints each new stage once."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
     with Progress(
         TextColumn("[bold]report[/bold] {task.description}"),
         BarColumn(),
@@ -150,84 +210,55 @@ def report(
                 bar.console.print(f"[dim]· {what}[/dim]")
             last[0] = what
 
-        loss = False
-        if demo:
-            from thermrs.report.demo import run_demo
+        yield stage
 
-            res = run_demo(out, workdir=workdir, pdf=pdf, markdown=not no_markdown, progress=stage)
-            written = res.written
-        else:
-            from thermrs.fit import run_name
-            from thermrs.report import write_report
-            from thermrs.report.data import load_runs
-            from thermrs.rig import load_rig
-            from thermrs.runs import split_run_spec
 
-            assert rig_path is not None
-            rig = load_rig(rig_path)
-            loaded: list[RunInput] = []
-            train_names: list[str] = []
-            if campaign_path is not None:  # the runs of a campaign dataset, by query and name
-                stage(f"reading {campaign_path}")
-                loaded, train_names = _campaign_runs(campaign_path, rig, query, runs, train)
-                loss = any(r.data_loss for r in loaded)
-            specs = list(dict.fromkeys([*train, *runs])) if campaign_path is None else []
-            files = [split_run_spec(p)[0] for p in specs]
-            names = [run_name(f) for f in files]
-            cache: dict[object, object] = {}
-            for i, (p, f) in enumerate(zip(specs, files, strict=True)):
-                stage(f"reading {p} ({i + 1}/{len(specs)})")
-                # Two files of one name in different folders: name the runs by their paths.
-                same = any(n == names[i] and g != f for n, g in zip(names, files, strict=True))
-                got = load_runs(p, rig, name=str(f) if same else None, cache=cache)
-                click.echo(
-                    f"thermrs: {'--train' if p in train else '--run'} {p}: "
-                    f"{len(got)} run{'s' * (len(got) != 1)}: {', '.join(r.name for r in got)}",
-                    err=True,
-                )
-                if any(r.data_loss for r in got) and (f not in files[:i]):
-                    err.print(f"thermrs: warning: {f}: part of the recording was lost")
-                loss |= any(r.data_loss for r in got)
-                for r in got:
-                    if r.name in {x.name for x in loaded}:
-                        continue
-                    loaded.append(r)
-                    if p in train:
-                        train_names.append(r.name)
-            if train_names:
-                from thermrs.cli.common import distinct_runs
+def _file_runs(
+    err: Console,
+    rig: Rig,
+    runs: tuple[Path, ...],
+    train: tuple[Path, ...],
+    stage: _Stage,
+) -> tuple[list[RunInput], list[str], bool]:
+    """The report's runs from files (:func:`thermrs.report.inputs.read_report_runs`), each
+    spec's runs listed on stderr; the training runs' names; whether data was lost."""
+    from thermrs.report.inputs import SpecRead, read_report_runs
 
-                distinct_runs(
-                    [r.table for r in loaded if r.name in train_names],
-                    [r.table for r in loaded if r.name not in train_names],
-                    "--run",
-                )
-            written = write_report(
-                out,
-                runs=loaded,
-                rig=rig,
-                train=train_names or None,
-                title=title,
-                markdown=not no_markdown,
-                pdf=pdf,
-                step=stage,
-            )
-    elapsed = time.perf_counter() - t_start
-    if not quiet:
-        err.print(
-            f"wrote {written.html} ({written.html_bytes / 1e3:,.0f} kB, self-contained) in "
-            f"{elapsed:.1f} s"
+    def said(s: SpecRead) -> None:
+        click.echo(
+            f"thermrs: {'--train' if s.train else '--run'} {s.spec}: "
+            f"{len(s.runs)} run{'s' * (len(s.runs) != 1)}: {', '.join(r.name for r in s.runs)}",
+            err=True,
         )
-        if written.markdown is not None:
-            fig_dir = next(iter(written.figures.values())).parent if written.figures else None
-            err.print(
-                f"wrote {written.markdown}"
-                + (f" and {len(written.figures)} figures in {fig_dir}/" if fig_dir else "")
-            )
-        if written.pdf is not None:
-            err.print(f"wrote {written.pdf}")
-    if loss:
-        sys.exit(EXIT_DATA_LOSS)
+        if s.new_loss:
+            err.print(f"thermrs: warning: {s.file}: part of the recording was lost")
+
+    got = read_report_runs(train, runs, rig, step=stage, read=said)
+    if got.train:
+        from thermrs.cli.common import distinct_runs
+
+        distinct_runs(
+            [r.table for r in got.runs if r.name in got.train],
+            [r.table for r in got.runs if r.name not in got.train],
+            "--run",
+        )
+    return got.runs, got.train, got.data_loss
+
+
+def _say_written(err: Console, written: Written, elapsed: float) -> None:
+    """What was written, where, and how long it took."""
+    err.print(
+        f"wrote {written.html} ({written.html_bytes / 1e3:,.0f} kB, self-contained) in "
+        f"{elapsed:.1f} s"
+    )
+    if written.markdown is not None:
+        fig_dir = next(iter(written.figures.values())).parent if written.figures else None
+        err.print(
+            f"wrote {written.markdown}"
+            + (f" and {len(written.figures)} figures in {fig_dir}/" if fig_dir else "")
+        )
+    if written.pdf is not None:
+        err.print(f"wrote {written.pdf}")
 
 
 def _campaign_runs(

@@ -46,7 +46,7 @@ import numpy as np
 import numpy.typing as npt
 import polars as pl
 
-from thermrs.diagnose.candidates import plausibility, score
+from thermrs.diagnose.candidates import Candidate, plausibility, score
 from thermrs.diagnose.confounding import confounded_pairs
 from thermrs.diagnose.engine import Design, Fit
 from thermrs.diagnose.floor import SCALE_SEPARATION, NoiseFloor, noise_floor, thermal_time_scales
@@ -55,7 +55,7 @@ from thermrs.diagnose.location import drivers, location_table, phases, whiteness
 from thermrs.diagnose.null import Batch
 from thermrs.diagnose.resample import cycle_units
 from thermrs.diagnose.result import Diagnosis, assemble
-from thermrs.diagnose.selection import Step, build_grids, forward_selection
+from thermrs.diagnose.selection import FamilyGrid, Step, build_grids, forward_selection
 from thermrs.diagnose.verdict import decide, format_params
 from thermrs.effects import Effect, Family
 from thermrs.rig import Rig
@@ -216,6 +216,45 @@ def _diagnose(
     say("where")
     where = _where(b, rig)
     say("candidates")
+    grids, steps = _select(b, classes, rig, level=level, null_draws=null_draws, rng=rng, say=say)
+    say("evidence")
+    cands, n_eff_train = _evidence(b, grids, steps, rig, bootstrap=bootstrap, rng=rng)
+    say("confounding")
+    confounded = _confounded(b, cands)
+    say("verdict")
+    status, reason, rivals = decide(
+        steps, level=level, base_rms=b.base.holdout_rms_um, floor_um=b.floor.holdout_um
+    )
+    final, selected = _final_model(b.design, steps, rig)
+    return assemble(
+        vs=b.vs,
+        base=b.base,
+        floor=b.floor,
+        final=final,
+        selected=selected,
+        steps=steps,
+        cands=cands,
+        verdict=(status, reason, rivals),
+        level=level,
+        where={**where, "confounded": confounded},
+        role_visit=b.role_visit,
+        library=(sorted(classes), sorted(exclude)),
+        n_eff_train=n_eff_train,
+    )
+
+
+def _select(
+    b: _Base,
+    classes: dict[str, type[Effect]],
+    rig: Rig,
+    *,
+    level: float,
+    null_draws: int,
+    rng: np.random.Generator,
+    say: Callable[[str], object],
+) -> tuple[list[FamilyGrid], list[Step]]:
+    """Every family of the library on these runs, and the forward selection among them
+    (each step at level / 3: Bonferroni over the three tests `none` must pass)."""
     fams: list[Family] = []
     for cls in classes.values():
         fams.extend(cls.families(rig, b.vs))
@@ -232,7 +271,20 @@ def _diagnose(
         plausible=plausibility(b.design, rig),
         say=say,
     )
-    say("evidence")
+    return grids, steps
+
+
+def _evidence(
+    b: _Base,
+    grids: list[FamilyGrid],
+    steps: list[Step],
+    rig: Rig,
+    *,
+    bootstrap: int,
+    rng: np.random.Generator,
+) -> tuple[list[Candidate], float]:
+    """Each family's evidence (:func:`score`), and the training runs' effective sample size
+    behind it."""
     n_eff_train = float(
         sum(
             effective_sample_size(b.base.residual[(b.groups3 == g)], method="ar1")
@@ -253,31 +305,15 @@ def _diagnose(
         bootstrap=bootstrap,
         rng=rng,
     )
-    say("confounding")
+    return cands, n_eff_train
+
+
+def _confounded(b: _Base, cands: list[Candidate]) -> list[dict[str, Any]]:
+    """Pairs of the significant families (else the three best) the design cannot separate."""
     pool = [c for c in cands if c.significant] or cands[:3]
-    confounded = confounded_pairs(
+    return confounded_pairs(
         b.design,
         [(c.effect, c.family.label, c.fit.columns) for c in pool if c.fit.columns is not None],
-    )
-    say("verdict")
-    status, reason, rivals = decide(
-        steps, level=level, base_rms=b.base.holdout_rms_um, floor_um=b.floor.holdout_um
-    )
-    final, selected = _final_model(b.design, steps, rig)
-    return assemble(
-        vs=b.vs,
-        base=b.base,
-        floor=b.floor,
-        final=final,
-        selected=selected,
-        steps=steps,
-        cands=cands,
-        verdict=(status, reason, rivals),
-        level=level,
-        where={**where, "confounded": confounded},
-        role_visit=b.role_visit,
-        library=(sorted(classes), sorted(exclude)),
-        n_eff_train=n_eff_train,
     )
 
 

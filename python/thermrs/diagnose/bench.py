@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -87,112 +88,194 @@ def make_runs(
     """
     rng = np.random.default_rng(seed)
     alpha = rig.alpha_per_k * rng.uniform(0.95, 1.05)
-    amb0 = 23.4
     plan = [  # (name, speed, start state: "ambient" or "continue", ambient slope K/h)
         ("train", 0.30, "ambient", rng.choice([-1, 1]) * rng.uniform(0.03, 0.1)),
         ("hold_fast", 0.75, "ambient", rng.choice([-1, 1]) * rng.uniform(0.03, 0.1)),
         ("hold_cool", 0.10, "continue", rng.choice([-1, 1]) * rng.uniform(0.03, 0.1)),
     ]
-    n = int(hours * 3600 / cycle_s)
-    cams = [c.name for c in rig.cameras]
-    slot = cycle_s / (len(cams) + 1)
-    clock_s = 30.0 if perturb else 0.0
-    gain = 0.9 if perturb else 1.0
+    lag_tau, chip, geo = _split_effect(effect)
     links = _links(rig)
+    w = _World(
+        rig=rig,
+        rng=rng,
+        model=ForwardModel(rig, alpha_per_k=alpha, effects=geo),
+        links=links,
+        cams=[c.name for c in rig.cameras],
+        n=int(hours * 3600 / cycle_s),
+        cycle_s=cycle_s,
+        perturb=perturb,
+        lag_tau=lag_tau,
+        chip=chip,
+    )
     state = {k: 0.0 for k in links}  # rise above ambient
     tables = []
-    t0 = 1_750_000_000 * 10**9
-    lag_tau = None
-    geo: list[Effect] = []
-    chip: Effect | None = None
-    if effect is not None:
-        if effect.name == "thermal_lag":
-            lag_tau = float(effect.tau_min) * 60.0  # type: ignore[attr-defined]
-        elif effect.name in ("fixture_drift", "sensor_drift"):
-            chip = effect
-        else:
-            geo = [effect]
-    model = ForwardModel(rig, alpha_per_k=alpha, effects=geo)
     for ri, (name, speed, start, slope) in enumerate(plan):
         if start == "ambient":
             state = {k: 0.0 for k in links}
-        # Surface rise on a fine grid (closed form per step), sampled at the visits.
-        t_fine = np.arange(0, n * cycle_s + cycle_s, 10.0)
+        t_fine, rise = w.surface_rise(state, speed)
+        amb_fine = _AMBIENT_C + 0.5 * ri + slope * t_fine / 3600.0
+        ir_off = {k: rng.uniform(-0.03, 0.03) if perturb else 0.0 for k in links}
+        run = _Run(name, ri, t_fine, rise, amb_fine, ir_off)
+        ar = np.zeros((len(w.cams), 6))
+        rows = [w.camera_table(run, ci, ar) for ci in range(len(w.cams))]
+        tables.append(pl.concat(rows))
+    return tables
+
+
+#: The bench's ambient at the first run's start (°C); each run starts 0.5 K warmer.
+_AMBIENT_C = 23.4
+#: The first run's start (ns since the epoch); runs start 30 h apart.
+_T0_NS = 1_750_000_000 * 10**9
+
+
+def _split_effect(effect: Effect | None) -> tuple[float | None, Effect | None, list[Effect]]:
+    """The effect as the bench world applies it: a thermal lag's τ (s), an effect on a chip
+    (fixture or sensor drift), or one the forward model carries (geometry)."""
+    if effect is None:
+        return None, None, []
+    if effect.name == "thermal_lag":
+        return float(effect.tau_min) * 60.0, None, []  # type: ignore[attr-defined]
+    if effect.name in ("fixture_drift", "sensor_drift"):
+        return None, effect, []
+    return None, None, [effect]
+
+
+@dataclass(frozen=True)
+class _Run:
+    """One run of the bench: its name and index, the surface rise per link and the ambient
+    on its fine time grid (s from its start), and the thermal camera's offset drift per link."""
+
+    name: str
+    index: int
+    t_fine: FloatArray
+    rise: dict[str, FloatArray]
+    amb_fine: FloatArray
+    ir_off: dict[str, float]
+
+
+@dataclass
+class _World:
+    """The bench's world for one call of :func:`make_runs`: the rig, its true model, the
+    links' calibration, the sampling and the effect, with the random stream all draws share
+    (in a fixed order: the tables depend on it)."""
+
+    rig: Rig
+    rng: np.random.Generator
+    model: ForwardModel
+    links: dict[str, tuple[float, float, float, float]]
+    cams: list[str]
+    n: int
+    cycle_s: float
+    perturb: bool
+    lag_tau: float | None
+    chip: Effect | None
+
+    def surface_rise(
+        self, state: dict[str, float], speed: float
+    ) -> tuple[FloatArray, dict[str, FloatArray]]:
+        """Surface rise on a fine grid (closed form per step), from ``state`` (updated to the
+        run's end)."""
+        t_fine = np.arange(0, self.n * self.cycle_s + self.cycle_s, 10.0)
         rise = {}
-        for k, par in links.items():
+        for k, par in self.links.items():
             tau_min = par[0]
             ss = _rise(par, speed)
             rise[k] = ss + (state[k] - ss) * np.exp(-t_fine / (tau_min * 60.0))
             state[k] = float(rise[k][-1])
-        amb_fine = amb0 + 0.5 * ri + slope * t_fine / 3600.0
-        ir_off = {k: rng.uniform(-0.03, 0.03) if perturb else 0.0 for k in links}
-        rows = []
-        ar = np.zeros((len(cams), 6))
-        for ci, cam in enumerate(cams):
-            t_v = np.arange(n) * cycle_s + ci * slot
-            amb_v = np.interp(t_v, t_fine, amb_fine)
-            struct = {}
-            for k in links:
-                s_fine = amb_fine + rise[k]
-                if lag_tau is not None:
-                    s_fine = _lag(t_fine, s_fine, lag_tau)
-                s_v = np.interp(t_v, t_fine, s_fine)
-                struct[k] = amb_v + gain * (s_v - amb_v)
-            temps = {k: struct[k] for k in model.temperature_names if k in struct}
-            if "ambient" in model.temperature_names:
-                temps["ambient"] = amb_v
-            for extra in model.temperature_names:
-                if extra not in temps:
-                    temps[extra] = amb_v
-            q0 = rig.camera_pose(cam).joints_rad
-            if perturb:
-                white = rng.normal(0, 1.5e-6, (n, 6))
-                corr = np.empty((n, 6))
-                for i in range(n):
-                    ar[ci] = 0.7 * ar[ci] + rng.normal(0, 1.5e-6 * np.sqrt(1 - 0.49), 6)
-                    corr[i] = ar[ci]
-                q = q0[None, :] + white + corr
+        return t_fine, rise
+
+    def camera_table(self, run: _Run, ci: int, ar: FloatArray) -> pl.DataFrame:
+        """The run's visits to camera ``ci``: true spots, then what the instruments report
+        (``ar``: the cameras' AR(1) joint noise states)."""
+        n, cam = self.n, self.cams[ci]
+        slot = self.cycle_s / (len(self.cams) + 1)
+        t_v: FloatArray = np.asarray(np.arange(n) * self.cycle_s + ci * slot, dtype=np.float64)
+        amb_v = np.interp(t_v, run.t_fine, run.amb_fine)
+        temps = self._temperatures(run, t_v, amb_v)
+        sp = self.model.spots(cam, self._joints(cam, ar[ci]), temperatures=temps)
+        u = sp.u_um + self.rng.normal(0, 0.3, n)
+        v = sp.v_um + self.rng.normal(0, 0.3, n)
+        u, v = self._on_chip(cam, u, v, t_v, amb_v)
+        obs = self._observed(run, t_v, amb_v)
+        return pl.DataFrame(
+            {
+                "run": [run.name] * n,
+                "camera": [cam] * n,
+                "visit": np.arange(n),
+                "t_ns": (_T0_NS + (run.index * 30 * 3600 + t_v) * 1e9).astype(np.int64),
+                "u_um": u,
+                "v_um": v,
+                "drift_u_um": u - u[0],
+                "drift_v_um": v - v[0],
+                **obs,
+            }
+        )
+
+    def _temperatures(self, run: _Run, t_v: FloatArray, amb_v: FloatArray) -> dict[str, FloatArray]:
+        """The structure's true temperatures at the visits, by the model's names (lagged
+        with a thermal lag; a thermal-camera gain below 1 when perturbed)."""
+        gain = 0.9 if self.perturb else 1.0
+        struct = {}
+        for k in self.links:
+            s_fine = run.amb_fine + run.rise[k]
+            if self.lag_tau is not None:
+                s_fine = _lag(run.t_fine, s_fine, self.lag_tau)
+            s_v = np.interp(t_v, run.t_fine, s_fine)
+            struct[k] = amb_v + gain * (s_v - amb_v)
+        temps = {k: struct[k] for k in self.model.temperature_names if k in struct}
+        if "ambient" in self.model.temperature_names:
+            temps["ambient"] = amb_v
+        for extra in self.model.temperature_names:
+            if extra not in temps:
+                temps[extra] = amb_v
+        return temps
+
+    def _joints(self, cam: str, ar: FloatArray) -> FloatArray:
+        """The joints at each visit to ``cam``: its pose, perturbed by white and AR(1) noise
+        (``ar``, the camera's AR state, carried from run to run within a call)."""
+        n = self.n
+        q0 = self.rig.camera_pose(cam).joints_rad
+        if not self.perturb:
+            return np.broadcast_to(q0, (n, 6)).copy()
+        white = self.rng.normal(0, 1.5e-6, (n, 6))
+        corr = np.empty((n, 6))
+        for i in range(n):
+            ar[:] = 0.7 * ar + self.rng.normal(0, 1.5e-6 * np.sqrt(1 - 0.49), 6)
+            corr[i] = ar
+        return np.asarray(q0[None, :] + white + corr)
+
+    def _on_chip(
+        self, cam: str, u: FloatArray, v: FloatArray, t_v: FloatArray, amb_v: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """The spot with a fixture or sensor drift of ``cam`` added."""
+        chip = self.chip
+        if chip is not None and chip.camera == cam:  # type: ignore[attr-defined]
+            if chip.name == "fixture_drift":
+                k_u, k_v = chip.um_per_k  # type: ignore[attr-defined]
+                u = u + k_u * (amb_v - self.rig.reference_c)
+                v = v + k_v * (amb_v - self.rig.reference_c)
             else:
-                q = np.broadcast_to(q0, (n, 6)).copy()
-            sp = model.spots(cam, q, temperatures=temps)
-            u = sp.u_um + rng.normal(0, 0.3, n)
-            v = sp.v_um + rng.normal(0, 0.3, n)
-            if chip is not None and chip.camera == cam:  # type: ignore[attr-defined]
-                if chip.name == "fixture_drift":
-                    k_u, k_v = chip.um_per_k  # type: ignore[attr-defined]
-                    u = u + k_u * (amb_v - rig.reference_c)
-                    v = v + k_v * (amb_v - rig.reference_c)
-                else:
-                    f = 1.0 - np.exp(-t_v / (chip.tau_min * 60.0))  # type: ignore[attr-defined]
-                    u = u + chip.um[0] * f  # type: ignore[attr-defined]
-                    v = v + chip.um[1] * f  # type: ignore[attr-defined]
-            # What the instruments report: IR at the thermal camera's (offset) clock, its offset
-            # drifting, its noise; ambient with thermometer noise.
-            obs = {}
-            for k in links:
-                t_ir = t_v - clock_s
-                drift = ir_off[k] * t_ir / (n * cycle_s)
-                obs[f"{k}_c"] = (
-                    np.interp(t_ir, t_fine, amb_fine + rise[k]) + drift + rng.normal(0, 0.03, n)
-                )
-            obs["ambient_c"] = amb_v + rng.normal(0, 0.02, n)
-            rows.append(
-                pl.DataFrame(
-                    {
-                        "run": [name] * n,
-                        "camera": [cam] * n,
-                        "visit": np.arange(n),
-                        "t_ns": (t0 + (ri * 30 * 3600 + t_v) * 1e9).astype(np.int64),
-                        "u_um": u,
-                        "v_um": v,
-                        "drift_u_um": u - u[0],
-                        "drift_v_um": v - v[0],
-                        **obs,
-                    }
-                )
+                f = 1.0 - np.exp(-t_v / (chip.tau_min * 60.0))  # type: ignore[attr-defined]
+                u = u + chip.um[0] * f  # type: ignore[attr-defined]
+                v = v + chip.um[1] * f  # type: ignore[attr-defined]
+        return u, v
+
+    def _observed(self, run: _Run, t_v: FloatArray, amb_v: FloatArray) -> dict[str, FloatArray]:
+        """What the instruments report: IR at the thermal camera's (offset) clock, its offset
+        drifting, its noise; ambient with thermometer noise."""
+        n = self.n
+        clock_s = 30.0 if self.perturb else 0.0
+        obs = {}
+        for k in self.links:
+            t_ir = t_v - clock_s
+            drift = run.ir_off[k] * t_ir / (n * self.cycle_s)
+            obs[f"{k}_c"] = (
+                np.interp(t_ir, run.t_fine, run.amb_fine + run.rise[k])
+                + drift
+                + self.rng.normal(0, 0.03, n)
             )
-        tables.append(pl.concat(rows))
-    return tables
+        obs["ambient_c"] = amb_v + self.rng.normal(0, 0.02, n)
+        return obs
 
 
 def run_bench(

@@ -180,22 +180,8 @@ def run_step(
     ys = batch.prepare(ys_raw)
     assert cur.hold_resid is not None
     low = batch.low(cur.hold_resid)
-    in_model = {c.effect for c in model}
-    gains: dict[str, FloatArray] = {}
-    best_idx: dict[str, int] = {}
-    hold: dict[str, FloatArray] = {}
-    by_label = {}
-    for fg in grids:
-        if fg.family.effect in in_model:
-            continue
-        got = _profile(batch, model, fg, ys)
-        if got is None:
-            continue
-        hm, idx = got
-        gains[fg.family.label] = cur.hold_ms - hm
-        hold[fg.family.label] = hm
-        best_idx[fg.family.label] = int(idx[0])
-        by_label[fg.family.label] = fg
+    sc = _Scores.of(batch, model, grids, ys, cur)
+    gains, hold = sc.gains, sc.hold
     if gains:
         g = np.vstack(list(gains.values()))
         max_null = np.nanmax(g[:, 1:], axis=0)
@@ -218,27 +204,90 @@ def run_step(
         ),
         gain={k: float(v[0]) for k, v in gains.items()},
         gain_p={k: quantile_above(max_null, float(v[0])) for k, v in gains.items()},
-        best_index=best_idx,
+        best_index=sc.best_idx,
         threshold=threshold,
         null_hold_ms=cur.hold_ms[1:],
         low=float(low[0]),
         null_low=low[1:],
     )
-    sig = [k for k, v in gains.items() if v[0] > threshold]
-    sig.sort(key=lambda k: float(hold[k][0]))
-    ok = []
-    for k in sig:
-        ch = Choice(by_label[k], best_idx[k])
-        if plausible(model, ch):
-            ok.append(ch)
+    ok = sc.significant(threshold, model, plausible)
     step.significant = [c.label for c in ok]
     if not ok:
         return step
+    step.chosen = ok[0]
+    _test_rivals(step, ok, batch, design, floor, model, level=level, draws=draws, rng=rng)
+    return step
+
+
+@dataclass
+class _Scores:
+    """Each family not yet in the model, added to it at its best grid point, on the data
+    (column 0) and on every null replicate: its gain in held-out mean square and what it
+    leaves, by family label."""
+
+    gains: dict[str, FloatArray] = field(default_factory=dict)
+    hold: dict[str, FloatArray] = field(default_factory=dict)
+    best_idx: dict[str, int] = field(default_factory=dict)
+    by_label: dict[str, FamilyGrid] = field(default_factory=dict)
+
+    @classmethod
+    def of(
+        cls,
+        batch: Batch,
+        model: list[Choice],
+        grids: list[FamilyGrid],
+        ys: Observations,
+        cur: BatchFit,
+    ) -> _Scores:
+        sc = cls()
+        in_model = {c.effect for c in model}
+        for fg in grids:
+            if fg.family.effect in in_model:
+                continue
+            got = _profile(batch, model, fg, ys)
+            if got is None:
+                continue
+            hm, idx = got
+            sc.gains[fg.family.label] = cur.hold_ms - hm
+            sc.hold[fg.family.label] = hm
+            sc.best_idx[fg.family.label] = int(idx[0])
+            sc.by_label[fg.family.label] = fg
+        return sc
+
+    def significant(
+        self,
+        threshold: float,
+        model: list[Choice],
+        plausible: Callable[[list[Choice], Choice], bool],
+    ) -> list[Choice]:
+        """The families whose gain on the data beats ``threshold`` and that are plausible,
+        the one leaving least first."""
+        sig = [k for k, v in self.gains.items() if v[0] > threshold]
+        sig.sort(key=lambda k: float(self.hold[k][0]))
+        ok = []
+        for k in sig:
+            ch = Choice(self.by_label[k], self.best_idx[k])
+            if plausible(model, ch):
+                ok.append(ch)
+        return ok
+
+
+def _test_rivals(
+    step: Step,
+    ok: list[Choice],
+    batch: Batch,
+    design: Design,
+    floor: NoiseFloor,
+    model: list[Choice],
+    *,
+    level: float,
+    draws: int,
+    rng: np.random.Generator,
+) -> None:
+    """One candidate per other effect name: can the data reject it as the truth? Every rival
+    is tested, so each at level / (number of rivals) (Bonferroni): an `identified` claims
+    that all of them are rejected together. Fills ``step.rival_p`` and ``step.rivals``."""
     best = ok[0]
-    step.chosen = best
-    # One candidate per other effect name: can the data reject it as the truth? Every rival
-    # is tested, so each at level / (number of rivals) (Bonferroni): an `identified` claims
-    # that all of them are rejected together.
     seen = {best.effect}
     rivals = []
     for ch in ok[1:]:
@@ -250,7 +299,6 @@ def run_step(
         step.rival_p[ch.effect] = p
         if p >= level / len(rivals):
             step.rivals.append(ch.effect)
-    return step
 
 
 def _rival_p(
