@@ -191,6 +191,7 @@ def cli(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "thermrs", *args], capture_output=True, text=True)
 
 
+@pytest.mark.slow
 def test_paper_protocol_through_the_cli(
     recording: tuple[Path, pl.DataFrame], tmp_path: Path
 ) -> None:

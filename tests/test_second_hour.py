@@ -267,6 +267,7 @@ def test_a_diagnosis_that_found_nothing_predicts_with_the_nominal_model(
 # --- runs inside a recording, everywhere ---------------------------------------------------
 
 
+@pytest.mark.slow
 def test_report_takes_runs_inside_a_recording(d: dict[str, Path], tmp_path: Path) -> None:
     rig = str(d["rig"])
     one = tmp_path / "one.html"
@@ -333,6 +334,7 @@ def test_diagnose_tables_are_whole_when_piped(d: dict[str, Path]) -> None:
 # --- input that cannot be right --------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_kelvin_radians_and_a_copy_of_the_training_run_are_refused(
     d: dict[str, Path], tmp_path: Path
 ) -> None:
