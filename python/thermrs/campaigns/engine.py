@@ -1,7 +1,7 @@
 """Running a campaign: which recordings need work, where it runs (Dask distributed), and the
 commits as results come back.
 
-The engine is Dask distributed, never a home-made pool: :func:`run_campaign` maps
+The engine is Dask distributed, never a home-made pool: :func:`campaign` maps
 :func:`thermrs.campaigns.task.run_job` over the recordings on a ``distributed.Client``: the
 one given, one connected to ``scheduler``, or a ``LocalCluster`` of worker processes when
 neither is given and more than one recording needs work (a single recording runs in process).
@@ -33,7 +33,7 @@ from thermrs.campaigns.task import Job, run_job
 from thermrs.errors import InputError
 from thermrs.rig import Rig, as_rig, load_rig
 
-__all__ = ["CampaignResult", "Progress", "rig_identity", "run_campaign"]
+__all__ = ["CampaignResult", "Progress", "campaign", "rig_identity"]
 
 #: ``progress(done, total, recording_path)`` after each recording (skipped ones included).
 Progress = Callable[[int, int, str], object]
@@ -99,7 +99,7 @@ def _version() -> str:
     return version("thermrs")
 
 
-def run_campaign(
+def campaign(
     recordings: Sequence[str | os.PathLike[str]],
     out: str | os.PathLike[str],
     *,
@@ -111,7 +111,51 @@ def run_campaign(
     progress: Progress | None = None,
     on_cluster: Callable[[str | None], object] | None = None,
 ) -> CampaignResult:
-    """Extract many recordings into one dataset (see :func:`thermrs.campaigns.campaign`)."""
+    """Extract many recordings into one Parquet dataset partitioned by recording and run.
+
+    Parameters
+    ----------
+    recordings
+        Files, glob patterns and folders (every ``*.mcap`` below them).
+    out
+        The dataset folder (created; its parent must exist). A dataset already there is
+        added to: recordings it holds with the same content, rig and thermrs version are not
+        extracted again, and what an interrupted campaign left half-written is removed.
+    rig
+        The rig (a :class:`~thermrs.Rig` read from a file, or a rig file; default the
+        embedded paper rig).
+    client
+        A ``distributed.Client`` to run on (the caller keeps it).
+    scheduler
+        Else the address of a Dask scheduler to connect to (``tcp://host:8786``).
+    workers
+        Else the number of worker processes of the ``LocalCluster`` started when more than
+        one recording needs work (default: the cores, at most one per recording).
+    visit_tolerance_deg
+        The joint tolerance of a visit (see :func:`thermrs.extract`); part of what makes a
+        recording's extraction current.
+    progress
+        Called as ``progress(done, total, path)`` as recordings finish.
+    on_cluster
+        Called once with the Dask dashboard's address (``None`` where no cluster runs).
+
+    Returns
+    -------
+    CampaignResult
+        The dataset, what was extracted, skipped and failed, the dashboard address.
+
+    Raises
+    ------
+    InputError
+        A recording name that matches nothing; the dataset folder cannot be made.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> res = thermrs.campaign(["day1/*.mcap", "day2/"], "campaign")  # doctest: +SKIP
+    >>> res.extracted, res.unchanged, res.dashboard  # doctest: +SKIP
+    >>> res.dataset.scan("visits").filter(run="run2").collect()  # doctest: +SKIP
+    """
     import json
 
     from thermrs.visits import DEFAULT_TOLERANCE_DEG
