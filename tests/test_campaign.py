@@ -104,6 +104,7 @@ def check_against_single_files(res: Any, recordings: list[Path]) -> None:
         assert runs["run"].to_list() == ex.runs["run"].to_list()
 
 
+@pytest.mark.slow
 def test_a_worker_killed_mid_campaign(recordings: list[Path], client: Any, tmp_path: Path) -> None:
     killed: dict[str, Any] = {}
 
@@ -128,6 +129,7 @@ def test_a_worker_killed_mid_campaign(recordings: list[Path], client: Any, tmp_p
     assert lazy.select(pl.len()).collect().item() == sum(res.catalog["visits"])
 
 
+@pytest.mark.slow
 def test_interrupted_campaign_resumes_and_unchanged_is_skipped(
     recordings: list[Path], client: Any, tmp_path: Path
 ) -> None:
@@ -173,6 +175,7 @@ def test_one_recording_runs_in_process(recordings: list[Path], tmp_path: Path) -
     check_against_single_files(res, recordings[:1])
 
 
+@pytest.mark.slow
 def test_workers_without_the_dataset_folder_send_their_tables(
     recordings: list[Path], client: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -206,6 +209,7 @@ def test_workers_without_the_dataset_folder_send_their_tables(
     assert not (tmp_path / "ds2" / ".staging").exists()
 
 
+@pytest.mark.slow
 def test_cli_campaign_on_a_scheduler(recordings: list[Path], client: Any, tmp_path: Path) -> None:
     out = tmp_path / "ds"
     pattern = str(recordings[0].parent / "r[12].mcap")
