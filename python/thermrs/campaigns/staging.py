@@ -65,7 +65,7 @@ def write_stage(
                 else [(k[0], g) for k, g in df.group_by("run", maintain_order=True)]
             )
             for run, g in groups:
-                d = stage / name / f"run={enc(None if run is None else str(run))}"
+                d = stage / name / f"run={enc(run)}"
                 d.mkdir(parents=True)
                 g.drop("run").write_parquet(d / "part-0.parquet", metadata=meta)
     except BaseException:

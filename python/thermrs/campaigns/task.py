@@ -105,7 +105,7 @@ def run_job(job: Job) -> dict[str, Any]:
             # No extracted recording has its size, so none has its bytes: the hash is taken
             # in the extraction's own pass (the file is read once).
             ex = extract(job.path, rig, content_hash=True, **options)
-            digest = str(ex.report.content_hash)
+            digest = ex.report.content_hash or content_hash(job.path)
         rid = recording_id(job.path, digest)
     except ThermrsError as e:
         return {"status": "failed", "path": job.path, "error": str(e)}
