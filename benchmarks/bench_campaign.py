@@ -5,19 +5,27 @@ Recordings: ``--recordings`` (default 24) simulated recordings of the embedded p
 runs of ``--minutes`` each (CCD frames at every visit, zstd), different seeds, written once
 into ``--dir``.
 
-Measured, in this order, with the page cache warm (every file read once first):
-1. each recording extracted alone in this process (``thermrs.extract``, 1 rayon thread, tables
-   in memory): their sum ``S``; and each through the same job as the campaign's, one file at a
-   time in this process without a cluster (``thermrs.campaign([file], its own dataset)``: hash,
-   extraction, Parquet partitions, catalog row): their sum ``Sf``, the single-file extractions
-   the campaign's ``T2`` is held against (``T2 / (Sf/2)``);
-2. the campaign on a fresh dataset with 1 worker process (``T1``) and with 2 (``T2``),
-   each cluster started before the clock starts (worker start-up is reported apart);
-3. the campaign again on the 2-worker dataset, nothing changed (``Tr``).
-Each campaign is timed ``--repeats`` times (fresh dataset each time), median reported, and
-the load average before and after.
+Everything runs on one core per process (``RAYON_NUM_THREADS``, ``POLARS_MAX_THREADS`` and
+``OMP_NUM_THREADS`` at 1, here and in the workers: :data:`thermrs.campaigns.engine.WORKER_ENV`),
+page cache warm (every file read once first). Each of ``--repeats`` rounds measures, one after
+another, so that a drift of the machine's speed reaches all alike:
+1. ``S``: each recording extracted alone in this process (``thermrs.extract``, tables in
+   memory), summed; ``Sf``: each through the same job as the campaign's, one file at a time in
+   this process without a cluster (``thermrs.campaign([file], its own dataset)``: hash,
+   extraction, Parquet partitions, catalog row), summed: the single-file extractions the
+   campaign's ``T2`` is held against (``T2 / (Sf/2)``);
+2. ``T1`` and ``T2`` (in alternating order): the campaign on a fresh dataset with 1 and with 2
+   worker processes (:func:`thermrs.campaigns.engine.local_cluster`, the cluster thermrs
+   starts itself), each cluster started and warmed by one campaign into a scratch dataset
+   before the clock (start-up and the workers' first campaign, which imports thermrs, are
+   reported apart); then ``Tr``: the same campaign again, nothing changed;
+3. ``B2``: what this machine gives two independent processes: two plain processes (no Dask),
+   started and warmed before the clock, each running the single-file job over half the
+   recordings (``Sf / B2`` is the most two workers can gain; ``T2 / B2`` is Dask's cost).
+Prints each round, the medians, the per-round ratios' medians, the client process's CPU per
+2-worker campaign, and the load average before and after.
 
-Run:  python benchmarks/bench_campaign.py [--recordings 24] [--minutes 15] [--repeats 3]
+Run:  python benchmarks/bench_campaign.py [--recordings 24] [--minutes 15] [--repeats 5]
       [--dir bench-out/campaign]
 """
 
@@ -29,6 +37,7 @@ import shutil
 import statistics
 import time
 from pathlib import Path
+from typing import Any
 
 SCENARIO = """format = "thermrs-scenario/1"
 seed = 1
@@ -69,84 +78,151 @@ def make(d: Path, n: int, minutes: int) -> list[Path]:
     return recs
 
 
-def timed_campaign(recs: list[Path], out: Path, client: object) -> float:
+def timed_campaign(
+    recs: list[Path], out: Path, client: object, *, fresh: bool = True
+) -> tuple[float, float]:
+    """Wall time and this process's CPU time of a campaign into ``out`` (made afresh unless
+    ``fresh`` is false)."""
+    import resource
+
     import thermrs
 
+    if fresh:
+        shutil.rmtree(out, ignore_errors=True)
+    r0 = resource.getrusage(resource.RUSAGE_SELF)
     t = time.perf_counter()
     thermrs.campaign(recs, out, client=client)
-    return time.perf_counter() - t
+    wall = time.perf_counter() - t
+    r1 = resource.getrusage(resource.RUSAGE_SELF)
+    return wall, r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime
+
+
+def on_cluster(n: int, recs: list[Path], d: Path) -> dict[str, float]:
+    """Start a thermrs LocalCluster of ``n`` workers, warm it, time the campaign (and with
+    2 workers, the unchanged re-run)."""
+    from distributed import Client
+    from thermrs.campaigns.engine import local_cluster
+
+    out: dict[str, float] = {}
+    t = time.perf_counter()
+    with local_cluster(n) as cluster, Client(cluster) as client:
+        out["up"] = time.perf_counter() - t
+        out["warm"] = timed_campaign(recs, d / "scratch", client)[0]
+        out["T"], out["cpu"] = timed_campaign(recs, d / f"ds-{n}", client)
+        if n == 2:
+            out["Tr"] = timed_campaign(recs, d / f"ds-{n}", client, fresh=False)[0]
+    return out
+
+
+def _bare(recs: list[str], d: str, ready: Any, go: Any, done: Any) -> None:
+    """One of two bare processes: single-file campaigns over its share, once told to go."""
+    import thermrs
+
+    Path(d).mkdir(parents=True, exist_ok=True)
+
+    def run(i: int, p: str) -> None:
+        out = Path(d) / f"ds-{i}"
+        shutil.rmtree(out, ignore_errors=True)
+        thermrs.campaign([p], out)
+
+    run(0, recs[0])  # imports, first-call costs
+    ready.put(True)
+    go.wait()
+    for i, p in enumerate(recs):
+        run(i, p)
+    done.put(time.perf_counter())  # CLOCK_MONOTONIC: the same clock in every process
+
+
+def bare_pair(recs: list[Path], d: Path) -> float:
+    """``B2``: two plain processes (no Dask), each running the single-file job over half the
+    recordings; the wall time from the start signal until both are done."""
+    import multiprocessing as mp
+
+    ctx = mp.get_context("spawn")
+    ready, done, go = ctx.Queue(), ctx.Queue(), ctx.Event()
+    procs = [
+        ctx.Process(
+            target=_bare, args=([str(p) for p in recs[k::2]], str(d / f"bare-{k}"), ready, go, done)
+        )
+        for k in range(2)
+    ]
+    for pr in procs:
+        pr.start()
+    for _ in procs:
+        ready.get(timeout=600)  # a process that failed raised and printed why
+    t = time.perf_counter()
+    go.set()
+    end = max(done.get(timeout=600) for _ in procs)
+    for pr in procs:
+        pr.join()
+    return end - t
+
+
+def singles(recs: list[Path], d: Path) -> tuple[float, float]:
+    """``S`` (in-memory extractions) and ``Sf`` (one-file campaigns), each summed."""
+    import thermrs
+
+    rig = thermrs.load_rig()
+    t = time.perf_counter()
+    for p in recs:
+        thermrs.extract(p, rig)
+    s = time.perf_counter() - t
+    t = time.perf_counter()
+    for i, p in enumerate(recs):
+        out = d / "single" / f"ds-{i}"
+        shutil.rmtree(out, ignore_errors=True)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        thermrs.campaign([p], out)
+    return s, time.perf_counter() - t
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--recordings", type=int, default=24)
     ap.add_argument("--minutes", type=int, default=15)
-    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--dir", type=Path, default=Path("bench-out/campaign"))
     args = ap.parse_args()
-    os.environ.setdefault("RAYON_NUM_THREADS", "1")
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    import thermrs
-    from distributed import Client, LocalCluster
+    for k in ("RAYON_NUM_THREADS", "POLARS_MAX_THREADS", "OMP_NUM_THREADS"):
+        os.environ[k] = "1"  # before polars is imported
 
     recs = make(args.dir, args.recordings, args.minutes)
     size = sum(p.stat().st_size for p in recs)
     for p in recs:
         p.read_bytes()
     print(f"{len(recs)} recordings, {size / 1e6:,.0f} MB; load average {os.getloadavg()[0]:.2f}")
-    rig = thermrs.load_rig()
-    singles = []
-    for _ in range(args.repeats):
-        t = time.perf_counter()
-        for p in recs:
-            thermrs.extract(p, rig)
-        singles.append(time.perf_counter() - t)
-    s = statistics.median(singles)
-    print(f"sum of in-memory extractions S = {s:.2f} s (median of {args.repeats})")
-    # The same job as the campaign's, one file at a time in this process (no cluster): hash,
-    # extract, write its partitions and catalog row into a dataset of its own.
-    files = []
-    for _ in range(args.repeats):
-        t = time.perf_counter()
-        for i, p in enumerate(recs):
-            out = args.dir / "single" / f"ds-{i}"
-            shutil.rmtree(out, ignore_errors=True)
-            out.parent.mkdir(parents=True, exist_ok=True)
-            thermrs.campaign([p], out)
-        files.append(time.perf_counter() - t)
-    sf = statistics.median(files)
-    print(f"sum of single-file extractions into datasets Sf = {sf:.2f} s (median)")
-    res: dict[int, float] = {}
-    for n in (1, 2):
-        t = time.perf_counter()
-        with (
-            LocalCluster(
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=":0",
-                env={"RAYON_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"},
-            ) as cluster,
-            Client(cluster) as client,
-        ):
-            print(f"{n} worker(s): cluster up in {time.perf_counter() - t:.1f} s")
-            times = []
-            for _ in range(args.repeats):
-                out = args.dir / f"ds-{n}"
-                shutil.rmtree(out, ignore_errors=True)
-                times.append(timed_campaign(recs, out, client))
-            res[n] = statistics.median(times)
-            print(
-                f"  campaign T{n} = {res[n]:.2f} s (runs: {', '.join(f'{x:.2f}' for x in times)})"
-            )
+    singles(recs[:2], args.dir)  # first-call costs
+    rounds = []
+    for i in range(args.repeats):
+        s, sf = singles(recs, args.dir)
+        r = {"S": s, "Sf": sf, "B2": bare_pair(recs, args.dir)}
+        for n in (1, 2) if i % 2 == 0 else (2, 1):
+            c = on_cluster(n, recs, args.dir)
+            r[f"T{n}"], r[f"up{n}"], r[f"warm{n}"] = c["T"], c["up"], c["warm"]
             if n == 2:
-                rerun = [timed_campaign(recs, out, client) for _ in range(args.repeats)]
-                r = statistics.median(rerun)
-                print(f"  unchanged re-run Tr = {r:.3f} s = {100 * r / res[2]:.1f} % of T2")
+                r["Tr"], r["cpu2"] = c["Tr"], c["cpu"]
+        rounds.append(r)
+        print(
+            f"round {i + 1}: S {r['S']:.2f}  Sf {r['Sf']:.2f}  T1 {r['T1']:.2f}  T2 {r['T2']:.2f}"
+            f"  Tr {r['Tr']:.3f}  B2 {r['B2']:.2f} s;  T1/T2 {r['T1'] / r['T2']:.2f}x  "
+            f"T2/(Sf/2) {r['T2'] / (r['Sf'] / 2):.2f}  (client CPU in T2 {r['cpu2']:.2f} s)",
+            flush=True,
+        )
+    med = {k: statistics.median(r[k] for r in rounds) for k in rounds[0]}
+    ratio = {
+        "T1/T2": statistics.median(r["T1"] / r["T2"] for r in rounds),
+        "T2/(Sf/2)": statistics.median(r["T2"] / (r["Sf"] / 2) for r in rounds),
+        "T2/(S/2)": statistics.median(r["T2"] / (r["S"] / 2) for r in rounds),
+        "Tr/T2": statistics.median(r["Tr"] / r["T2"] for r in rounds),
+        "Sf/B2": statistics.median(r["Sf"] / r["B2"] for r in rounds),
+        "T2/B2": statistics.median(r["T2"] / r["B2"] for r in rounds),
+    }
     print(
-        f"T1/T2 = {res[1] / res[2]:.2f}x; T2 / (Sf/2) = {res[2] / (sf / 2):.2f}; "
-        f"T2 / (S/2) = {res[2] / (s / 2):.2f}; T1 / Sf = {res[1] / sf:.2f}; "
-        f"load average {os.getloadavg()[0]:.2f}"
+        f"medians of {args.repeats}: "
+        + ", ".join(f"{k} {v:.3f} s" for k, v in med.items())
+        + "\nratios (median over rounds): "
+        + ", ".join(f"{k} {v:.3f}" for k, v in ratio.items())
+        + f"\nload average {os.getloadavg()[0]:.2f}"
     )
 
 

@@ -57,19 +57,25 @@ def recordings(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
 
 @pytest.fixture(scope="module")
 def client() -> Iterator[Any]:
-    from distributed import Client, LocalCluster
+    from distributed import Client
+    from thermrs.campaigns.engine import local_cluster
 
-    with (
-        LocalCluster(
-            n_workers=2,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            env={"RAYON_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"},
-        ) as cluster,
-        Client(cluster) as c,
-    ):
+    with local_cluster(2) as cluster, Client(cluster) as c:
         yield c
+
+
+def _pools() -> tuple[int, str | None]:
+    import polars as pl
+
+    return pl.thread_pool_size(), os.environ.get("RAYON_NUM_THREADS")
+
+
+@pytest.mark.slow
+def test_workers_of_the_local_cluster_run_one_thread_each(client: Any) -> None:
+    """Each worker is one process on one core: polars' own pool and the core's rayon pool
+    hold one thread there (as polars itself reports), whatever the machine's cores."""
+    for pools in client.run(_pools).values():
+        assert pools == (1, "1")
 
 
 def check_against_single_files(res: Any, recordings: list[Path]) -> None:

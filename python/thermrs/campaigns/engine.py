@@ -33,7 +33,7 @@ from thermrs.campaigns.task import Job, run_job
 from thermrs.errors import InputError
 from thermrs.rig import Rig, as_rig, load_rig
 
-__all__ = ["CampaignResult", "Progress", "campaign", "rig_identity"]
+__all__ = ["WORKER_ENV", "CampaignResult", "Progress", "campaign", "local_cluster", "rig_identity"]
 
 #: ``progress(done, total, recording_path)`` after each recording (skipped ones included).
 Progress = Callable[[int, int, str], object]
@@ -256,7 +256,7 @@ def _engine(
     if client is None and scheduler is None and len(jobs) == 1:
         yield (run_job(j) for j in jobs), None
         return
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     cluster = None
     own = client is None
@@ -264,14 +264,7 @@ def _engine(
         if scheduler is not None:
             client = Client(scheduler)  # type: ignore[no-untyped-call]
         else:
-            n = workers or max(1, min(len(jobs), os.cpu_count() or 1))
-            cluster = LocalCluster(  # type: ignore[no-untyped-call]
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=":0",
-                env={"RAYON_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"},
-            )
+            cluster = local_cluster(workers or max(1, min(len(jobs), os.cpu_count() or 1)))
             client = Client(cluster)  # type: ignore[no-untyped-call]
     results = _as_completed(client, jobs)
     try:
@@ -282,6 +275,45 @@ def _engine(
             client.close()
             if cluster is not None:
                 cluster.close()
+
+
+#: The environment of a worker of :func:`local_cluster`: every library's thread pool at one
+#: thread, since each worker is one process on one core (the Rust core's rayon pool, polars'
+#: own pool, BLAS/OpenMP). A worker left with a pool per core runs as many threads as the
+#: machine has cores beside the other workers'; measured on 2 cores, polars' second thread
+#: made a 1-worker campaign slower and cost it 7 % more CPU (BENCHMARKS.md, campaigns).
+WORKER_ENV = {"RAYON_NUM_THREADS": "1", "POLARS_MAX_THREADS": "1", "OMP_NUM_THREADS": "1"}
+
+
+def local_cluster(workers: int, **kwargs: Any) -> Any:
+    """The ``distributed.LocalCluster`` a campaign starts when given no client or scheduler:
+    ``workers`` worker processes of one thread each (:data:`WORKER_ENV`), dashboard on a free
+    port.
+
+    Parameters
+    ----------
+    workers
+        Worker processes (one per core is what the machine can run at once).
+    **kwargs
+        Passed on to ``LocalCluster`` (e.g. ``silence_logs``).
+
+    Examples
+    --------
+    >>> from distributed import Client
+    >>> from thermrs.campaigns.engine import local_cluster
+    >>> with local_cluster(2) as cluster, Client(cluster) as client:  # doctest: +SKIP
+    ...     thermrs.campaign(["day1/"], "campaign", client=client)
+    """
+    from distributed import LocalCluster
+
+    return LocalCluster(  # type: ignore[no-untyped-call]
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        env=dict(WORKER_ENV),
+        **kwargs,
+    )
 
 
 def _as_completed(client: Any, jobs: list[Job]) -> Generator[dict[str, Any], None, None]:

@@ -524,3 +524,40 @@ fn one_bad_chunk_in_the_middle_loses_only_itself() {
         }
     }
 }
+
+/// A pool of one thread runs each window on the calling thread, a larger pool runs its units
+/// in parallel; the tables and the report must not depend on which, on clean recordings and on
+/// damaged ones (whose windows retry units that met a channel defined by another unit).
+#[test]
+fn one_thread_and_a_pool_give_the_same_extraction() {
+    let rig = small_rig();
+    let pool = |n: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .unwrap()
+    };
+    let (one, three) = (pool(1), pool(3));
+    let mut rng = StdRng::seed_from_u64(2026);
+    let mut compared = 0;
+    for (name, opts) in layouts() {
+        let clean = seed(&rig, &opts, 60);
+        let mut cases = vec![clean.clone()];
+        for _ in 0..12 {
+            let mut b = clean.clone();
+            mutate(&mut rng, &mut b);
+            cases.push(b);
+        }
+        for (k, buf) in cases.iter().enumerate() {
+            let show = |r: thermrs_core::Result<(ingest::Tables, ingest::Report)>| match r {
+                Ok((t, rep)) => format!("{t:?}\n{}", serde_json::to_string(&rep).unwrap()),
+                Err(e) => format!("error: {e}"),
+            };
+            let a = show(one.install(|| extract(&rig, buf)));
+            let b = show(three.install(|| extract(&rig, buf)));
+            assert!(a == b, "{name} case {k}: one thread and three differ");
+            compared += 1;
+        }
+    }
+    assert_eq!(compared, 4 * 13);
+}

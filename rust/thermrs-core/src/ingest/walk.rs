@@ -354,7 +354,15 @@ impl<'b, 'c> Walk<'b, 'c> {
     fn flush(&mut self, upto: usize) -> bool {
         let ctx = self.ctx;
         let reg = &self.reg;
-        let parts: Vec<Part> = self.window.par_iter().map(|w| ctx.run(reg, w)).collect();
+        // One thread: run here. Handing each window to a pool of one thread and waiting for
+        // it is two context switches per window for nothing (futex waits on the pool's latch
+        // were a tenth of a one-thread extraction's switches, `perf record -e sched:sched_switch`).
+        let serial = rayon::current_num_threads() <= 1;
+        let parts: Vec<Part> = if serial {
+            self.window.iter().map(|w| ctx.run(reg, w)).collect()
+        } else {
+            self.window.par_iter().map(|w| ctx.run(reg, w)).collect()
+        };
         let mut retry = Vec::new();
         let mut done: Vec<Option<Part>> = Vec::with_capacity(parts.len());
         for (i, p) in parts.into_iter().enumerate() {
@@ -368,10 +376,17 @@ impl<'b, 'c> Walk<'b, 'c> {
         }
         let reg = &self.reg;
         let window = &self.window;
-        let again: Vec<(usize, Part)> = retry
-            .par_iter()
-            .map(|&i| (i, ctx.run(reg, &window[i])))
-            .collect();
+        let again: Vec<(usize, Part)> = if serial || retry.is_empty() {
+            retry
+                .iter()
+                .map(|&i| (i, ctx.run(reg, &window[i])))
+                .collect()
+        } else {
+            retry
+                .par_iter()
+                .map(|&i| (i, ctx.run(reg, &window[i])))
+                .collect()
+        };
         for (i, mut p) in again {
             if p.retry {
                 // Still unknown: count the chunk's messages as skipped rather than loop
