@@ -111,6 +111,21 @@ def check_against_single_files(res: Any, recordings: list[Path]) -> None:
 
 
 @pytest.mark.slow
+def test_the_largest_recordings_run_first(recordings: list[Path], tmp_path: Path) -> None:
+    """On one worker, recordings are extracted in the order the scheduler hands them out:
+    largest file first (so that a long recording listed last does not run alone at the
+    end), whatever the order they were named in."""
+    from distributed import Client
+    from thermrs.campaigns.engine import local_cluster
+
+    named = sorted(recordings, key=lambda p: p.stat().st_size)  # smallest first
+    assert len({p.stat().st_size for p in named}) == len(named)
+    with local_cluster(1) as cluster, Client(cluster) as c:
+        res = thermrs.campaign(named, tmp_path / "ds", client=c)
+    assert res.extracted == [str(p.resolve()) for p in reversed(named)]
+
+
+@pytest.mark.slow
 def test_a_worker_killed_mid_campaign(recordings: list[Path], client: Any, tmp_path: Path) -> None:
     killed: dict[str, Any] = {}
 

@@ -191,6 +191,11 @@ def campaign(
     total = len(sources)
     if progress is not None:
         progress(done, total, "")
+    # Largest first: a long recording started last would run alone at the end while the other
+    # workers idle; in this order the campaign is at most 4/3 of the best split of its work
+    # over the workers (Graham's bound for longest-processing-time-first), where the
+    # listing's order can leave a whole recording's time as the tail.
+    todo.sort(key=lambda s: s.size_bytes, reverse=True)
     stage, token = ds.open_staging()
     jobs = [
         Job(
