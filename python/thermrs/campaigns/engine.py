@@ -144,6 +144,11 @@ def campaign(
     CampaignResult
         The dataset, what was extracted, skipped and failed, the dashboard address.
 
+    Notes
+    -----
+    Recordings are handed to the workers largest first, whatever order they are named in, so
+    that a long recording does not run alone at the end of the campaign.
+
     Raises
     ------
     InputError
