@@ -196,6 +196,33 @@ def test_one_recording_runs_in_process(recordings: list[Path], tmp_path: Path) -
     check_against_single_files(res, recordings[:1])
 
 
+def test_catalog_reads_old_fragments_and_names_a_damaged_one(
+    recordings: list[Path], tmp_path: Path
+) -> None:
+    out = tmp_path / "ds"
+    thermrs.campaign([recordings[0]], out)
+    (frag,) = (out / "_catalog").glob("*.parquet")
+    row = pl.read_parquet(frag)
+    # A fragment written before the catalog had a `report` column, with a narrower integer
+    # and a column this version does not know: read with nulls, upcast, the extra left out.
+    old = row.drop("report").with_columns(
+        pl.lit("older-copy").alias("recording"),
+        pl.col("losses").cast(pl.Int32),
+        pl.lit(1.0).alias("some_future_column"),
+    )
+    old.write_parquet(out / "_catalog" / "older-copy.parquet")
+    cat = thermrs.campaigns.Dataset.open(out).catalog()
+    assert cat["recording"].to_list() == ["older-copy", row["recording"].item()]
+    assert cat.schema == pl.Schema(thermrs.campaigns.dataset.CATALOG_SCHEMA)
+    assert cat["report"].to_list() == [None, row["report"].item()]
+    assert cat["losses"].to_list() == [row["losses"].item()] * 2
+    assert_frame_equal(cat.filter(pl.col("recording") != "older-copy"), row)
+
+    (out / "_catalog" / "cut.parquet").write_bytes(frag.read_bytes()[:100])
+    with pytest.raises(thermrs.InputError, match=r"_catalog/cut\.parquet is unreadable"):
+        thermrs.campaigns.Dataset.open(out).catalog()
+
+
 @pytest.mark.slow
 def test_workers_without_the_dataset_folder_send_their_tables(
     recordings: list[Path], client: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch

@@ -62,6 +62,17 @@ CATALOG_SCHEMA: dict[str, Any] = {
 }
 
 
+def _first_unreadable(parts: list[Path], err: Exception) -> tuple[str, str]:
+    """The first fragment polars cannot read, and why (one line); the scan's own error when
+    each reads alone."""
+    for p in parts:
+        try:
+            pl.read_parquet_schema(p)
+        except (pl.exceptions.PolarsError, OSError) as e:
+            return p.name, str(e).splitlines()[0]
+    return "*.parquet", str(err).splitlines()[0]
+
+
 class Dataset:
     """A campaign dataset folder (created if missing; its parent must exist).
 
@@ -117,13 +128,26 @@ class Dataset:
         parts = sorted((self.root / "_catalog").glob("*.parquet"))
         if not parts:
             return pl.DataFrame(schema=CATALOG_SCHEMA)
-        df = pl.concat([pl.read_parquet(p) for p in parts], how="diagonal_relaxed")
-        return df.select(
-            [
-                pl.col(k).cast(v) if k in df.columns else pl.lit(None, v).alias(k)
-                for k, v in CATALOG_SCHEMA.items()
-            ]
-        ).sort("recording")
+        # One scan over every fragment, read by polars' own readers (not a Python loop of
+        # `read_parquet`: 6.6x less time on 2,000 fragments, BENCHMARKS.md), against the
+        # catalog's schema: a fragment written before a column existed gets nulls there.
+        try:
+            return (
+                pl.scan_parquet(
+                    parts,
+                    schema=CATALOG_SCHEMA,
+                    missing_columns="insert",
+                    extra_columns="ignore",
+                    cast_options=pl.ScanCastOptions(integer_cast="upcast"),
+                )
+                .sort("recording")
+                .collect()
+            )
+        except pl.exceptions.PolarsError as e:
+            bad, why = _first_unreadable(parts, e)
+            raise InputError(
+                f"dataset {self.root}: catalog fragment _catalog/{bad} is unreadable: {why}"
+            ) from None
 
     def scan(self, table: str) -> pl.LazyFrame:
         """A committed table of every recording, read lazily, with ``recording`` and ``run``
