@@ -21,7 +21,9 @@ another, so that a drift of the machine's speed reaches all alike:
    reported apart); then ``Tr``: the same campaign again, nothing changed;
 3. ``B2``: what this machine gives two independent processes: two plain processes (no Dask),
    started and warmed before the clock, each running the single-file job over half the
-   recordings (``Sf / B2`` is the most two workers can gain; ``T2 / B2`` is Dask's cost).
+   recordings (``Sf / B2`` is the most two workers can gain; ``T2 / B2`` is Dask's cost;
+   ``T1 / B2`` and ``B2 / (Sf/2)`` are the two targets' ratios for a scheduler that cost
+   nothing).
 Prints each round, the medians, the per-round ratios' medians, the client process's CPU per
 2-worker campaign, and the load average before and after.
 
@@ -216,6 +218,9 @@ def main() -> None:
         "Tr/T2": statistics.median(r["Tr"] / r["T2"] for r in rounds),
         "Sf/B2": statistics.median(r["Sf"] / r["B2"] for r in rounds),
         "T2/B2": statistics.median(r["T2"] / r["B2"] for r in rounds),
+        # What a scheduler that cost nothing would reach: two bare processes in place of T2.
+        "T1/B2": statistics.median(r["T1"] / r["B2"] for r in rounds),
+        "B2/(Sf/2)": statistics.median(r["B2"] / (r["Sf"] / 2) for r in rounds),
     }
     print(
         f"medians of {args.repeats}: "
