@@ -101,7 +101,7 @@ def on_cluster(n: int, recs: list[Path], d: Path) -> dict[str, float]:
     """Start a thermrs LocalCluster of ``n`` workers, warm it, time the campaign (and with
     2 workers, the unchanged re-run); datasets in the new folder ``d``."""
     from distributed import Client
-    from thermrs.campaigns.engine import local_cluster
+    from thermrs.campaigns.engine import local_cluster, quiet_workers
 
     out: dict[str, float] = {}
     d.mkdir(parents=True)
@@ -112,6 +112,7 @@ def on_cluster(n: int, recs: list[Path], d: Path) -> dict[str, float]:
         out["T"], out["cpu"] = timed_campaign(recs, d / "ds", client)
         if n == 2:
             out["Tr"] = timed_campaign(recs, d / "ds", client)[0]
+        quiet_workers(client)
     return out
 
 

@@ -196,6 +196,28 @@ def test_one_recording_runs_in_process(recordings: list[Path], tmp_path: Path) -
     check_against_single_files(res, recordings[:1])
 
 
+def _worker_log_level() -> int:
+    import logging
+
+    return logging.getLogger("distributed.worker").getEffectiveLevel()
+
+
+@pytest.mark.slow
+def test_workers_are_quiet_when_thermrs_closes_its_cluster() -> None:
+    # A worker's last heartbeat can race the scheduler's closing and log a traceback after a
+    # campaign that succeeded (dask/distributed#7105): errors show while the cluster works and
+    # not once thermrs closes it.
+    from distributed import Client
+    from thermrs.campaigns.engine import local_cluster, quiet_workers
+
+    with local_cluster(1) as cluster, Client(cluster) as c:
+        before = c.run(_worker_log_level)
+        quiet_workers(c)
+        after = c.run(_worker_log_level)
+    assert list(before.values()) and all(v <= 40 for v in before.values())  # ERROR = 40
+    assert list(after.values()) and all(v > 40 for v in after.values())
+
+
 def test_catalog_reads_old_fragments_and_names_a_damaged_one(
     recordings: list[Path], tmp_path: Path
 ) -> None:
