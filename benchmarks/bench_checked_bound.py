@@ -7,8 +7,10 @@ frames' interpretation). Even if the two overlapped perfectly, its time could no
 the larger of them. The compute alone is measured where memory costs next to nothing: on two
 small recordings of the same frames (``--small`` and twice as many), whose bytes stay in the
 CPU's last-level cache (32 MB here) between repeats; the difference of their times per added
-frame is the per-frame cost without the memory stream and without the per-call costs. The
-script prints, per frame:
+frame is the per-frame cost without the memory stream and without the per-call costs. It is
+the extraction as built, reaching its bytes by the route its chooser picks (for cache-resident
+files, often a copy through the kernel), so it overstates the compute alone, and the bound
+below is a lower estimate of the true one. The script prints, per frame:
 
 - ``read``: the big recording read once into a reused 16 MiB buffer (the baseline);
 - ``crc only`` on the big recording: the memory stream every checked route must pay;
