@@ -196,6 +196,29 @@ def test_one_recording_runs_in_process(recordings: list[Path], tmp_path: Path) -
     check_against_single_files(res, recordings[:1])
 
 
+def test_the_summary_shows_a_bounded_catalog_losses_first() -> None:
+    from thermrs.cli.campaign import rows_to_show
+
+    # 50 recordings: 3 lost data (one of them extracted now), 10 extracted now.
+    cat = pl.DataFrame(
+        {
+            "recording": [f"r{i:02d}" for i in range(50)],
+            "path": [f"/d/r{i:02d}.mcap" for i in range(50)],
+            "losses": [1 if i in (7, 30, 44) else 0 for i in range(50)],
+        }
+    )
+    now = {f"/d/r{i:02d}.mcap" for i in range(40, 50)}
+    shown = rows_to_show(cat, now, limit=14)
+    assert shown["recording"].to_list() == [
+        "r44", "r07", "r30",  # lost data: extracted now first, then by recording
+        *[f"r{i}" for i in range(40, 50) if i != 44],  # extracted now
+        "r00", "r01",  # then the rest, by recording
+    ]  # fmt: skip
+    assert shown.columns == cat.columns
+    small = cat.head(5)
+    assert rows_to_show(small, now, limit=14).equals(small)
+
+
 def _worker_log_level() -> int:
     import logging
 

@@ -6,12 +6,16 @@ from __future__ import annotations
 import glob
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from thermrs.cli.common import out_option, rig_option, rule_option, where_option
 
-__all__ = ["campaign_command", "extract_campaign", "is_campaign"]
+if TYPE_CHECKING:
+    import polars as pl
+
+__all__ = ["SHOWN", "campaign_command", "extract_campaign", "is_campaign", "rows_to_show"]
 
 
 def is_campaign(
@@ -81,12 +85,18 @@ def extract_campaign(
             f"{len(res.extracted)} recordings extracted, {len(res.unchanged)} unchanged "
             f"(not extracted again), {len(res.failed)} failed, in {res.seconds:.1f} s"
         )
+        shown = rows_to_show(cat, {str(Path(p).resolve()) for p in res.extracted})
         t = table(
             f"Catalog ({out / 'catalog.parquet'})",
             [("recording", "left"), ("runs", "right"), ("frames", "right"), ("losses", "right")],
         )
-        for row in cat.iter_rows(named=True):
+        for row in shown.iter_rows(named=True):
             t.add_row(row["recording"], str(row["runs"]), f"{row['frames']:,}", str(row["losses"]))
+        if cat.height > shown.height:
+            t.caption = (
+                f"{shown.height} of {cat.height:,} recordings shown (those that lost data "
+                f"first, then this campaign's); all of them: {out / 'catalog.parquet'}"
+            )
         err.print(t)
     for row in cat.filter(cat["losses"] > 0).iter_rows(named=True):
         click.echo(
@@ -100,6 +110,25 @@ def extract_campaign(
         sys.exit(EXIT_BAD_INPUT)
     if res.data_loss:
         sys.exit(EXIT_DATA_LOSS)
+
+
+#: Catalog rows the summary of ``thermrs extract`` prints at most (a campaign may hold
+#: thousands of recordings; the catalog file has them all).
+SHOWN = 20
+
+
+def rows_to_show(cat: pl.DataFrame, now: set[str], *, limit: int = SHOWN) -> pl.DataFrame:
+    """The catalog rows the campaign's summary prints: every row when they fit in ``limit``;
+    else those that lost data first, then those extracted by this campaign (``now``: their
+    paths), then the rest, each group by recording, ``limit`` rows in all."""
+    import polars as pl
+
+    if cat.height <= limit:
+        return cat
+    order = cat.with_columns(
+        _lost=pl.col("losses") > 0, _now=pl.col("path").is_in(sorted(now))
+    ).sort(["_lost", "_now", "recording"], descending=[True, True, False])
+    return order.head(limit).drop("_lost", "_now")
 
 
 @click.command("campaign")
