@@ -129,7 +129,7 @@ class Dataset:
         if not parts:
             return pl.DataFrame(schema=CATALOG_SCHEMA)
         # One scan over every fragment, read by polars' own readers (not a Python loop of
-        # `read_parquet`: 6.6x less time on 2,000 fragments, BENCHMARKS.md), against the
+        # `read_parquet`: 6.4x less time on 2,000 fragments, BENCHMARKS.md), against the
         # catalog's schema: a fragment written before a column existed gets nulls there.
         try:
             return (
