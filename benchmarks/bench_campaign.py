@@ -36,6 +36,7 @@ Run:  python benchmarks/bench_campaign.py [--recordings 24] [--minutes 15] [--re
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import shutil
 import statistics
@@ -199,7 +200,7 @@ def main() -> None:
     # (`find_inode_bit`, `recently_deleted`). A user's campaign writes a new dataset, or adds to
     # one; it does not rewrite one path over and over.
     outs = args.dir / "out"
-    serial = iter(range(1 << 30))
+    serial = itertools.count()
 
     def new_dir() -> Path:
         return outs / str(os.getpid()) / f"{next(serial):04d}"

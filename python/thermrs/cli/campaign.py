@@ -85,7 +85,7 @@ def extract_campaign(
             f"{len(res.extracted)} recordings extracted, {len(res.unchanged)} unchanged "
             f"(not extracted again), {len(res.failed)} failed, in {res.seconds:.1f} s"
         )
-        shown = rows_to_show(cat, {str(Path(p).resolve()) for p in res.extracted})
+        shown = rows_to_show(cat, set(res.extracted))  # resolved paths, as the catalog's
         t = table(
             f"Catalog ({out / 'catalog.parquet'})",
             [("recording", "left"), ("runs", "right"), ("frames", "right"), ("losses", "right")],
