@@ -188,10 +188,7 @@ impl<'r> Context<'r> {
             rois,
             spot,
             source,
-            routes: RouteChooser {
-                forced: route,
-                ..RouteChooser::default()
-            },
+            routes: RouteChooser::new(route),
             verify_crc: true,
         }
     }
