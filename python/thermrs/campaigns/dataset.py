@@ -227,9 +227,7 @@ class Dataset:
                 dest = self.root / name / f"recording={_enc(rid)}"
                 dest.parent.mkdir(exist_ok=True)
                 (stage / name).rename(dest)
-            cat = pl.DataFrame([row]).select(
-                [pl.lit(row.get(k), v).alias(k) for k, v in CATALOG_SCHEMA.items()]
-            )
+            cat = pl.DataFrame({k: [row.get(k)] for k in CATALOG_SCHEMA}, schema=CATALOG_SCHEMA)
             write_parquet_atomic(cat, self.root / "_catalog" / f"{rid}.parquet")
         except OSError as e:
             raise InputError(
