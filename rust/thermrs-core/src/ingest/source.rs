@@ -96,11 +96,10 @@ impl RouteChooser {
             return r;
         }
         let n = self.chunks.fetch_add(1, Relaxed);
-        let (map, read) = (self.estimate(Route::Map), self.estimate(Route::Read));
-        let (best, other) = match (map, read) {
-            _ if n < Self::WARM_UP => {
-                return if n % 2 == 0 { Route::Map } else { Route::Read };
-            }
+        if n < Self::WARM_UP {
+            return if n % 2 == 0 { Route::Map } else { Route::Read };
+        }
+        let (best, other) = match (self.estimate(Route::Map), self.estimate(Route::Read)) {
             (None, _) => return Route::Map,
             (_, None) => return Route::Read,
             (Some(m), Some(r)) if m <= r => (Route::Map, Route::Read),
