@@ -45,7 +45,6 @@ import argparse
 import re
 import statistics
 import sys
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, cast
@@ -66,7 +65,7 @@ def renamed(text: str, topics: list[str]) -> str:
 
 def main() -> None:
     import thermrs
-    from bench_crc import core
+    from bench_crc import core, interleaved
     from bench_extract import make
     from thermrs import _native
 
@@ -114,19 +113,11 @@ def main() -> None:
         "crc only": lambda: _native.checksum_chunks(str(big)),
         **{k: (lambda r=r: ex(r)) for k, r in rigs.items()},
     }
-    names = list(routes)
     for g in routes.values():  # warm: page cache, first-call costs
         g()
     rows = []
     for rnd in range(a.rounds):
-        times: dict[str, list[float]] = {k: [] for k in names}
-        for i in range(a.repeats):
-            k = i % len(names)
-            for name in names[k:] + names[:k]:
-                t0 = time.perf_counter()
-                routes[name]()
-                times[name].append(time.perf_counter() - t0)
-        us = {k: statistics.median(v) / n * 1e6 for k, v in times.items()}
+        us = {k: v / n * 1e6 for k, v in interleaved(routes, a.repeats).items()}
         row = {
             **us,
             "walk": us["nothing"] - us["crc only"],

@@ -77,6 +77,20 @@ def core(path: Path, rig: thermrs.Rig, crc: bool) -> object:
     )
 
 
+def interleaved(routes: dict[str, Callable[[], object]], repeats: int) -> dict[str, float]:
+    """Median seconds of each route over ``repeats`` rounds, the routes run in rotating order
+    (each round starts one route later), so that all see the same machine load."""
+    names = list(routes)
+    times: dict[str, list[float]] = {k: [] for k in names}
+    for i in range(repeats):
+        k = i % len(names)
+        for name in names[k:] + names[:k]:
+            t0 = time.perf_counter()
+            routes[name]()
+            times[name].append(time.perf_counter() - t0)
+    return {k: statistics.median(v) for k, v in times.items()}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("recordings", nargs="+", type=Path)
@@ -98,14 +112,7 @@ def main() -> None:
         names = list(routes)
         for name in names:  # warm: page cache, first-call costs
             routes[name]()
-        times: dict[str, list[float]] = {k: [] for k in names}
-        for i in range(args.repeats):
-            k = i % len(names)
-            for name in names[k:] + names[:k]:
-                t0 = time.perf_counter()
-                routes[name]()
-                times[name].append(time.perf_counter() - t0)
-        med = {k: statistics.median(v) for k, v in times.items()}
+        med = interleaved(routes, args.repeats)
         size = path.stat().st_size
         print(
             f"{path.name} ({size / 1e6:,.0f} MB): median read {med['read'] * 1e3:.0f} ms "
