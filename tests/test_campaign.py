@@ -78,6 +78,29 @@ def test_workers_of_the_local_cluster_run_one_thread_each(client: Any) -> None:
         assert pools == (1, "1")
 
 
+def _background(dask_worker: Any) -> tuple[float, bool, float]:
+    pcs = dask_worker.periodic_callbacks
+    return dask_worker._tick_interval, "profile" in pcs, pcs["monitor"].callback_time
+
+
+def _scheduler_tick(dask_scheduler: Any) -> float:
+    return float(dask_scheduler._tick_interval)
+
+
+@pytest.mark.slow
+def test_the_local_cluster_keeps_its_background_work_down(client: Any) -> None:
+    """The cluster thermrs starts runs its workers' and scheduler's event-loop tick every
+    second, no statistical profiler and the system monitor every 2 s (what each process's
+    own Dask server reports); the campaign's Dask settings are not left behind in the
+    client's process."""
+    import dask
+
+    for tick, profiler, monitor_ms in client.run(_background).values():
+        assert (tick, profiler, monitor_ms) == (1.0, False, 2000.0)
+    assert client.run_on_scheduler(_scheduler_tick) == 1.0
+    assert dask.config.get("distributed.worker.profile.enabled") is True
+
+
 def check_against_single_files(res: Any, recordings: list[Path]) -> None:
     """Catalog and data of the campaign equal each recording's own extraction: every
     recording once, nothing lost, nothing twice."""
@@ -125,8 +148,28 @@ def test_the_largest_recordings_run_first(recordings: list[Path], tmp_path: Path
     assert res.extracted == [str(p.resolve()) for p in reversed(named)]
 
 
+def _warm() -> None:
+    import thermrs.campaigns.task  # noqa: F401
+
+
+def _one_then_the_rest(sizes: list[int], slots: int) -> list[list[int]]:
+    return [[0], list(range(1, len(sizes)))]
+
+
 @pytest.mark.slow
-def test_a_worker_killed_mid_campaign(recordings: list[Path], client: Any, tmp_path: Path) -> None:
+@pytest.mark.parametrize("tasks", ["one per recording", "one, then the rest"])
+def test_a_worker_killed_mid_campaign(
+    recordings: list[Path], client: Any, tmp_path: Path, tasks: str, monkeypatch: Any
+) -> None:
+    """A worker is killed while it holds a task (of one recording, or of five, on a split
+    that hands out one recording and then the rest): the campaign completes, nothing lost
+    or twice."""
+    if tasks != "one per recording":
+        monkeypatch.setattr("thermrs.campaigns.engine.split", _one_then_the_rest)
+    # Both workers up and past their imports (one may have been restarted by the test
+    # before), so that the task of one recording finishes first.
+    client.wait_for_workers(2)
+    client.run(_warm)
     killed: dict[str, Any] = {}
 
     def kill_a_busy_worker(done: int, total: int, path: str) -> None:
@@ -142,6 +185,10 @@ def test_a_worker_killed_mid_campaign(recordings: list[Path], client: Any, tmp_p
 
     res = thermrs.campaign(recordings, tmp_path / "ds", client=client, progress=kill_a_busy_worker)
     assert killed, "a worker was killed while it held a recording"
+    if tasks != "one per recording":
+        second = sorted(recordings, key=lambda p: p.stat().st_size)[-2]
+        (keys,) = killed.values()
+        assert any(str(k).endswith(str(second.resolve())) for k in keys)  # the five's task
     assert sorted(res.extracted) == sorted(str(p.resolve()) for p in recordings)
     assert not res.failed and not res.unchanged
     check_against_single_files(res, recordings)

@@ -4,6 +4,7 @@ cluster, and the runs of a campaign chosen by query.
 - :mod:`thermrs.campaigns.sources`: paths, globs and folders; content hashes;
 - :mod:`thermrs.campaigns.task`: one recording extracted (what a worker runs);
 - :mod:`thermrs.campaigns.dataset`: the dataset on disk (partitions, catalog, commits);
+- :mod:`thermrs.campaigns.split`: the recordings split into Dask tasks;
 - :mod:`thermrs.campaigns.engine`: the campaign run on Dask distributed;
 - :mod:`thermrs.campaigns.select`: runs by query, training and held-out sets by rule;
 - :mod:`thermrs.campaigns.inputs`: run tables and splits of a dataset, runs by name;

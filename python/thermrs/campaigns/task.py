@@ -27,7 +27,7 @@ from thermrs.campaigns.sources import content_hash, recording_id
 from thermrs.campaigns.staging import reachable, write_stage
 from thermrs.errors import InputError, ThermrsError
 
-__all__ = ["TABLES", "Job", "run_job", "run_stats"]
+__all__ = ["TABLES", "Job", "run_job", "run_jobs", "run_stats"]
 
 #: The tables of a recording in a campaign dataset; each is partitioned by recording and run.
 TABLES = ("frames", "visits", "temperatures", "joints", "runs")
@@ -156,6 +156,12 @@ def run_job(job: Job) -> dict[str, Any]:
         except OSError:
             pass  # the client writes them
     return {**done, "tables": {k: v.to_arrow() for k, v in tables.items()}}
+
+
+def run_jobs(jobs: list[Job]) -> list[dict[str, Any]]:
+    """:func:`run_job` on each of a task's recordings, in order (a Dask task holds a run of
+    consecutive recordings, :mod:`thermrs.campaigns.split`); their results in that order."""
+    return [run_job(j) for j in jobs]
 
 
 def run_stats(
