@@ -67,6 +67,10 @@ compression = "zstd"
 """
 
 
+#: How long ext4 without a journal keeps a deleted inode from reuse, at most (seconds).
+RECENTLY_DELETED_S = 300
+
+
 def make(d: Path, n: int, minutes: int) -> list[Path]:
     import thermrs
     from thermrs.simulate import simulate
@@ -201,6 +205,18 @@ def main() -> None:
     # one; it does not rewrite one path over and over.
     outs = args.dir / "out"
     serial = itertools.count()
+    # A run right after the run before it deleted its datasets is measured slow: on ext4
+    # without a journal (this machine's), an inode is not reused within 60 s of its deletion
+    # (300 s while its inode-table block is dirty) and the allocator moves past each such one
+    # (`recently_deleted`, fs/ext4/ialloc.c). Measured here, 20 campaigns in a row, each
+    # deleted after it ran, went from 1.81 s to 2.1–2.3 s (BENCHMARKS.md, campaigns, Session 7).
+    # So wait until this script's last deletion is 5 minutes old.
+    cleaned = args.dir / ".cleaned-at"
+    if cleaned.exists():
+        wait = RECENTLY_DELETED_S - (time.time() - cleaned.stat().st_mtime)
+        if wait > 0:
+            print(f"waiting {wait:.0f} s: the last run deleted its datasets less than 5 min ago")
+            time.sleep(wait)
 
     def new_dir() -> Path:
         return outs / str(os.getpid()) / f"{next(serial):04d}"
@@ -242,6 +258,7 @@ def main() -> None:
         + f"\nload average {os.getloadavg()[0]:.2f}"
     )
     shutil.rmtree(outs, ignore_errors=True)
+    cleaned.touch()
 
 
 if __name__ == "__main__":
