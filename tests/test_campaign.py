@@ -198,6 +198,33 @@ def test_a_worker_killed_mid_campaign(
 
 
 @pytest.mark.slow
+def test_the_cluster_thermrs_starts_splits_by_its_workers(
+    recordings: list[Path], tmp_path: Path, monkeypatch: Any
+) -> None:
+    """Given no client, a campaign of several recordings starts a cluster of one worker per
+    core (at most one per recording) and splits its recordings by that cluster's workers."""
+    from thermrs.campaigns import engine
+
+    seen: dict[str, Any] = {}
+    real_split, real_cluster = engine.split, engine.local_cluster
+
+    def spy_split(sizes: list[int], slots: int) -> list[list[int]]:
+        seen["slots"] = slots
+        return real_split(sizes, slots)
+
+    def spy_cluster(workers: int, **kwargs: Any) -> Any:
+        cluster = real_cluster(workers, **kwargs)
+        seen["workers"] = len(cluster.workers)
+        return cluster
+
+    monkeypatch.setattr(engine, "split", spy_split)
+    monkeypatch.setattr(engine, "local_cluster", spy_cluster)
+    res = thermrs.campaign(recordings[:3], tmp_path / "ds")
+    assert len(res.extracted) == 3
+    assert seen["slots"] == seen["workers"] == min(3, os.cpu_count() or 1)
+
+
+@pytest.mark.slow
 def test_interrupted_campaign_resumes_and_unchanged_is_skipped(
     recordings: list[Path], client: Any, tmp_path: Path
 ) -> None:

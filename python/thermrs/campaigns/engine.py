@@ -284,15 +284,16 @@ def _engine(
 
     cluster = None
     own = client is None
+    slots = 0  # worker threads that run tasks at once
     if own:
         if scheduler is not None:
             client = Client(scheduler)  # type: ignore[no-untyped-call]
         else:
-            cluster = local_cluster(workers or max(1, min(len(jobs), os.cpu_count() or 1)))
+            slots = workers or max(1, min(len(jobs), os.cpu_count() or 1))
+            cluster = local_cluster(slots)  # one thread per worker
             client = Client(cluster)  # type: ignore[no-untyped-call]
-    # Worker threads that run tasks at once; none known yet (workers still to join): one
-    # task per recording.
-    slots = (workers or 1) if cluster is not None else sum(client.nthreads().values())
+    # None known yet (workers still to join a scheduler): one task per recording.
+    slots = slots or sum(client.nthreads().values())
     tasks = [[jobs[i] for i in g] for g in split(sizes, slots)] if slots else [[j] for j in jobs]
     results = _as_completed(client, tasks)
     try:
