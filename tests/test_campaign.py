@@ -148,8 +148,8 @@ def test_the_largest_recordings_run_first(recordings: list[Path], tmp_path: Path
     assert res.extracted == [str(p.resolve()) for p in reversed(named)]
 
 
-def _warm() -> None:
-    import thermrs.campaigns.task  # noqa: F401
+def _warm(path: str) -> None:
+    thermrs.extract(path, thermrs.load_rig())
 
 
 def _one_then_the_rest(sizes: list[int], slots: int) -> list[list[int]]:
@@ -166,10 +166,10 @@ def test_a_worker_killed_mid_campaign(
     or twice."""
     if tasks != "one per recording":
         monkeypatch.setattr("thermrs.campaigns.engine.split", _one_then_the_rest)
-    # Both workers up and past their imports (one may have been restarted by the test
-    # before), so that the task of one recording finishes first.
+    # Both workers up and past their first extraction's costs (one may have been restarted
+    # by the test before), so that the task of one recording finishes first.
     client.wait_for_workers(2)
-    client.run(_warm)
+    client.run(_warm, str(recordings[0]))
     killed: dict[str, Any] = {}
 
     def kill_a_busy_worker(done: int, total: int, path: str) -> None:
