@@ -22,10 +22,8 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import resource
 import shutil
 import statistics
-import time
 from pathlib import Path
 
 VARIANTS = {
@@ -48,6 +46,7 @@ def main() -> None:
     args = ap.parse_args()
 
     import thermrs
+    from bench_campaign import timed_campaign
     from distributed import Client
     from thermrs.campaigns import engine
 
@@ -74,17 +73,10 @@ def main() -> None:
                     Client(cluster) as client,  # type: ignore[no-untyped-call]
                 ):
                     thermrs.campaign(recs, next(fresh), client=client)
-                    ts, cs = [], []
-                    for _ in range(2):
-                        r0 = resource.getrusage(resource.RUSAGE_SELF)
-                        t = time.perf_counter()
-                        thermrs.campaign(recs, next(fresh), client=client)
-                        ts.append(time.perf_counter() - t)
-                        r1 = resource.getrusage(resource.RUSAGE_SELF)
-                        cs.append(r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime)
+                    runs = [timed_campaign(recs, next(fresh), client) for _ in range(2)]
                     engine.quiet_workers(client)
-                wall[name].append(statistics.mean(ts))
-                cpu[name].append(statistics.mean(cs))
+                wall[name].append(statistics.mean(w for w, _ in runs))
+                cpu[name].append(statistics.mean(c for _, c in runs))
             print(
                 f"round {r + 1}: "
                 + "  ".join(f"{k} {wall[k][-1]:.3f} s ({cpu[k][-1]:.3f})" for k in names),
