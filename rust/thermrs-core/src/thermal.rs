@@ -94,57 +94,147 @@ impl<'a> ThermalView<'a> {
         })
     }
 
-    /// Append the raw values of pixels `x0..x1` of `row` to `out` (as [`Self::raw`]), the
-    /// format chosen once for the row rather than per pixel.
-    fn decode_into(&self, row: &[u8], x0: usize, x1: usize, out: &mut Vec<f64>) {
+    /// The raw values of the ROI columns `x0..x1`, rows `y0..y1`, row-major, into `out`
+    /// (cleared first): counts as `u32` for U16 frames, °C readings as `f64` for F32 ones
+    /// (see [`Sample`]); the format is chosen once per ROI, not per pixel.
+    fn decode_roi<T: Sample>(
+        &self,
+        (x0, x1, y0, y1): (usize, usize, usize, usize),
+        out: &mut Vec<T>,
+    ) {
+        out.clear();
         let n = self.format.bytes_per_px();
-        let bytes = &row[x0 * n..x1 * n];
-        match (self.format, self.big_endian) {
-            (ThermalFormat::U16, false) => out.extend(
-                bytes
-                    .chunks_exact(2)
-                    .map(|b| f64::from(u16::from_le_bytes([b[0], b[1]]))),
-            ),
-            (ThermalFormat::U16, true) => out.extend(
-                bytes
-                    .chunks_exact(2)
-                    .map(|b| f64::from(u16::from_be_bytes([b[0], b[1]]))),
-            ),
-            (ThermalFormat::F32, false) => out.extend(
-                bytes
-                    .chunks_exact(4)
-                    .map(|b| f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]]))),
-            ),
-            (ThermalFormat::F32, true) => out.extend(
-                bytes
-                    .chunks_exact(4)
-                    .map(|b| f64::from(f32::from_be_bytes([b[0], b[1], b[2], b[3]]))),
-            ),
+        for y in y0..y1 {
+            let row = &self.data[y * self.step..];
+            T::decode(&row[x0 * n..x1 * n], self.big_endian, out);
         }
     }
+}
 
-    /// The raw value of pixel (x, y) as f64 (counts for U16, °C for F32).
-    #[inline]
-    fn raw(&self, row: &[u8], x: usize) -> f64 {
-        match self.format {
-            ThermalFormat::U16 => {
-                let b = [row[2 * x], row[2 * x + 1]];
-                f64::from(if self.big_endian {
-                    u16::from_be_bytes(b)
-                } else {
-                    u16::from_le_bytes(b)
-                })
-            }
-            ThermalFormat::F32 => {
-                let b = [row[4 * x], row[4 * x + 1], row[4 * x + 2], row[4 * x + 3]];
-                f64::from(if self.big_endian {
-                    f32::from_be_bytes(b)
-                } else {
-                    f32::from_le_bytes(b)
-                })
-            }
+/// A thermal pixel's raw value while its ROI is searched: `u32` for U16 counts (sums of nine
+/// are exact and the loops vectorise), `f64` for F32 readings (NaN pixels are skipped, as
+/// `NaN > x` is false).
+trait Sample: Copy + PartialOrd + std::ops::Add<Output = Self> {
+    /// Below every value a pixel can have.
+    const LEAST: Self;
+    /// The values of `bytes` (whole pixels of this format) appended to `out`.
+    fn decode(bytes: &[u8], big_endian: bool, out: &mut Vec<Self>);
+    /// The larger of `a` and `b`, `a` where `b` is NaN.
+    fn larger(a: Self, b: Self) -> Self;
+    /// Whether a maximum is a pixel's value rather than `LEAST` for none (every `u32` is).
+    fn found(self) -> bool;
+    fn to_f64(self) -> f64;
+}
+
+impl Sample for i32 {
+    const LEAST: Self = i32::MIN;
+    fn decode(bytes: &[u8], big_endian: bool, out: &mut Vec<i32>) {
+        let px = bytes.chunks_exact(2);
+        if big_endian {
+            out.extend(px.map(|b| i32::from(u16::from_be_bytes([b[0], b[1]]))));
+        } else {
+            out.extend(px.map(|b| i32::from(u16::from_le_bytes([b[0], b[1]]))));
         }
     }
+    #[inline(always)]
+    fn larger(a: i32, b: i32) -> i32 {
+        a.max(b)
+    }
+    fn found(self) -> bool {
+        true
+    }
+    fn to_f64(self) -> f64 {
+        f64::from(self)
+    }
+}
+
+impl Sample for f64 {
+    const LEAST: Self = f64::NEG_INFINITY;
+    fn decode(bytes: &[u8], big_endian: bool, out: &mut Vec<f64>) {
+        let px = bytes.chunks_exact(4);
+        if big_endian {
+            out.extend(px.map(|b| f64::from(f32::from_be_bytes([b[0], b[1], b[2], b[3]]))));
+        } else {
+            out.extend(px.map(|b| f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]]))));
+        }
+    }
+    #[inline(always)]
+    fn larger(a: f64, b: f64) -> f64 {
+        if b > a {
+            b
+        } else {
+            a
+        }
+    }
+    fn found(self) -> bool {
+        self > f64::NEG_INFINITY
+    }
+    fn to_f64(self) -> f64 {
+        self
+    }
+}
+
+/// The largest of `v` (`LEAST` for none).
+#[inline]
+fn largest<T: Sample>(v: impl Iterator<Item = T>) -> T {
+    v.fold(T::LEAST, T::larger)
+}
+
+/// The row (of `rows`, each a row's values) holding the largest value that
+/// [`Sample::found`] accepts, and the column of its first occurrence there: the first in
+/// row-major order. The rows' maxima vectorise; only the winning row is searched for where.
+fn first_max<T: Sample, I: Iterator<Item = T>>(
+    rows: impl Iterator<Item = I>,
+    row: impl Fn(usize) -> I,
+) -> Option<(usize, usize)> {
+    let mut best: Option<(T, usize)> = None;
+    for (r, v) in rows.enumerate() {
+        let m = largest(v);
+        if m.found() && best.is_none_or(|b| m > b.0) {
+            best = Some((m, r));
+        }
+    }
+    let (m, r) = best?;
+    row(r).position(|x| x == m).map(|c| (r, c))
+}
+
+/// Where the search of one ROI's `w`×`h` values `vals` (row-major) ended: the index of its
+/// maximum (first in row-major order; `None` if no value is above `LEAST`) and the centre
+/// (column, row in the ROI) of the largest 3×3 sum among centres whose 7×7 window lies in the
+/// ROI (first in row-major order; `None` when the ROI is smaller than 7×7 or no sum is above
+/// `LEAST`). `rows3` is scratch.
+fn search_roi<T: Sample>(
+    vals: &[T],
+    w: usize,
+    h: usize,
+    rows3: &mut Vec<T>,
+) -> (Option<usize>, Option<(usize, usize)>) {
+    if w == 0 || h == 0 {
+        return (None, None);
+    }
+    let row = |r: usize| vals[r * w..(r + 1) * w].iter().copied();
+    let at = first_max((0..h).map(row), row).map(|(r, c)| r * w + c);
+    if at.is_none() || w < PEAK_N || h < PEAK_N {
+        return (at, None);
+    }
+    // The 3×3 sums as sums of three row sums; for each row of centres the largest, then the
+    // first centre of the first row that holds the overall largest.
+    rows3.clear();
+    for v in vals.chunks_exact(w) {
+        rows3.extend(v.windows(3).map(|t| t[0] + t[1] + t[2]));
+    }
+    let w3 = w - 2;
+    // Centre columns PEAK_R..w−PEAK_R are row-sum indices PEAK_R−1..w−PEAK_R−1.
+    let cols = PEAK_R - 1..w - PEAK_R - 1;
+    let sums = |r: usize| {
+        let a = &rows3[(r - 1) * w3..][cols.clone()];
+        let b = &rows3[r * w3..][cols.clone()];
+        let c = &rows3[(r + 1) * w3..][cols.clone()];
+        a.iter().zip(b).zip(c).map(|((&a, &b), &c)| a + b + c)
+    };
+    let centre = first_max((PEAK_R..h - PEAK_R).map(sums), |i| sums(PEAK_R + i))
+        .map(|(i, c)| (PEAK_R + c, PEAK_R + i));
+    (at, centre)
 }
 
 /// One ROI's maximum: temperature (°C) and the pixel it is at (first in row-major order), and
@@ -222,11 +312,19 @@ pub fn roi_maxima(
     scale: f64,
     offset_c: f64,
 ) -> Vec<RoiMax> {
-    let to_c = |raw: f64| match view.format {
-        ThermalFormat::U16 => raw * scale + offset_c,
-        ThermalFormat::F32 => raw,
-    };
-    let px = |x: usize, y: usize| view.raw(&view.data[y * view.step..], x);
+    match view.format {
+        ThermalFormat::U16 => maxima_of::<i32>(view, rois, |raw| raw * scale + offset_c),
+        ThermalFormat::F32 => maxima_of::<f64>(view, rois, |raw| raw),
+    }
+}
+
+/// [`roi_maxima`] with the pixels held as `T`; `to_c` turns a raw value into °C.
+fn maxima_of<T: Sample>(
+    view: &ThermalView<'_>,
+    rois: &[[i64; 4]],
+    to_c: impl Fn(f64) -> f64,
+) -> Vec<RoiMax> {
+    let (mut vals, mut rows3) = (Vec::<T>::new(), Vec::<T>::new());
     rois.iter()
         .map(|&[x0, y0, x1, y1]| {
             let cx = |v: i64, hi: usize| v.clamp(0, hi as i64) as usize;
@@ -238,53 +336,22 @@ pub fn roi_maxima(
                 y_px: 0,
                 peak_c: f64::NAN,
             };
-            // The ROI's raw values once, row-major (one decode per pixel, not nine).
             let (w, h) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
-            let mut vals = Vec::with_capacity(w * h);
-            for y in y0..y1 {
-                view.decode_into(&view.data[y * view.step..], x0, x1, &mut vals);
-            }
-            let mut best_raw = f64::NEG_INFINITY;
-            for (k, &v) in vals.iter().enumerate() {
-                if v > best_raw {
-                    best_raw = v;
-                    best.x_px = (x0 + k % w) as u32;
-                    best.y_px = (y0 + k / w) as u32;
-                }
-            }
-            if !best_raw.is_finite() {
+            view.decode_roi((x0, x1, y0, y1), &mut vals);
+            let (at, centre) = search_roi(&vals, w, h, &mut rows3);
+            let Some(k) = at else { return best };
+            (best.x_px, best.y_px) = ((x0 + k % w) as u32, (y0 + k / w) as u32);
+            let raw = vals[k].to_f64();
+            if !raw.is_finite() {
                 return best;
             }
-            best.max_c = to_c(best_raw);
+            best.max_c = to_c(raw);
             best.peak_c = best.max_c;
-            if w < PEAK_N || h < PEAK_N {
-                return best;
-            }
-            // The maximum of the 3×3 sum over centres whose 7×7 window lies in the ROI, as
-            // sums of three row sums. The values are u16 counts or f32 readings held in f64,
-            // where nine-term sums are exact (f32 values within 2^29 of each other), so the
-            // order of the additions does not change which centre wins.
-            let mut rows3: Vec<f64> = Vec::with_capacity(h * (w - 2));
-            for v in vals.chunks_exact(w) {
-                rows3.extend(v.windows(3).map(|t| t[0] + t[1] + t[2]));
-            }
-            let w3 = w - 2;
-            let mut centre = None;
-            let mut best_sum = f64::NEG_INFINITY;
-            for r in PEAK_R..h - PEAK_R {
-                for c in PEAK_R..w - PEAK_R {
-                    let i = c - 1;
-                    let s = rows3[(r - 1) * w3 + i] + rows3[r * w3 + i] + rows3[(r + 1) * w3 + i];
-                    if s > best_sum {
-                        best_sum = s;
-                        centre = Some((x0 + c, y0 + r));
-                    }
-                }
-            }
-            if let Some((x, y)) = centre {
+            if let Some((c, r)) = centre {
                 let mut z = [0.0; PEAK_N * PEAK_N];
-                for (k, v) in z.iter_mut().enumerate() {
-                    *v = px(x + k % PEAK_N - PEAK_R, y + k / PEAK_N - PEAK_R);
+                for (i, v) in z.iter_mut().enumerate() {
+                    let (dx, dy) = (i % PEAK_N, i / PEAK_N);
+                    *v = vals[(r + dy - PEAK_R) * w + c + dx - PEAK_R].to_f64();
                 }
                 if z.iter().all(|v| v.is_finite()) {
                     best.peak_c = to_c(quadratic_peak(&z));
@@ -439,5 +506,158 @@ mod tests {
         assert!(ThermalView::new(&[0; 10], 4, 2, 8, ThermalFormat::U16, false).is_err());
         assert!(ThermalView::new(&[0; 16], 4, 2, 6, ThermalFormat::U16, false).is_err());
         assert!(ThermalView::new(&[0; 16], 4, 2, 8, ThermalFormat::U16, false).is_ok());
+    }
+
+    /// The search as first written: every pixel decoded on its own, the first strictly
+    /// larger value in row-major order kept, the 3×3 sum of each centre added up from its
+    /// nine pixels. What [`roi_maxima`] computes by rows must agree with it exactly.
+    fn reference(view: &ThermalView<'_>, roi: [i64; 4], scale: f64, offset_c: f64) -> RoiMax {
+        let to_c = |raw: f64| match view.format {
+            ThermalFormat::U16 => raw * scale + offset_c,
+            ThermalFormat::F32 => raw,
+        };
+        let px = |x: usize, y: usize| {
+            let row = &view.data[y * view.step..];
+            match view.format {
+                ThermalFormat::U16 => {
+                    let b = [row[2 * x], row[2 * x + 1]];
+                    f64::from(if view.big_endian {
+                        u16::from_be_bytes(b)
+                    } else {
+                        u16::from_le_bytes(b)
+                    })
+                }
+                ThermalFormat::F32 => {
+                    let b = [row[4 * x], row[4 * x + 1], row[4 * x + 2], row[4 * x + 3]];
+                    f64::from(if view.big_endian {
+                        f32::from_be_bytes(b)
+                    } else {
+                        f32::from_le_bytes(b)
+                    })
+                }
+            }
+        };
+        let cx = |v: i64, hi: usize| v.clamp(0, hi as i64) as usize;
+        let (x0, x1) = (cx(roi[0], view.width), cx(roi[2], view.width));
+        let (y0, y1) = (cx(roi[1], view.height), cx(roi[3], view.height));
+        let mut best = RoiMax {
+            max_c: f64::NAN,
+            x_px: 0,
+            y_px: 0,
+            peak_c: f64::NAN,
+        };
+        let mut best_raw = f64::NEG_INFINITY;
+        for y in y0..y1 {
+            for x in x0..x1 {
+                if px(x, y) > best_raw {
+                    best_raw = px(x, y);
+                    (best.x_px, best.y_px) = (x as u32, y as u32);
+                }
+            }
+        }
+        if !best_raw.is_finite() {
+            return best;
+        }
+        best.max_c = to_c(best_raw);
+        best.peak_c = best.max_c;
+        if x1 - x0 < PEAK_N || y1 - y0 < PEAK_N {
+            return best;
+        }
+        let mut centre = None;
+        let mut best_sum = f64::NEG_INFINITY;
+        for y in y0 + PEAK_R..y1 - PEAK_R {
+            for x in x0 + PEAK_R..x1 - PEAK_R {
+                let mut s = 0.0;
+                for (dx, dy) in (0..9).map(|k| (k % 3, k / 3)) {
+                    s += px(x + dx - 1, y + dy - 1);
+                }
+                if s > best_sum {
+                    (best_sum, centre) = (s, Some((x, y)));
+                }
+            }
+        }
+        if let Some((x, y)) = centre {
+            let mut z = [0.0; PEAK_N * PEAK_N];
+            for (k, v) in z.iter_mut().enumerate() {
+                *v = px(x + k % PEAK_N - PEAK_R, y + k / PEAK_N - PEAK_R);
+            }
+            if z.iter().all(|v| v.is_finite()) {
+                best.peak_c = to_c(quadratic_peak(&z));
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn the_row_wise_search_agrees_with_the_pixel_by_pixel_one() {
+        // Random frames of few distinct values (ties everywhere), NaN and
+        // infinite float pixels, both byte orders, ROIs cut by the frame, thin and empty.
+        use rand::{rngs::StdRng, RngExt, SeedableRng};
+        let mut rng = StdRng::seed_from_u64(11);
+        let (w, h) = (40usize, 30usize);
+        let rois = [
+            [0, 0, 40, 30],
+            [3, 2, 17, 12],
+            [-5, -5, 9, 8],
+            [30, 20, 60, 50],
+            [10, 10, 16, 25],
+            [5, 5, 5, 20],
+            [12, 4, 19, 11],
+        ];
+        for trial in 0..200 {
+            let levels = [1, 3, 50][trial % 3];
+            let big = trial % 2 == 1;
+            let same = |a: &RoiMax, b: &RoiMax| {
+                let eq = |p: f64, q: f64| p == q || (p.is_nan() && q.is_nan());
+                eq(a.max_c, b.max_c)
+                    && eq(a.peak_c, b.peak_c)
+                    && (a.x_px, a.y_px) == (b.x_px, b.y_px)
+            };
+            let counts: Vec<u16> = (0..w * h)
+                .map(|_| 29_000 + 7 * rng.random_range(0..levels) as u16)
+                .collect();
+            let d = u16_frame(w, h, 2 * w + 6, big, |x, y| counts[y * w + x]);
+            let v = ThermalView::new(&d, w, h, 2 * w + 6, ThermalFormat::U16, big).unwrap();
+            let got = roi_maxima(&v, &rois, 0.01, -273.15);
+            for (roi, g) in rois.iter().zip(&got) {
+                let want = reference(&v, *roi, 0.01, -273.15);
+                assert!(
+                    same(g, &want),
+                    "u16 trial {trial} roi {roi:?}: {g:?} vs {want:?}"
+                );
+            }
+            let vals: Vec<f32> = (0..w * h)
+                .map(|_| match rng.random_range(0..40) {
+                    0 => f32::NAN,
+                    1 if trial % 5 == 0 => f32::INFINITY,
+                    2 if trial % 7 == 0 => f32::NEG_INFINITY,
+                    _ => 21.0 + 0.25 * rng.random_range(0..levels) as f32,
+                })
+                .collect();
+            let d: Vec<u8> = vals
+                .iter()
+                .flat_map(|v| {
+                    if big {
+                        v.to_be_bytes()
+                    } else {
+                        v.to_le_bytes()
+                    }
+                })
+                .collect();
+            let v = ThermalView::new(&d, w, h, 4 * w, ThermalFormat::F32, big).unwrap();
+            let got = roi_maxima(&v, &rois, 1.0, 0.0);
+            for (roi, g) in rois.iter().zip(&got) {
+                let want = reference(&v, *roi, 1.0, 0.0);
+                assert!(
+                    same(g, &want),
+                    "f32 trial {trial} roi {roi:?}: {g:?} vs {want:?}"
+                );
+            }
+        }
+        // All NaN: nothing found, as before.
+        let d: Vec<u8> = (0..w * h).flat_map(|_| f32::NAN.to_le_bytes()).collect();
+        let v = ThermalView::new(&d, w, h, 4 * w, ThermalFormat::F32, false).unwrap();
+        let m = roi_maxima(&v, &rois[..1], 1.0, 0.0)[0];
+        assert!(m.max_c.is_nan() && m.peak_c.is_nan() && (m.x_px, m.y_px) == (0, 0));
     }
 }

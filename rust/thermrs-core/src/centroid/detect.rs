@@ -134,11 +134,11 @@ fn scan<P: Px>(f: &FrameView, rows: ScanRows) -> (Vec<u32>, Vec<u16>) {
         let row = f.row(rows.row(i));
         row_max.push(P::max_of(row));
         if i % sample_every == 0 {
-            let mut x = col_first;
-            while x < w {
-                samples.push(P::get(row, x) as u16);
-                x += col_step;
-            }
+            samples.extend(
+                (col_first..w)
+                    .step_by(col_step)
+                    .map(|x| P::get(row, x) as u16),
+            );
         }
     }
     (row_max, samples)

@@ -91,85 +91,101 @@ pub(super) fn gauss_1d(
 /// Number of per-column accumulators of a pass over the box.
 pub(super) const N_COLS: usize = 10;
 
-/// Per-column sums over the rows of the box, with `G = gx·gy`, `W = G/(αA·G + n²)`,
-/// `v = I − b`: `Wv`, `Wv·dy`, `WG`, `WG·dy`, `WG·dy²`, `Gv`, `Gv·dy`, `Gv·dy²`, `Gv²`, `G²v`.
-pub(super) struct ColSums<'a> {
-    pub(super) wv: &'a mut [f32],
-    pub(super) wv_dy: &'a mut [f32],
-    pub(super) wg: &'a mut [f32],
-    pub(super) wg_dy: &'a mut [f32],
-    pub(super) wg_dy2: &'a mut [f32],
-    pub(super) gv: &'a mut [f32],
-    pub(super) gv_dy: &'a mut [f32],
-    pub(super) gv_dy2: &'a mut [f32],
-    pub(super) v2g: &'a mut [f32],
-    pub(super) vg2: &'a mut [f32],
-}
-
-/// Adds one row of the box to the column sums (all slices of the same, padded, length;
-/// padding has `g = v = 0` and contributes nothing).
-#[inline]
-pub(super) fn accumulate_row(
-    v: &[f32],
-    g: &[f32],
-    gy: f32,
-    dy: f32,
-    aa: f32,
-    nn: f32,
-    c: &mut ColSums,
-) {
-    row_kernel(
-        v, g, gy, dy, aa, nn, c.wv, c.wv_dy, c.wg, c.wg_dy, c.wg_dy2, c.gv, c.gv_dy, c.gv_dy2,
-        c.v2g, c.vg2,
-    );
-}
-
-/// The pixel loop of [`accumulate_row`]; every output is its own `&mut` argument so that
-/// the compiler knows they do not alias and vectorises without run-time overlap checks.
+/// The pixel loop of a pass: per-column sums over the rows of the box, with `G = gx·gy`,
+/// `W = G/(αA·G + n²)`, `v = I − b`, into `cols` ([`N_COLS`] columns of `nxp`, in this
+/// order): `Wv`, `Wv·dy`, `WG`, `WG·dy`, `WG·dy²`, `Gv`, `Gv·dy`, `Gv·dy²`, `Gv²`, `G²v`.
+///
+/// `vals` holds the box's rows (`nxp` apart, padded with `v = 0`; `gx` is padded with 0 and
+/// the padding contributes nothing). The box is walked [`LANES`] columns at a time, all rows
+/// down, with the ten sums in registers (a row at a time would load and store all ten per
+/// pixel). Each column's sum still adds its rows in order, so the bits do not depend on the
+/// walk. Where the CPU has AVX2 the loop runs eight lanes wide; every operation is per pixel
+/// (no fused multiply-add, no sum across lanes), so both routes give the same bits.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-pub(super) fn row_kernel(
-    v: &[f32],
-    g: &[f32],
-    gy: f32,
-    dy: f32,
+pub(super) fn box_sums(
+    vals: &[f32],
+    gx: &[f32],
+    gy: &[f32],
+    dyv: &[f32],
     aa: f32,
     nn: f32,
-    wv_: &mut [f32],
-    wv_dy: &mut [f32],
-    wg_: &mut [f32],
-    wg_dy: &mut [f32],
-    wg_dy2: &mut [f32],
-    gv_: &mut [f32],
-    gv_dy: &mut [f32],
-    gv_dy2: &mut [f32],
-    v2g: &mut [f32],
-    vg2: &mut [f32],
+    nxp: usize,
+    cols: &mut [f32],
 ) {
-    let n = v.len().min(g.len()).min(wv_.len());
-    let (v, g) = (&v[..n], &g[..n]);
-    let (wv_, wv_dy) = (&mut wv_[..n], &mut wv_dy[..n]);
-    let (wg_, wg_dy, wg_dy2) = (&mut wg_[..n], &mut wg_dy[..n], &mut wg_dy2[..n]);
-    let (gv_, gv_dy, gv_dy2) = (&mut gv_[..n], &mut gv_dy[..n], &mut gv_dy2[..n]);
-    let (v2g, vg2) = (&mut v2g[..n], &mut vg2[..n]);
-    let dy2 = dy * dy;
-    for i in 0..n {
-        let gg = g[i] * gy;
-        let wgt = gg / (aa * gg + nn);
-        let vv = v[i];
-        let wv = wgt * vv;
-        let wg = wgt * gg;
-        let gv = gg * vv;
-        wv_[i] += wv;
-        wv_dy[i] += wv * dy;
-        wg_[i] += wg;
-        wg_dy[i] += wg * dy;
-        wg_dy2[i] += wg * dy2;
-        gv_[i] += gv;
-        gv_dy[i] += gv * dy;
-        gv_dy2[i] += gv * dy2;
-        v2g[i] += gv * vv;
-        vg2[i] += gv * gg;
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        return unsafe { box_sums_avx2(vals, gx, gy, dyv, aa, nn, nxp, cols) };
+    }
+    box_sums_body(vals, gx, gy, dyv, aa, nn, nxp, cols)
+}
+
+/// [`box_sums_body`] compiled for AVX2.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[allow(clippy::too_many_arguments)]
+#[target_feature(enable = "avx2")]
+unsafe fn box_sums_avx2(
+    vals: &[f32],
+    gx: &[f32],
+    gy: &[f32],
+    dyv: &[f32],
+    aa: f32,
+    nn: f32,
+    nxp: usize,
+    cols: &mut [f32],
+) {
+    box_sums_body(vals, gx, gy, dyv, aa, nn, nxp, cols)
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn box_sums_body(
+    vals: &[f32],
+    gx: &[f32],
+    gy: &[f32],
+    dyv: &[f32],
+    aa: f32,
+    nn: f32,
+    nxp: usize,
+    cols: &mut [f32],
+) {
+    let ny = gy.len().min(dyv.len());
+    if nxp % LANES != 0 || gx.len() < nxp || vals.len() < ny * nxp || cols.len() < N_COLS * nxp {
+        return;
+    }
+    for b in (0..nxp).step_by(LANES) {
+        let mut g = [0.0f32; LANES];
+        g.copy_from_slice(&gx[b..b + LANES]);
+        let mut acc = [[0.0f32; LANES]; N_COLS];
+        for (j, (&gyj, &dy)) in gy.iter().zip(dyv).enumerate() {
+            let v = &vals[j * nxp + b..j * nxp + b + LANES];
+            let dy2 = dy * dy;
+            for i in 0..LANES {
+                let gg = g[i] * gyj;
+                let wgt = gg / (aa * gg + nn);
+                let vv = v[i];
+                let wv = wgt * vv;
+                let wg = wgt * gg;
+                let gv = gg * vv;
+                acc[0][i] += wv;
+                acc[1][i] += wv * dy;
+                acc[2][i] += wg;
+                acc[3][i] += wg * dy;
+                acc[4][i] += wg * dy2;
+                acc[5][i] += gv;
+                acc[6][i] += gv * dy;
+                acc[7][i] += gv * dy2;
+                acc[8][i] += gv * vv;
+                acc[9][i] += gv * gg;
+            }
+        }
+        for (k, a) in acc.iter().enumerate() {
+            cols[k * nxp + b..k * nxp + b + LANES].copy_from_slice(a);
+        }
     }
 }
 
@@ -185,7 +201,7 @@ struct Scratch {
     ring: Vec<u16>,
 }
 
-/// What one pass over the box gives the update (see [`ColSums`]; `dx`, `dy` the offsets
+/// What one pass over the box gives the update (see [`box_sums`]; `dx`, `dy` the offsets
 /// from the current centre, `sum_g*` the sums of `G`, `G²`, `G³`).
 struct PassSums {
     wv: f64,
@@ -401,7 +417,7 @@ impl Fit {
         let nx = (bx1 - bx0 + 1) as usize;
         let ny = (by1 - by0 + 1) as usize;
         let nxp = nx.div_ceil(LANES) * LANES;
-        for v in [&mut s.gx, &mut s.dxv, &mut s.vals] {
+        for v in [&mut s.gx, &mut s.dxv] {
             v.clear();
             v.resize(nxp, 0.0);
         }
@@ -418,26 +434,14 @@ impl Fit {
         let aa = (self.alpha * self.amp) as f32;
         let nn = self.n2 as f32;
         let bf = self.b as f32;
-        let mut c = s.cols.chunks_exact_mut(nxp);
-        let mut next = || c.next().unwrap_or_default();
-        let mut cs = ColSums {
-            wv: next(),
-            wv_dy: next(),
-            wg: next(),
-            wg_dy: next(),
-            wg_dy2: next(),
-            gv: next(),
-            gv_dy: next(),
-            gv_dy2: next(),
-            v2g: next(),
-            vg2: next(),
-        };
-        for (j, (&gyj, &dy)) in s.gy.iter().zip(&s.dyv).enumerate() {
+        s.vals.clear();
+        s.vals.resize(ny * nxp, 0.0);
+        for (j, out) in s.vals.chunks_exact_mut(nxp).enumerate() {
             let row = f.row(by0 as usize + j);
             let bytes = &row[bx0 as usize * P::BPP..(bx1 as usize + 1) * P::BPP];
-            P::to_f32(bytes, bf, &mut s.vals[..nx]);
-            accumulate_row(&s.vals, &s.gx, gyj, dy, aa, nn, &mut cs);
+            P::to_f32(bytes, bf, &mut out[..nx]);
         }
+        box_sums(&s.vals, &s.gx, &s.gy, &s.dyv, aa, nn, nxp, &mut s.cols);
         pass_sums(&s.cols, &s.dxv, nxp, sxs, sys)
     }
 

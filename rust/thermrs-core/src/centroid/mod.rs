@@ -123,8 +123,9 @@ pub use frame::{FrameError, FrameView};
 
 /// Variance of a uniform distribution over one pixel (px²).
 pub(super) const PIXEL_VAR: f64 = 1.0 / 12.0;
-/// Lanes of the f32 accumulators in the window pass.
-pub(super) const LANES: usize = 4;
+/// The box's rows are padded with zeros to a multiple of this many pixels, so that the
+/// window pass has no scalar tail (8: one AVX2 vector of f32, two SSE ones).
+pub(super) const LANES: usize = 8;
 /// Upper bound on runs collected from the scanned rows (pathological frames).
 pub(super) const MAX_RUNS: usize = 4096;
 /// Target number of background samples taken during the sparse scan (per axis: 32 × 32).
