@@ -56,12 +56,25 @@ pub(super) enum Route {
 /// (cheaper where a fault maps a large folio's pages at once), the copy per byte, and either
 /// can win by 1.3× or more (BENCHMARKS.md). Each chunk's processing time per byte is recorded
 /// for its route. The first [`RouteChooser::WARM_UP`] chunks alternate the routes; then
-/// chunks take the route with the lower estimate, and one in [`RouteChooser::PROBE`] the
-/// other, so that a change (the page cache of a long file need not be uniform) is noticed.
-/// A route's estimate is the least of its last [`KEEP`] samples: the first chunks of an
+/// chunks take the route with the lower estimate, and now and then the other (a probe), so
+/// that a change (the page cache of a long file need not be uniform) is noticed.
+///
+/// Probes back off while the choice holds: the first comes [`RouteChooser::PROBE`] chunks
+/// after the warm-up, and each next one twice as far after the last, up to
+/// [`RouteChooser::PROBE_MAX`] chunks (256 MiB of 4 MiB chunks); when the best route changes
+/// (a probe found the other faster, or the best one got slower), the spacing starts again at
+/// `PROBE`, so that a choice made on a burst of slow chunks is soon looked at again. A probe
+/// costs what its route is slower: with a fixed one in 16, the kernel's copy took 13 % of an
+/// unchecked extraction's profile on a page cache where the copy cost 1.4× the map
+/// (BENCHMARKS.md).
+///
+/// A route's estimate is the least of its last [`KEEP`] samples. The first chunks of an
 /// extraction pay its cold start (first faults, buffers and tables growing) whichever route
-/// they take, and such costs only ever add time, so one slow sample must not decide the
-/// route for the rest of the file. Outputs never depend on the route.
+/// they take, and slow chunks come in bursts on either route (2–5× the usual cost for a few
+/// chunks in a row); such costs only ever add time, so a few slow samples must not decide the
+/// route for the rest of the file (with three samples kept, bursts of three switched it, and
+/// the file stayed on the slower route until the next probe). Outputs never depend on the
+/// route.
 #[derive(Default)]
 pub(super) struct RouteChooser {
     /// Per route, its last [`KEEP`] samples of ns per KiB, a ring (0: empty).
@@ -69,16 +82,24 @@ pub(super) struct RouteChooser {
     /// Samples recorded per route.
     taken: [std::sync::atomic::AtomicU64; 2],
     chunks: std::sync::atomic::AtomicU64,
+    /// The chunk number of the last probe (0 before the first).
+    probed: std::sync::atomic::AtomicU64,
+    /// Chunks from the last probe to the next (0: `PROBE`).
+    spacing: std::sync::atomic::AtomicU64,
+    /// The best route at the last pick (0: none yet, 1: map, 2: copy).
+    best: std::sync::atomic::AtomicU8,
     /// Always this route (tests).
     forced: Option<Route>,
 }
 
-/// Samples kept per route.
-const KEEP: usize = 3;
+/// Samples kept per route: more than the slow bursts are long.
+const KEEP: usize = 5;
 
 impl RouteChooser {
-    /// One chunk in this many takes the route that is not the best.
+    /// The fewest chunks from one probe of the route that is not the best to the next.
     pub(super) const PROBE: u64 = 16;
+    /// The most chunks from one probe to the next.
+    pub(super) const PROBE_MAX: u64 = 64;
     /// Chunks that alternate the routes before the first choice: two samples of each.
     pub(super) const WARM_UP: u64 = 4;
 
@@ -105,7 +126,27 @@ impl RouteChooser {
             (Some(m), Some(r)) if m <= r => (Route::Map, Route::Read),
             _ => (Route::Read, Route::Map),
         };
-        if n % Self::PROBE == Self::PROBE - 1 {
+        let code = 1 + best as u8;
+        let was = self.best.swap(code, Relaxed);
+        if was != code {
+            // A new choice (or the first): its first probe comes `PROBE` chunks from here.
+            self.spacing.store(Self::PROBE, Relaxed);
+            if was != 0 {
+                self.probed.store(n, Relaxed);
+            }
+        }
+        let spacing = self.spacing.load(Relaxed).max(Self::PROBE);
+        // Several threads may pick at once: only the one that moves `probed` probes.
+        let prev = self.probed.load(Relaxed);
+        let last = if prev == 0 { Self::WARM_UP - 1 } else { prev };
+        if n >= last + spacing
+            && self
+                .probed
+                .compare_exchange(prev, n, Relaxed, Relaxed)
+                .is_ok()
+        {
+            self.spacing
+                .store((2 * spacing).min(Self::PROBE_MAX), Relaxed);
             other
         } else {
             best
@@ -159,14 +200,44 @@ mod tests {
         for (route, ns) in [(Map, 227), (Read, 218), (Map, 50), (Read, 116)] {
             took(&c, route, ns);
         }
-        let p = picks(&c, 2 * RouteChooser::PROBE);
-        let probes: Vec<usize> = (0..p.len()).filter(|&i| p[i] == Read).collect();
-        // Map everywhere but one chunk in PROBE.
-        assert_eq!(probes.len(), 2, "{p:?}");
-        for i in probes {
-            let n = i as u64 + RouteChooser::WARM_UP;
-            assert_eq!(n % RouteChooser::PROBE, RouteChooser::PROBE - 1, "{p:?}");
+        let p = picks(&c, 300);
+        let probes: Vec<u64> = (0..p.len())
+            .filter(|&i| p[i] == Read)
+            .map(|i| i as u64 + RouteChooser::WARM_UP)
+            .collect();
+        // Map everywhere but the probes, which back off while the map stays the best.
+        assert_eq!(probes, [19, 51, 115, 179, 243], "{p:?}");
+    }
+
+    /// A choice made on a burst of slow chunks is looked at again soon: when the best route
+    /// changes, the probes start again `PROBE` chunks apart.
+    #[test]
+    fn a_change_of_route_brings_the_probes_back() {
+        use Route::{Map, Read};
+        let c = RouteChooser::new(None);
+        picks(&c, RouteChooser::WARM_UP);
+        for (route, ns) in [(Map, 30), (Read, 45), (Map, 30), (Read, 45)] {
+            took(&c, route, ns);
         }
+        // Settled on the map: probes 16, 32, 64 chunks apart.
+        let p = picks(&c, 200);
+        let at = |p: &[Route], r: Route, from: u64| -> Vec<u64> {
+            (0..p.len())
+                .filter(|&i| p[i] == r)
+                .map(|i| i as u64 + from)
+                .collect()
+        };
+        assert_eq!(at(&p, Read, 4), [19, 51, 115, 179]);
+        // A burst of slow mapped chunks: the copy is now the best route (chunk 200), and the
+        // map is probed 16 chunks later, then 32 after that.
+        for _ in 0..KEEP {
+            took(&c, Map, 150);
+        }
+        let p = picks(&c, 260);
+        assert_eq!(at(&p, Map, 200), [216, 248], "{p:?}");
+        // That probe finds the map fast again: back to it at once.
+        took(&c, Map, 30);
+        assert_eq!(c.pick(), Map);
     }
 
     /// Either route's change of cost is followed: a probe that finds the other route faster
@@ -188,13 +259,7 @@ mod tests {
             took(&c, Read, 90);
         }
         assert_eq!(c.estimate(Read), Some(90));
-        let n = c.chunks.load(std::sync::atomic::Ordering::Relaxed);
-        let next = if n % RouteChooser::PROBE == RouteChooser::PROBE - 1 {
-            Read
-        } else {
-            Map
-        };
-        assert_eq!(c.pick(), next);
+        assert_eq!(c.pick(), Map);
     }
 
     #[test]
