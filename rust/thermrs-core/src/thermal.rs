@@ -660,4 +660,48 @@ mod tests {
         let m = roi_maxima(&v, &rois[..1], 1.0, 0.0)[0];
         assert!(m.max_c.is_nan() && m.peak_c.is_nan() && (m.x_px, m.y_px) == (0, 0));
     }
+
+    /// Time per frame of the paper rig's three ROIs on a 320×240 16UC1 frame in cache, flat
+    /// and with two hot regions and noise. `cargo test --release -p thermrs-core --lib --
+    /// --ignored --nocapture bench_roi_maxima`.
+    #[test]
+    #[ignore]
+    fn bench_roi_maxima() {
+        use rand::{rngs::StdRng, SeedableRng};
+        use rand_distr::{Distribution, StandardNormal};
+        use std::time::Instant;
+        let mut rng = StdRng::seed_from_u64(3);
+        let (w, h) = (320usize, 240usize);
+        let rois = [[40, 60, 120, 110], [140, 40, 250, 90], [60, 170, 140, 230]];
+        let ck = |c: f64| ((c + 273.15) * 100.0).round() as u16;
+        let noise: Vec<f64> = (0..w * h)
+            .map(|_| StandardNormal.sample(&mut rng))
+            .collect();
+        let flat = u16_frame(w, h, 2 * w, false, |_, _| ck(22.0));
+        let hot = u16_frame(w, h, 2 * w, false, |x, y| {
+            let g = |cx: f64, cy: f64, sx: f64, sy: f64| {
+                let (dx, dy) = ((x as f64 - cx) / sx, (y as f64 - cy) / sy);
+                (-(dx * dx + dy * dy) / 2.0).exp()
+            };
+            ck(23.0
+                + 3.0 * g(80.0, 85.0, 13.0, 8.0)
+                + 2.0 * g(195.0, 65.0, 18.0, 8.0)
+                + 0.05 * noise[y * w + x])
+        });
+        for (label, d) in [("flat", &flat), ("hot regions", &hot)] {
+            let v = ThermalView::new(d, w, h, 2 * w, ThermalFormat::U16, false).unwrap();
+            let (mut n, mut acc) = (0usize, 0.0);
+            let t0 = Instant::now();
+            while t0.elapsed().as_secs_f64() < 1.5 {
+                acc += roi_maxima(&v, &rois, 0.01, -273.15)[0].peak_c;
+                n += 1;
+            }
+            let dt = t0.elapsed().as_secs_f64();
+            println!(
+                "{label:<12} {:.2} µs/frame (checksum {:.3})",
+                1e6 * dt / n as f64,
+                acc / n as f64
+            );
+        }
+    }
 }

@@ -92,14 +92,15 @@
 //! - `ok`.
 //!
 //! # Speed
-//! A dark 752×582 8-bit frame reads 1/4 of its rows (k = 4) with vectorised maxima, plus a
-//! 256-bin histogram of ~1000 sampled pixels: ≈ 3.4 µs with the frame in cache, ≈ 6 µs
-//! from memory (≈ 300,000 and 165,000 frames/s on one core of the development machine;
-//! reading every byte caps at ≈ 180,000 in cache and ≈ 80,000 from memory, and so did
-//! k = 3: the hardware prefetcher fetches rows that close together anyway). A spot frame
-//! (σ 4) adds the candidate rows and 4–5 passes over a 33×33 box: ≈ 13 µs in cache
-//! (≈ 75,000 frames/s). The pixel pass accumulates
-//! per-column sums in `f32` (vectorised, no reduction inside the loop, no `exp` per pixel:
+//! A dark 752×582 8-bit frame reads 1/4 of its rows (k = 4) with vectorised maxima (AVX2
+//! where the CPU has it, checked at run time), plus a 256-bin histogram of ~1000 sampled
+//! pixels: ≈ 2.4 µs with the frame in cache, ≈ 3 µs cycling through 42 MB of frames
+//! (≈ 420,000 and 330,000 frames/s on one core of the development machine; reading every
+//! byte caps at ≈ 205,000 and ≈ 92,000). A spot frame (σ 4) adds the candidate rows and 4–5
+//! passes over a 33×33 box: ≈ 9.4 µs in cache (≈ 106,000 frames/s). `cargo test --release
+//! -p thermrs-core --lib -- --ignored --nocapture bench_find_spot` measures these. The pixel
+//! pass walks the box eight columns at a time down all its rows, with its ten per-column
+//! sums in `f32` registers (vectorised, no reduction inside the loop, no `exp` per pixel:
 //! the Gaussian is separable and its 1-D factors come from a recurrence); the sums are
 //! finished in `f64`. Nothing is allocated per pixel. The function never panics, whatever
 //! the input: invalid views give `no_spot`, and only the first `width · bytes_per_px` bytes
