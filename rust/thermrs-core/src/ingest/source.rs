@@ -1,7 +1,7 @@
 //! Where the bytes of a mapped recording come from, and the route an uncompressed chunk takes
 //! to the detector (in place from the map, or copied with `pread`).
 
-/// A file and its read-only memory map (whose bytes [`extract_bytes`] walks).
+/// A file and its read-only memory map (whose bytes [`extract_bytes`](crate::ingest::extract_bytes) walks).
 #[derive(Clone, Copy)]
 pub struct Source<'a> {
     pub file: &'a std::fs::File,

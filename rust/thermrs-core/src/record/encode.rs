@@ -103,7 +103,7 @@ impl<'a> Enc<'a> {
 ///
 /// # Panics
 /// If the stamp is out of `int32` seconds (see [`split_stamp`]) or a string or
-/// `data` is 4 GiB or longer. [`RecordingWriter`] checks these and returns
+/// `data` is 4 GiB or longer. [`RecordingWriter`](super::RecordingWriter) checks these and returns
 /// errors instead.
 pub fn encode_image(out: &mut Vec<u8>, img: &ImageFields<'_>, data: &[u8]) {
     let mut e = image_prefix(out, img);

@@ -16,9 +16,9 @@
 //! clipped to 8 or 16 bits. IR frames: ambient plus a Gaussian hot region per ROI whose peak is
 //! the node's surface temperature, a hot distractor outside every ROI, Gaussian noise.
 //!
-//! Files: [`setup`] (effects, model, nodes, writer), [`trajectory`] (a cycle's moves and
-//! dwells), [`render`] (CCD and IR pixels), [`sensors`] (one cycle's messages and truth),
-//! [`state`] (clock, temperatures, random streams); this file runs the runs and cycles.
+//! Files: `setup` (effects, model, nodes, writer), `trajectory` (a cycle's moves and
+//! dwells), `render` (CCD and IR pixels), `sensors` (one cycle's messages and truth),
+//! `state` (clock, temperatures, random streams); this file runs the runs and cycles.
 
 use std::io::{Seek, Write};
 
