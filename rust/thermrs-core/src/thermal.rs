@@ -95,7 +95,7 @@ impl<'a> ThermalView<'a> {
     }
 
     /// The raw values of the ROI columns `x0..x1`, rows `y0..y1`, row-major, into `out`
-    /// (cleared first): counts as `u32` for U16 frames, °C readings as `f64` for F32 ones
+    /// (cleared first): counts as `i32` for U16 frames, °C readings as `f64` for F32 ones
     /// (see [`Sample`]); the format is chosen once per ROI, not per pixel.
     fn decode_roi<T: Sample>(
         &self,
@@ -111,7 +111,7 @@ impl<'a> ThermalView<'a> {
     }
 }
 
-/// A thermal pixel's raw value while its ROI is searched: `u32` for U16 counts (sums of nine
+/// A thermal pixel's raw value while its ROI is searched: `i32` for U16 counts (sums of nine
 /// are exact and the loops vectorise), `f64` for F32 readings (NaN pixels are skipped, as
 /// `NaN > x` is false).
 trait Sample: Copy + PartialOrd + std::ops::Add<Output = Self> {
@@ -121,7 +121,7 @@ trait Sample: Copy + PartialOrd + std::ops::Add<Output = Self> {
     fn decode(bytes: &[u8], big_endian: bool, out: &mut Vec<Self>);
     /// The larger of `a` and `b`, `a` where `b` is NaN.
     fn larger(a: Self, b: Self) -> Self;
-    /// Whether a maximum is a pixel's value rather than `LEAST` for none (every `u32` is).
+    /// Whether a maximum is a pixel's value rather than `LEAST` for none (every `i32` is).
     fn found(self) -> bool;
     fn to_f64(self) -> f64;
 }
