@@ -305,7 +305,8 @@ fn quadratic_peak(z: &[f64; PEAK_N * PEAK_N]) -> f64 {
 }
 
 /// Maximum of each ROI in °C. `scale`/`offset_c` apply to U16 frames only. NaN pixels of float
-/// frames are ignored; a ROI with no finite pixel gives NaN. ROIs are clipped to the frame.
+/// frames are ignored; a ROI whose largest pixel is not finite (no pixel at all, only NaN, or
+/// +∞) gives NaN, at the +∞ pixel if there is one. ROIs are clipped to the frame.
 pub fn roi_maxima(
     view: &ThermalView<'_>,
     rois: &[[i64; 4]],
@@ -510,7 +511,9 @@ mod tests {
 
     /// The search as first written: every pixel decoded on its own, the first strictly
     /// larger value in row-major order kept, the 3×3 sum of each centre added up from its
-    /// nine pixels. What [`roi_maxima`] computes by rows must agree with it exactly.
+    /// pixels, row by row (`(a + b + c)` per row, then the rows above, at and below the
+    /// centre in that order, as the landed code grouped it). What [`roi_maxima`] computes by
+    /// rows must agree with it bit for bit.
     fn reference(view: &ThermalView<'_>, roi: [i64; 4], scale: f64, offset_c: f64) -> RoiMax {
         let to_c = |raw: f64| match view.format {
             ThermalFormat::U16 => raw * scale + offset_c,
@@ -567,10 +570,8 @@ mod tests {
         let mut best_sum = f64::NEG_INFINITY;
         for y in y0 + PEAK_R..y1 - PEAK_R {
             for x in x0 + PEAK_R..x1 - PEAK_R {
-                let mut s = 0.0;
-                for (dx, dy) in (0..9).map(|k| (k % 3, k / 3)) {
-                    s += px(x + dx - 1, y + dy - 1);
-                }
+                let row3 = |yy: usize| px(x - 1, yy) + px(x, yy) + px(x + 1, yy);
+                let s = row3(y - 1) + row3(y) + row3(y + 1);
                 if s > best_sum {
                     (best_sum, centre) = (s, Some((x, y)));
                 }
@@ -626,25 +627,35 @@ mod tests {
                     "u16 trial {trial} roi {roi:?}: {g:?} vs {want:?}"
                 );
             }
+            // Readings on a coarse grid (ties), anywhere near one level, or of any magnitude;
+            // rows padded.
+            let coarse = trial % 4 < 2;
             let vals: Vec<f32> = (0..w * h)
                 .map(|_| match rng.random_range(0..40) {
                     0 => f32::NAN,
                     1 if trial % 5 == 0 => f32::INFINITY,
                     2 if trial % 7 == 0 => f32::NEG_INFINITY,
-                    _ => 21.0 + 0.25 * rng.random_range(0..levels) as f32,
-                })
-                .collect();
-            let d: Vec<u8> = vals
-                .iter()
-                .flat_map(|v| {
-                    if big {
-                        v.to_be_bytes()
-                    } else {
-                        v.to_le_bytes()
+                    _ if coarse => 21.0 + 0.25 * rng.random_range(0..levels) as f32,
+                    _ if trial % 4 == 2 => {
+                        21.0 + rng.random_range(0.0f32..1e-3) * 10f32.powi(rng.random_range(0..4))
                     }
+                    // Magnitudes 2^±40 apart: nine-term sums round in f64, so the grouping
+                    // of the additions decides near-ties.
+                    _ => rng.random_range(-1.0f32..1.0) * 2f32.powi(rng.random_range(-40..40)),
                 })
                 .collect();
-            let v = ThermalView::new(&d, w, h, 4 * w, ThermalFormat::F32, big).unwrap();
+            let step = 4 * w + 12;
+            let mut d = vec![0xCDu8; step * h];
+            for (k, v) in vals.iter().enumerate() {
+                let b = if big {
+                    v.to_be_bytes()
+                } else {
+                    v.to_le_bytes()
+                };
+                let at = (k / w) * step + 4 * (k % w);
+                d[at..at + 4].copy_from_slice(&b);
+            }
+            let v = ThermalView::new(&d, w, h, step, ThermalFormat::F32, big).unwrap();
             let got = roi_maxima(&v, &rois, 1.0, 0.0);
             for (roi, g) in rois.iter().zip(&got) {
                 let want = reference(&v, *roi, 1.0, 0.0);

@@ -303,8 +303,8 @@ mod tests {
     #[test]
     fn row_maxima_agree_with_the_iterator_maximum() {
         // Every length up to 300 bytes at every alignment, the largest byte anywhere (the
-        // ragged end included): the vector routes (AVX2 where the CPU has it) against
-        // `Iterator::max`.
+        // ragged end included): the route the CPU takes (AVX2 where it has it) and the
+        // portable one, against `Iterator::max`.
         let mut rng = StdRng::seed_from_u64(5);
         let buf: Vec<u8> = (0..400).map(|_| rng.random_range(0..200u8)).collect();
         for len in 0..=300 {
@@ -315,6 +315,7 @@ mod tests {
                 }
                 let want = b.iter().copied().max().unwrap_or(0) as u32;
                 assert_eq!(U8::max_of(&b), want, "u8, {len} bytes");
+                assert_eq!(max_u8(&b) as u32, want, "u8 portable, {len} bytes");
                 let even = &b[..len & !1];
                 let px = |p: &[u8], big: bool| {
                     if big {
@@ -330,6 +331,8 @@ mod tests {
                     "u16le, {len} bytes"
                 );
                 assert_eq!(U16Be::max_of(even), want(true) as u32, "u16be, {len} bytes");
+                assert_eq!(max_u16::<false>(even), want(false), "u16le portable, {len}");
+                assert_eq!(max_u16::<true>(even), want(true), "u16be portable, {len}");
             }
         }
     }

@@ -143,7 +143,7 @@ unsafe fn box_sums_avx2(
 
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn box_sums_body(
+pub(super) fn box_sums_body(
     vals: &[f32],
     gx: &[f32],
     gy: &[f32],

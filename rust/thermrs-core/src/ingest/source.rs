@@ -135,7 +135,8 @@ impl RouteChooser {
                 self.probed.store(n, Relaxed);
             }
         }
-        let spacing = self.spacing.load(Relaxed).max(Self::PROBE);
+        let raw = self.spacing.load(Relaxed);
+        let spacing = raw.max(Self::PROBE);
         // Several threads may pick at once: only the one that moves `probed` probes.
         let prev = self.probed.load(Relaxed);
         let last = if prev == 0 { Self::WARM_UP - 1 } else { prev };
@@ -145,8 +146,13 @@ impl RouteChooser {
                 .compare_exchange(prev, n, Relaxed, Relaxed)
                 .is_ok()
         {
-            self.spacing
-                .store((2 * spacing).min(Self::PROBE_MAX), Relaxed);
+            // Doubled only if no other thread has started the spacing again meanwhile.
+            let _ = self.spacing.compare_exchange(
+                raw,
+                (2 * spacing).min(Self::PROBE_MAX),
+                Relaxed,
+                Relaxed,
+            );
             other
         } else {
             best
@@ -260,6 +266,46 @@ mod tests {
         }
         assert_eq!(c.estimate(Read), Some(90));
         assert_eq!(c.pick(), Map);
+    }
+
+    /// Threads picking and recording at once: the chooser never stops probing (nor probes
+    /// more than its least spacing allows), whatever the interleaving.
+    #[test]
+    fn threads_picking_at_once_keep_the_probes_spaced() {
+        use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+        let c = RouteChooser::new(None);
+        let other = AtomicU64::new(0);
+        let (threads, per) = (4u64, 2000u64);
+        std::thread::scope(|s| {
+            for t in 0..threads {
+                let (c, other) = (&c, &other);
+                s.spawn(move || {
+                    for i in 0..per {
+                        let r = c.pick();
+                        // The map costs 30 ns/KiB, the copy 45; a burst now and then.
+                        let slow = (i + t) % 97 < 4;
+                        let ns = match (r, slow) {
+                            (Route::Map, false) => 30,
+                            (Route::Map, true) => 150,
+                            (Route::Read, _) => 45,
+                        };
+                        took(c, r, ns);
+                        if r == Route::Read {
+                            other.fetch_add(1, Relaxed);
+                        }
+                    }
+                });
+            }
+        });
+        let n = threads * per - RouteChooser::WARM_UP;
+        let probes = other.load(Relaxed);
+        assert!(
+            probes >= n / RouteChooser::PROBE_MAX / 2 && probes <= n / RouteChooser::PROBE + 50,
+            "{probes} copies in {n} chunks"
+        );
+        // Afterwards, alone: a probe within PROBE_MAX chunks.
+        let p = picks(&c, threads * per + RouteChooser::PROBE_MAX + 1);
+        assert!(p.contains(&Route::Read), "{p:?}");
     }
 
     #[test]

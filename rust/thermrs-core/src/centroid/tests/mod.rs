@@ -336,3 +336,4 @@ fn sample_recording_frames() {
 }
 
 mod detection;
+mod kernels;
