@@ -95,30 +95,32 @@ pub(super) const N_COLS: usize = 10;
 /// `W = G/(αA·G + n²)`, `v = I − b`, into `cols` ([`N_COLS`] columns of `nxp`, in this
 /// order): `Wv`, `Wv·dy`, `WG`, `WG·dy`, `WG·dy²`, `Gv`, `Gv·dy`, `Gv·dy²`, `Gv²`, `G²v`.
 ///
-/// `vals` holds the box's rows (`nxp` apart, padded with `v = 0`; `gx` is padded with 0 and
-/// the padding contributes nothing). The box is walked [`LANES`] columns at a time, all rows
-/// down, with the ten sums in registers (a row at a time would load and store all ten per
-/// pixel). Each column's sum still adds its rows in order, so the bits do not depend on the
-/// walk. Where the CPU has AVX2 the loop runs eight lanes wide; every operation is per pixel
-/// (no fused multiply-add, no sum across lanes), so both routes give the same bits.
-#[allow(clippy::too_many_arguments)]
+/// The box is walked [`LANES`] columns at a time, all rows down, with the ten sums in
+/// registers (a row at a time would load and store all ten per pixel). Each column's sum still
+/// adds its rows in order, so the bits do not depend on the walk. Where the CPU has AVX2 the
+/// loop runs eight lanes wide; every operation is per pixel (no fused multiply-add, no sum
+/// across lanes), so both routes give the same bits.
 #[inline(never)]
-pub(super) fn box_sums(
-    vals: &[f32],
-    gx: &[f32],
-    gy: &[f32],
-    dyv: &[f32],
-    aa: f32,
-    nn: f32,
-    nxp: usize,
-    cols: &mut [f32],
-) {
+pub(super) fn box_sums(b: &BoxPass, cols: &mut [f32]) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { box_sums_avx2(vals, gx, gy, dyv, aa, nn, nxp, cols) };
+        return unsafe { box_sums_avx2(b, cols) };
     }
-    box_sums_body(vals, gx, gy, dyv, aa, nn, nxp, cols)
+    box_sums_body(b, cols)
+}
+
+/// What [`box_sums`] sums over: the box's rows of `v = I − b` (`nxp` apart, padded with 0),
+/// the window's 1-D factors `gx` (padded with 0, so that the padding contributes nothing) and
+/// `gy`, the rows' offsets `dyv` from the centre, `aa = αA` and `nn = n²`.
+pub(super) struct BoxPass<'a> {
+    pub(super) vals: &'a [f32],
+    pub(super) gx: &'a [f32],
+    pub(super) gy: &'a [f32],
+    pub(super) dyv: &'a [f32],
+    pub(super) aa: f32,
+    pub(super) nn: f32,
+    pub(super) nxp: usize,
 }
 
 /// [`box_sums_body`] compiled for AVX2.
@@ -126,33 +128,23 @@ pub(super) fn box_sums(
 /// # Safety
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
-#[allow(clippy::too_many_arguments)]
 #[target_feature(enable = "avx2")]
-unsafe fn box_sums_avx2(
-    vals: &[f32],
-    gx: &[f32],
-    gy: &[f32],
-    dyv: &[f32],
-    aa: f32,
-    nn: f32,
-    nxp: usize,
-    cols: &mut [f32],
-) {
-    box_sums_body(vals, gx, gy, dyv, aa, nn, nxp, cols)
+unsafe fn box_sums_avx2(b: &BoxPass, cols: &mut [f32]) {
+    box_sums_body(b, cols)
 }
 
-#[allow(clippy::too_many_arguments)]
+/// [`box_sums`] for whatever instructions the build targets.
 #[inline(always)]
-pub(super) fn box_sums_body(
-    vals: &[f32],
-    gx: &[f32],
-    gy: &[f32],
-    dyv: &[f32],
-    aa: f32,
-    nn: f32,
-    nxp: usize,
-    cols: &mut [f32],
-) {
+pub(super) fn box_sums_body(p: &BoxPass, cols: &mut [f32]) {
+    let BoxPass {
+        vals,
+        gx,
+        gy,
+        dyv,
+        aa,
+        nn,
+        nxp,
+    } = *p;
     let ny = gy.len().min(dyv.len());
     if nxp % LANES != 0 || gx.len() < nxp || vals.len() < ny * nxp || cols.len() < N_COLS * nxp {
         return;
@@ -441,7 +433,16 @@ impl Fit {
             let bytes = &row[bx0 as usize * P::BPP..(bx1 as usize + 1) * P::BPP];
             P::to_f32(bytes, bf, &mut out[..nx]);
         }
-        box_sums(&s.vals, &s.gx, &s.gy, &s.dyv, aa, nn, nxp, &mut s.cols);
+        let pass = BoxPass {
+            vals: &s.vals,
+            gx: &s.gx,
+            gy: &s.gy,
+            dyv: &s.dyv,
+            aa,
+            nn,
+            nxp,
+        };
+        box_sums(&pass, &mut s.cols);
         pass_sums(&s.cols, &s.dxv, nxp, sxs, sys)
     }
 

@@ -2,20 +2,20 @@
 //! adding its ten terms to ten per-column sums in memory), bit for bit, through the route
 //! the CPU takes (AVX2 where it has it) and the portable one.
 
-use super::super::measure::{box_sums, box_sums_body, N_COLS};
+use super::super::measure::{box_sums, box_sums_body, BoxPass, N_COLS};
 use super::*;
 
 /// The accumulation as first written: row after row, each term added to its column's sum.
-#[allow(clippy::too_many_arguments)]
-fn row_by_row(
-    vals: &[f32],
-    gx: &[f32],
-    gy: &[f32],
-    dyv: &[f32],
-    aa: f32,
-    nn: f32,
-    nxp: usize,
-) -> Vec<f32> {
+fn row_by_row(p: &BoxPass) -> Vec<f32> {
+    let BoxPass {
+        vals,
+        gx,
+        gy,
+        dyv,
+        aa,
+        nn,
+        nxp,
+    } = *p;
     let mut cols = vec![0.0f32; N_COLS * nxp];
     for (j, (&gyj, &dy)) in gy.iter().zip(dyv).enumerate() {
         let dy2 = dy * dy;
@@ -67,11 +67,20 @@ fn window_sums_match_the_row_by_row_accumulation_bit_for_bit() {
         let gy: Vec<f32> = (0..ny).map(|_| any(8).abs()).collect();
         let dyv: Vec<f32> = (0..ny).map(|_| any(6)).collect();
         let (aa, nn) = (any(4).abs(), any(4).abs() + 1e-3);
-        let want = row_by_row(&vals, &gx, &gy, &dyv, aa, nn, nxp);
+        let pass = BoxPass {
+            vals: &vals,
+            gx: &gx,
+            gy: &gy,
+            dyv: &dyv,
+            aa,
+            nn,
+            nxp,
+        };
+        let want = row_by_row(&pass);
         let mut got = vec![f32::NAN; N_COLS * nxp];
-        box_sums(&vals, &gx, &gy, &dyv, aa, nn, nxp, &mut got);
+        box_sums(&pass, &mut got);
         let mut portable = vec![f32::NAN; N_COLS * nxp];
-        box_sums_body(&vals, &gx, &gy, &dyv, aa, nn, nxp, &mut portable);
+        box_sums_body(&pass, &mut portable);
         for (k, ((w, g), p)) in want.iter().zip(&got).zip(&portable).enumerate() {
             assert_eq!(
                 w.to_bits(),
