@@ -9,7 +9,9 @@ import shutil
 import signal
 import subprocess
 import sys
-from collections.abc import Iterator
+import threading
+import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -148,12 +150,43 @@ def test_the_largest_recordings_run_first(recordings: list[Path], tmp_path: Path
     assert res.extracted == [str(p.resolve()) for p in reversed(named)]
 
 
-def _warm(path: str) -> None:
-    thermrs.extract(path, thermrs.load_rig())
-
-
 def _one_then_the_rest(sizes: list[int], slots: int) -> list[list[int]]:
     return [[0], list(range(1, len(sizes)))]
+
+
+def _kill_when(
+    client: Any, choose: Callable[[dict[str, Any]], str | None]
+) -> tuple[dict[str, Any], Callable[[], None]]:
+    """Watch the scheduler from a thread of this process and SIGKILL the first worker
+    ``choose(client.processing())`` names; what it held, and the function that stops the
+    watch (and raises what the watch raised)."""
+    pids = client.run(os.getpid)
+    killed: dict[str, Any] = {}
+    errors: list[BaseException] = []
+    stop = threading.Event()
+
+    def watch() -> None:
+        try:
+            while not stop.is_set() and not killed:
+                held = {w: keys for w, keys in client.processing().items() if keys}
+                worker = choose(held)
+                if worker is not None:
+                    os.kill(pids[worker], signal.SIGKILL)
+                    killed[worker] = held[worker]
+                time.sleep(0.002)
+        except BaseException as e:  # raised again in the test's thread
+            errors.append(e)
+
+    thread = threading.Thread(target=watch, daemon=True)
+    thread.start()
+
+    def done() -> None:
+        stop.set()
+        thread.join()
+        if errors:
+            raise errors[0]
+
+    return killed, done
 
 
 @pytest.mark.slow
@@ -161,34 +194,36 @@ def _one_then_the_rest(sizes: list[int], slots: int) -> list[list[int]]:
 def test_a_worker_killed_mid_campaign(
     recordings: list[Path], client: Any, tmp_path: Path, tasks: str, monkeypatch: Any
 ) -> None:
-    """A worker is killed while it holds a task (of one recording, or of five, on a split
-    that hands out one recording and then the rest): the campaign completes, nothing lost
-    or twice."""
+    """A worker is killed while it holds a task (of one recording, once a recording is
+    committed; or of five, on a split that hands out one recording and then the rest, once
+    the five's first is written and the rest are not): the campaign completes, nothing lost
+    or twice. The kill waits on the campaign's own files, not on timing."""
+    from thermrs.campaigns.sources import content_hash, recording_id
+
+    out = tmp_path / "ds"
+    by_size = sorted(recordings, key=lambda p: p.stat().st_size, reverse=True)
+    second = str(by_size[1].resolve())  # the first of the five
+    staged_second = f"{recording_id(second, content_hash(second))}.*"
+
+    def choose(held: dict[str, Any]) -> str | None:
+        if tasks == "one per recording":
+            if not any((out / "_catalog").glob("*.parquet")):
+                return None
+            return next(iter(held), None)
+        if not any((out / ".staging").glob(staged_second)):
+            return None
+        fives = (w for w, keys in held.items() if any(str(k).endswith(second) for k in keys))
+        return next(fives, None)
+
     if tasks != "one per recording":
         monkeypatch.setattr("thermrs.campaigns.engine.split", _one_then_the_rest)
-    # Both workers up and past their first extraction's costs (one may have been restarted
-    # by the test before), so that the task of one recording finishes first.
-    client.wait_for_workers(2)
-    client.run(_warm, str(recordings[0]))
-    killed: dict[str, Any] = {}
-
-    def kill_a_busy_worker(done: int, total: int, path: str) -> None:
-        if killed or not path:
-            return
-        busy = {w: keys for w, keys in client.processing().items() if keys}
-        if not busy:
-            return
-        worker, keys = next(iter(busy.items()))
-        pid = client.run(os.getpid, workers=[worker])[worker]
-        os.kill(pid, signal.SIGKILL)
-        killed[worker] = keys
-
-    res = thermrs.campaign(recordings, tmp_path / "ds", client=client, progress=kill_a_busy_worker)
+    client.wait_for_workers(2)  # one may have been restarted by the test before
+    killed, stop_watching = _kill_when(client, choose)
+    try:
+        res = thermrs.campaign(recordings, out, client=client)
+    finally:
+        stop_watching()
     assert killed, "a worker was killed while it held a recording"
-    if tasks != "one per recording":
-        second = sorted(recordings, key=lambda p: p.stat().st_size)[-2]
-        (keys,) = killed.values()
-        assert any(str(k).endswith(str(second.resolve())) for k in keys)  # the five's task
     assert sorted(res.extracted) == sorted(str(p.resolve()) for p in recordings)
     assert not res.failed and not res.unchanged
     check_against_single_files(res, recordings)
