@@ -68,40 +68,7 @@ pub(super) fn robust_stats(samples: &[u16]) -> (f64, f64) {
         for (i, hv) in hist.iter_mut().enumerate() {
             *hv = h4[0][i] + h4[1][i] + h4[2][i] + h4[3][i];
         }
-        let span = (hi - lo) as usize;
-        let half = n / 2;
-        let mut acc = 0usize;
-        let mut med = 0usize;
-        for (i, &c) in hist[..=span].iter().enumerate() {
-            acc += c as usize;
-            if acc > half {
-                med = i;
-                break;
-            }
-        }
-        // MAD: the smallest d with more than half the sample within med ± d.
-        let mut within = hist[med] as usize;
-        let mut mad = 0usize;
-        while within <= half && mad < 256 {
-            mad += 1;
-            if med + mad <= span {
-                within += hist[med + mad] as usize;
-            }
-            if mad <= med {
-                within += hist[med - mad] as usize;
-            }
-        }
-        let clip = (4.0 * 1.4826 * mad as f64).max(2.0) as usize;
-        let (a, b) = (med.saturating_sub(clip), (med + clip).min(span));
-        let (mut cnt, mut s1, mut s2) = (0.0f64, 0.0f64, 0.0f64);
-        for (i, &c) in hist[a..=b].iter().enumerate() {
-            let d = (a + i) as f64 - med as f64;
-            let c = c as f64;
-            cnt += c;
-            s1 += c * d;
-            s2 += c * d * d;
-        }
-        return finish_stats(lo as f64 + med as f64, cnt, s1, s2);
+        return hist_stats(&hist, lo, (hi - lo) as usize, n);
     }
     let mid = n / 2;
     let med = kth_by(samples, mid, |s| s);
@@ -117,6 +84,53 @@ pub(super) fn robust_stats(samples: &[u16]) -> (f64, f64) {
         }
     }
     finish_stats(med as f64, cnt, s1, s2)
+}
+
+/// [`robust_stats`] of `n ≥ 1` samples given as their histogram: bin `i` counts the samples of
+/// value `lo + i`, and no sample is above `lo + span` (`span ≤ 255`).
+///
+/// The result does not depend on `lo` and `span` beyond that: empty bins below the smallest
+/// sample or above the largest add nothing to any count or sum (a zero count adds `+0.0`, and
+/// no partial sum here is `−0.0`), so an 8-bit sample's histogram over all 256 values (`lo`
+/// 0, `span` 255) gives the same bits as the one [`robust_stats`] builds from the sample.
+pub(super) fn hist_stats(hist: &[u32; 256], lo: u16, span: usize, n: usize) -> (f64, f64) {
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    let span = span.min(255);
+    let half = n / 2;
+    let mut acc = 0usize;
+    let mut med = 0usize;
+    for (i, &c) in hist[..=span].iter().enumerate() {
+        acc += c as usize;
+        if acc > half {
+            med = i;
+            break;
+        }
+    }
+    // MAD: the smallest d with more than half the sample within med ± d.
+    let mut within = hist[med] as usize;
+    let mut mad = 0usize;
+    while within <= half && mad < 256 {
+        mad += 1;
+        if med + mad <= span {
+            within += hist[med + mad] as usize;
+        }
+        if mad <= med {
+            within += hist[med - mad] as usize;
+        }
+    }
+    let clip = (4.0 * 1.4826 * mad as f64).max(2.0) as usize;
+    let (a, b) = (med.saturating_sub(clip), (med + clip).min(span));
+    let (mut cnt, mut s1, mut s2) = (0.0f64, 0.0f64, 0.0f64);
+    for (i, &c) in hist[a..=b].iter().enumerate() {
+        let d = (a + i) as f64 - med as f64;
+        let c = c as f64;
+        cnt += c;
+        s1 += c * d;
+        s2 += c * d * d;
+    }
+    finish_stats(lo as f64 + med as f64, cnt, s1, s2)
 }
 
 /// Mean and (unbiased) rms from counts and sums of deviations from `centre`.

@@ -55,8 +55,8 @@ pub(super) fn scan_reach(k: usize, min_sigma_px: f64) -> f64 {
 pub(super) fn find_spot_px<P: Px>(f: &FrameView, p: &SpotParams) -> Spot {
     let k = scan_stride(p.min_sigma_px).min(f.height.max(1));
     let rows = ScanRows::new(f.height, k);
-    let (row_max, samples) = scan::<P>(f, rows);
-    let lv = match Levels::new::<P>(p, k, &row_max, &samples) {
+    let (row_max, stats) = scan::<P>(f, rows);
+    let lv = match Levels::new::<P>(p, k, &row_max, stats) {
         Ok(lv) => lv,
         Err(none) => return none,
     };
@@ -112,16 +112,24 @@ impl ScanRows {
     }
 }
 
-/// Step 1, the sparse scan: the maximum of every scanned row, and a background sample on a
-/// grid of some of them, taken while they are in cache.
-fn scan<P: Px>(f: &FrameView, rows: ScanRows) -> (Vec<u32>, Vec<u16>) {
+/// Step 1, the sparse scan: the maximum of every scanned row, and the frame's background and
+/// noise from a sample on a grid of some of them, taken while they are in cache.
+fn scan<P: Px>(f: &FrameView, rows: ScanRows) -> (Vec<u32>, (f64, f64)) {
     let w = f.width;
     let n_rows = rows.n_rows;
-    let sample_every = (n_rows / SAMPLE_GRID).max(1);
-    let col_step = (w / SAMPLE_GRID).max(1);
-    let col_first = col_step / 2;
-    let mut samples: Vec<u16> = Vec::with_capacity((n_rows / sample_every + 1) * (SAMPLE_GRID + 1));
+    let grid = SampleGrid::new(w, n_rows);
     let mut row_max: Vec<u32> = Vec::with_capacity(n_rows);
+    // 8-bit pixels go straight into the sample's histogram (four interleaved ones, as in
+    // `robust_stats`); wider ones are gathered for `robust_stats`. Same bits either way
+    // (`background::hist_stats`).
+    let narrow = P::BPP == 1;
+    let mut h4 = [[0u32; 256]; 4];
+    let mut samples: Vec<u16> = if narrow {
+        Vec::new()
+    } else {
+        Vec::with_capacity(grid.n_rows(n_rows) * grid.n_cols)
+    };
+    let mut next_sample = 0usize;
     // Rows are asked for `AHEAD` scanned rows before they are read (see `frame::prefetch`).
     const AHEAD: usize = 4;
     for i in 0..AHEAD.min(n_rows) {
@@ -133,15 +141,57 @@ fn scan<P: Px>(f: &FrameView, rows: ScanRows) -> (Vec<u32>, Vec<u16>) {
         }
         let row = f.row(rows.row(i));
         row_max.push(P::max_of(row));
-        if i % sample_every == 0 {
-            samples.extend(
-                (col_first..w)
-                    .step_by(col_step)
-                    .map(|x| P::get(row, x) as u16),
-            );
+        if i == next_sample {
+            next_sample += grid.every;
+            let cols = (0..grid.n_cols).map(|j| grid.first + j * grid.step);
+            if narrow {
+                for (j, x) in cols.enumerate() {
+                    h4[j & 3][P::get(row, x) as usize & 0xff] += 1;
+                }
+            } else {
+                samples.extend(cols.map(|x| P::get(row, x) as u16));
+            }
         }
     }
-    (row_max, samples)
+    let stats = if narrow {
+        let mut hist = [0u32; 256];
+        for (i, hv) in hist.iter_mut().enumerate() {
+            *hv = h4[0][i] + h4[1][i] + h4[2][i] + h4[3][i];
+        }
+        hist_stats(&hist, 0, 255, grid.n_rows(n_rows) * grid.n_cols)
+    } else {
+        robust_stats(&samples)
+    };
+    (row_max, stats)
+}
+
+/// The background sample's grid: every `every`-th scanned row from the first, and in each
+/// `n_cols` columns `step` apart from column `first` (about [`SAMPLE_GRID`] each way).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct SampleGrid {
+    pub(super) every: usize,
+    pub(super) first: usize,
+    pub(super) step: usize,
+    pub(super) n_cols: usize,
+}
+
+impl SampleGrid {
+    /// The grid of a frame `w` pixels wide whose scan reads `n_rows` rows.
+    pub(super) fn new(w: usize, n_rows: usize) -> Self {
+        let step = (w / SAMPLE_GRID).max(1);
+        let first = step / 2;
+        SampleGrid {
+            every: (n_rows / SAMPLE_GRID).max(1),
+            first,
+            step,
+            n_cols: w.saturating_sub(first).div_ceil(step),
+        }
+    }
+
+    /// How many of the `n_rows` scanned rows are sampled.
+    pub(super) fn n_rows(&self, n_rows: usize) -> usize {
+        n_rows.div_ceil(self.every)
+    }
 }
 
 /// The frame's background and noise, its brightest scanned pixel, and the thresholds: `T`
@@ -163,9 +213,8 @@ impl Levels {
         p: &SpotParams,
         k: usize,
         row_max: &[u32],
-        samples: &[u16],
+        (bg, noise): (f64, f64),
     ) -> Result<Self, Spot> {
-        let (bg, noise) = robust_stats(samples);
         let excess = (p.detect_sigmas * noise.max(0.5)).max(p.min_peak_dn);
         let thr_f = bg + if excess.is_finite() { excess } else { 0.0 };
         // A spot whose peak is above T shows at least `reach` of its excess on a scanned row.

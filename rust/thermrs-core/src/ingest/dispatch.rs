@@ -27,7 +27,13 @@ impl<'r> Context<'r> {
             return true;
         };
         let topic = ch.topic.as_str();
-        *part.report.messages.entry(topic.to_string()).or_insert(0) += 1;
+        // Counted without a new `String` per message: the key is made once per topic.
+        match part.report.messages.get_mut(topic) {
+            Some(n) => *n += 1,
+            None => {
+                part.report.messages.insert(topic.to_string(), 1);
+            }
+        }
         let schema = local
             .schemas
             .get(&ch.schema_id)
