@@ -94,10 +94,11 @@
 //! # Speed
 //! A dark 752×582 8-bit frame reads 1/4 of its rows (k = 4) with vectorised maxima (AVX2
 //! where the CPU has it, checked at run time), plus a 256-bin histogram of ~1000 sampled
-//! pixels: ≈ 2.4 µs with the frame in cache, ≈ 3 µs cycling through 42 MB of frames
-//! (≈ 420,000 and 330,000 frames/s on one core of the development machine; reading every
-//! byte caps at ≈ 205,000 and ≈ 92,000). A spot frame (σ 4) adds the candidate rows and 4–5
-//! passes over a 33×33 box: ≈ 9.4 µs in cache (≈ 106,000 frames/s). `cargo test --release
+//! pixels, counted as they are read (8-bit frames; wider ones are gathered first): ≈ 1.9 µs
+//! with the frame in cache, ≈ 2.5–3.1 µs cycling through 42 MB of frames (≈ 515,000 and
+//! 320,000–390,000 frames/s on one core of the development machine; reading every byte caps
+//! at ≈ 205,000 and ≈ 92,000). A spot frame (σ 4) adds the candidate rows and 4–5 passes
+//! over a 33×33 box: ≈ 9.1 µs in cache (≈ 110,000 frames/s). `cargo test --release
 //! -p thermrs-core --lib -- --ignored --nocapture bench_find_spot` measures these. The pixel
 //! pass walks the box eight columns at a time down all its rows, with its ten per-column
 //! sums in `f32` registers (vectorised, no reduction inside the loop, no `exp` per pixel:
