@@ -114,21 +114,44 @@ impl ScanRows {
 
 /// Step 1, the sparse scan: the maximum of every scanned row, and the frame's background and
 /// noise from a sample on a grid of some of them, taken while they are in cache.
+///
+/// 8-bit pixels go straight into the sample's histogram (four interleaved ones, as in
+/// `robust_stats`); wider ones are gathered for `robust_stats`. Same bits either way
+/// (`background::hist_stats`).
 fn scan<P: Px>(f: &FrameView, rows: ScanRows) -> (Vec<u32>, (f64, f64)) {
-    let w = f.width;
-    let n_rows = rows.n_rows;
-    let grid = SampleGrid::new(w, n_rows);
-    let mut row_max: Vec<u32> = Vec::with_capacity(n_rows);
-    // 8-bit pixels go straight into the sample's histogram (four interleaved ones, as in
-    // `robust_stats`); wider ones are gathered for `robust_stats`. Same bits either way
-    // (`background::hist_stats`).
-    let narrow = P::BPP == 1;
-    let mut h4 = [[0u32; 256]; 4];
-    let mut samples: Vec<u16> = if narrow {
-        Vec::new()
+    let grid = SampleGrid::new(f.width, rows.n_rows);
+    let n = grid.n_rows(rows.n_rows) * grid.n_cols;
+    if P::BPP == 1 {
+        let mut h4 = [[0u32; 256]; 4];
+        let row_max = scan_rows::<P>(f, rows, grid.every, |row| {
+            for (j, x) in grid.cols().enumerate() {
+                h4[j & 3][P::get(row, x) as usize & 0xff] += 1;
+            }
+        });
+        let mut hist = [0u32; 256];
+        for (i, hv) in hist.iter_mut().enumerate() {
+            *hv = h4[0][i] + h4[1][i] + h4[2][i] + h4[3][i];
+        }
+        (row_max, hist_stats(&hist, 0, 255, n))
     } else {
-        Vec::with_capacity(grid.n_rows(n_rows) * grid.n_cols)
-    };
+        let mut samples: Vec<u16> = Vec::with_capacity(n);
+        let row_max = scan_rows::<P>(f, rows, grid.every, |row| {
+            samples.extend(grid.cols().map(|x| P::get(row, x) as u16));
+        });
+        (row_max, robust_stats(&samples))
+    }
+}
+
+/// The maxima of the scanned rows; `sample` is handed every `every`-th of them, from the
+/// first, right after its maximum.
+fn scan_rows<P: Px>(
+    f: &FrameView,
+    rows: ScanRows,
+    every: usize,
+    mut sample: impl FnMut(&[u8]),
+) -> Vec<u32> {
+    let n_rows = rows.n_rows;
+    let mut row_max: Vec<u32> = Vec::with_capacity(n_rows);
     let mut next_sample = 0usize;
     // Rows are asked for `AHEAD` scanned rows before they are read (see `frame::prefetch`).
     const AHEAD: usize = 4;
@@ -142,27 +165,11 @@ fn scan<P: Px>(f: &FrameView, rows: ScanRows) -> (Vec<u32>, (f64, f64)) {
         let row = f.row(rows.row(i));
         row_max.push(P::max_of(row));
         if i == next_sample {
-            next_sample += grid.every;
-            let cols = (0..grid.n_cols).map(|j| grid.first + j * grid.step);
-            if narrow {
-                for (j, x) in cols.enumerate() {
-                    h4[j & 3][P::get(row, x) as usize & 0xff] += 1;
-                }
-            } else {
-                samples.extend(cols.map(|x| P::get(row, x) as u16));
-            }
+            next_sample += every;
+            sample(row);
         }
     }
-    let stats = if narrow {
-        let mut hist = [0u32; 256];
-        for (i, hv) in hist.iter_mut().enumerate() {
-            *hv = h4[0][i] + h4[1][i] + h4[2][i] + h4[3][i];
-        }
-        hist_stats(&hist, 0, 255, grid.n_rows(n_rows) * grid.n_cols)
-    } else {
-        robust_stats(&samples)
-    };
-    (row_max, stats)
+    row_max
 }
 
 /// The background sample's grid: every `every`-th scanned row from the first, and in each
@@ -191,6 +198,12 @@ impl SampleGrid {
     /// How many of the `n_rows` scanned rows are sampled.
     pub(super) fn n_rows(&self, n_rows: usize) -> usize {
         n_rows.div_ceil(self.every)
+    }
+
+    /// The sampled columns of a row.
+    pub(super) fn cols(&self) -> impl Iterator<Item = usize> {
+        let (first, step) = (self.first, self.step);
+        (0..self.n_cols).map(move |j| first + j * step)
     }
 }
 

@@ -151,7 +151,7 @@ fn the_sample_grid_takes_the_rows_and_columns_it_always_took() {
             let step = (w / SAMPLE_GRID).max(1);
             let every = (n_rows / SAMPLE_GRID).max(1);
             let cols: Vec<usize> = (step / 2..w).step_by(step).collect();
-            let got: Vec<usize> = (0..g.n_cols).map(|j| g.first + j * g.step).collect();
+            let got: Vec<usize> = g.cols().collect();
             assert_eq!(got, cols, "w {w}");
             let rows = (0..n_rows).filter(|i| i % every == 0).count();
             assert_eq!(
