@@ -64,11 +64,7 @@ pub(super) fn robust_stats(samples: &[u16]) -> (f64, f64) {
         for &v in chunks.remainder() {
             h4[0][((v - lo) & 0xff) as usize] += 1;
         }
-        let mut hist = [0u32; 256];
-        for (i, hv) in hist.iter_mut().enumerate() {
-            *hv = h4[0][i] + h4[1][i] + h4[2][i] + h4[3][i];
-        }
-        return hist_stats(&hist, lo, (hi - lo) as usize, n);
+        return hist_stats(&merged(&h4), lo, (hi - lo) as usize, n);
     }
     let mid = n / 2;
     let med = kth_by(samples, mid, |s| s);
@@ -84,6 +80,16 @@ pub(super) fn robust_stats(samples: &[u16]) -> (f64, f64) {
         }
     }
     finish_stats(med as f64, cnt, s1, s2)
+}
+
+/// One histogram from four interleaved ones (counted four apart, so that repeated values do
+/// not wait on each other's stores).
+pub(super) fn merged(h4: &[[u32; 256]; 4]) -> [u32; 256] {
+    let mut hist = [0u32; 256];
+    for (i, hv) in hist.iter_mut().enumerate() {
+        *hv = h4[0][i] + h4[1][i] + h4[2][i] + h4[3][i];
+    }
+    hist
 }
 
 /// [`robust_stats`] of `n ≥ 1` samples given as their histogram: bin `i` counts the samples of

@@ -128,11 +128,7 @@ fn scan<P: Px>(f: &FrameView, rows: ScanRows) -> (Vec<u32>, (f64, f64)) {
                 h4[j & 3][P::get(row, x) as usize & 0xff] += 1;
             }
         });
-        let mut hist = [0u32; 256];
-        for (i, hv) in hist.iter_mut().enumerate() {
-            *hv = h4[0][i] + h4[1][i] + h4[2][i] + h4[3][i];
-        }
-        (row_max, hist_stats(&hist, 0, 255, n))
+        (row_max, hist_stats(&merged(&h4), 0, 255, n))
     } else {
         let mut samples: Vec<u16> = Vec::with_capacity(n);
         let row_max = scan_rows::<P>(f, rows, grid.every, |row| {
