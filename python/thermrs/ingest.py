@@ -284,7 +284,7 @@ def extract(
         raise InputError(f"recording {p}: is a directory, expected a recording (.mcap)")
     if not p.exists():
         raise InputError(f"recording {p}: no such file")
-    frames_c, thermal_c, joints_c, ambient_c, report_json = _native.extract(
+    columns = _native.extract(
         str(path),
         rig._native,
         progress=progress,
@@ -293,6 +293,56 @@ def extract(
         verify_crc=verify_crc,
         content_hash=content_hash,
     )
+    return _assemble(
+        p,
+        rig,
+        columns,
+        visit_tolerance_deg=visit_tolerance_deg,
+        run_gap_factor=run_gap_factor,
+        run_min_gap_s=run_min_gap_s,
+    )
+
+
+def _assemble(
+    path: Path,
+    rig: Rig,
+    columns: tuple[
+        dict[str, np.ndarray],
+        dict[str, np.ndarray],
+        dict[str, np.ndarray],
+        dict[str, np.ndarray],
+        str,
+    ],
+    *,
+    visit_tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
+    run_gap_factor: float = DEFAULT_GAP_FACTOR,
+    run_min_gap_s: float = DEFAULT_MIN_GAP_S,
+) -> Extraction:
+    """The tables of :func:`extract` from the core's columns (``thermrs._native.extract``).
+
+    Parameters
+    ----------
+    path
+        The recording the columns came from (named in errors).
+    rig
+        The rig they were extracted with.
+    columns
+        The core's frames, thermal, joints and ambient columns and its report (JSON).
+    visit_tolerance_deg, run_gap_factor, run_min_gap_s
+        As for :func:`extract`.
+
+    Returns
+    -------
+    Extraction
+        As :func:`extract` returns it.
+
+    Raises
+    ------
+    RecordingError
+        None of the rig's camera or thermal topics was read (see :func:`extract`).
+    """
+    p = path
+    frames_c, thermal_c, joints_c, ambient_c, report_json = columns
     frames = _frames_table(frames_c, rig)
     temperatures = _temperatures_table(thermal_c, ambient_c, rig)
     pos = joints_c["position"]
