@@ -341,7 +341,6 @@ def _assemble(
     RecordingError
         None of the rig's camera or thermal topics was read (see :func:`extract`).
     """
-    p = path
     frames_c, thermal_c, joints_c, ambient_c, report_json = columns
     frames = _frames_table(frames_c, rig)
     temperatures = _temperatures_table(thermal_c, ambient_c, rig)
@@ -352,7 +351,7 @@ def _assemble(
     ).sort("t_ns")
 
     rep = json.loads(report_json)
-    _check_rig_matches(p, rig, rep)
+    _check_rig_matches(path, rig, rep)
     counts = frames.group_by("status").len().sort("status")
     report = ExtractReport(
         **rep,
