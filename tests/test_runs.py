@@ -17,6 +17,8 @@ import pytest
 import thermrs
 from thermrs.errors import InputError
 from thermrs.runs import (
+    RUNS_SCHEMA,
+    label_runs,
     load_runs,
     runs_from_gaps,
     runs_from_markers,
@@ -80,6 +82,25 @@ def test_idle_gap_splits_and_short_pauses_do_not() -> None:
     assert runs_from_gaps(visits(paused)).height == 1
     assert runs_from_gaps(visits(paused), min_gap_s=0).height == 2
     assert runs_from_gaps(visits(first)).height == 1
+
+
+def test_labels_are_strings_whatever_lies_outside_the_runs() -> None:
+    """A stamp outside every run (the first joint state, before the first visit) is null,
+    first or not; overlapping runs give the later one; no run at all: every label null."""
+    runs = pl.DataFrame(
+        [{"run": "a", "start_ns": 10, "end_ns": 30, "source": "gap"},
+         {"run": "b", "start_ns": 25, "end_ns": 50, "source": "gap"}],
+        schema=RUNS_SCHEMA,
+    )  # fmt: skip
+    stamps = [0, 10, 26, 50, 51]
+    for t in (stamps, stamps[::-1], [0], [], [None, 10]):
+        got = label_runs(pl.Series(t, dtype=pl.Int64), runs)
+        assert got.dtype == pl.String and got.name == "run"
+        want = [None if x is None or not 10 <= x <= 50 else "a" if x < 25 else "b" for x in t]
+        assert got.to_list() == want
+    assert label_runs(np.array(stamps), runs).to_list() == [None, "a", "b", "b", None]
+    none = label_runs(np.array(stamps), pl.DataFrame(schema=RUNS_SCHEMA))
+    assert none.dtype == pl.String and none.null_count() == len(stamps)
 
 
 def test_marker_errors_name_the_marker() -> None:

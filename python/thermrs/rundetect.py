@@ -174,9 +174,34 @@ def find_runs(
 
 def label_runs(t_ns: pl.Series | np.ndarray, runs: pl.DataFrame) -> pl.Series:
     """Per time stamp, the name of the run whose [start_ns, end_ns] holds it (null if none;
-    the later run if two overlap)."""
-    t = np.asarray(t_ns, dtype=np.int64)
-    out = np.full(len(t), None, dtype=object)
-    for r in runs.sort("start_ns").iter_rows(named=True):
-        out[(t >= r["start_ns"]) & (t <= r["end_ns"])] = r["run"]
-    return pl.Series("run", out, dtype=pl.String)
+    the later run if two overlap).
+
+    Parameters
+    ----------
+    t_ns
+        Time stamps (ns); nulls are labelled null.
+    runs
+        A runs table (``run``, ``start_ns``, ``end_ns``; :data:`RUNS_SCHEMA`).
+
+    Returns
+    -------
+    polars.Series
+        ``run`` (String), one label per time stamp.
+
+    Notes
+    -----
+    Built as an index into the run names, never as an object array: whether a time stamp
+    lies outside every run (the first joint state of a recording comes before the first
+    visit) must not decide the column's type.
+    """
+    t = (t_ns if isinstance(t_ns, pl.Series) else pl.Series(np.asarray(t_ns))).cast(pl.Int64)
+    ordered = runs.sort("start_ns")
+    if ordered.height == 0:
+        return pl.repeat(None, t.len(), dtype=pl.String, eager=True).alias("run")
+    tv = t.fill_null(0).to_numpy()
+    valid = t.is_not_null().to_numpy()
+    idx = np.full(t.len(), -1, dtype=np.int64)
+    for k, (a, b) in enumerate(zip(ordered["start_ns"], ordered["end_ns"], strict=True)):
+        idx[valid & (tv >= a) & (tv <= b)] = k
+    at = pl.Series(idx).replace(-1, None)
+    return ordered["run"].cast(pl.String).gather(at).alias("run")
