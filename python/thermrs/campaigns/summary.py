@@ -13,7 +13,32 @@ import polars as pl
 from thermrs.campaigns.dataset import Dataset
 from thermrs.campaigns.select import campaign_runs, folds, run_tables
 
-__all__ = ["alpha_by_run", "holdout_by_rule"]
+__all__ = ["ALPHA_BY_RUN_SCHEMA", "HOLDOUT_SCHEMA", "alpha_by_run", "holdout_by_rule"]
+
+#: Columns of :func:`alpha_by_run`. Fixed, not inferred from the rows: a campaign's first
+#: hundred runs may all lack a speed (a robot that never moved) or a drift, and a type
+#: inferred from them would refuse the next run's value.
+ALPHA_BY_RUN_SCHEMA: dict[str, Any] = {
+    "recording": pl.String,
+    "run": pl.String,
+    "date": pl.Date,
+    "speed_deg_s": pl.Float64,
+    "alpha_per_k": pl.Float64,
+    "ci95_low": pl.Float64,
+    "ci95_high": pl.Float64,
+    "rms_um": pl.Float64,
+    "visits": pl.Int64,
+    "drift_um": pl.Float64,
+}
+
+#: Columns of :func:`holdout_by_rule`.
+HOLDOUT_SCHEMA: dict[str, Any] = {
+    "fold": pl.String,
+    "train_runs": pl.Int64,
+    "holdout_runs": pl.Int64,
+    "alpha_per_k": pl.Float64,
+    "holdout_rms_um": pl.Float64,
+}
 
 
 def alpha_by_run(dataset: Dataset, rig: Any, *, query: str | None = None) -> pl.DataFrame:
@@ -43,7 +68,7 @@ def alpha_by_run(dataset: Dataset, rig: Any, *, query: str | None = None) -> pl.
                 "drift_um": float(np.nanmax(drift)) if drift.size else None,
             }
         )
-    return pl.DataFrame(rows)
+    return pl.DataFrame(rows, schema=ALPHA_BY_RUN_SCHEMA)
 
 
 def holdout_by_rule(
@@ -77,4 +102,4 @@ def holdout_by_rule(
                 "holdout_rms_um": float(np.sqrt(np.nanmean(res**2))),
             }
         )
-    return pl.DataFrame(rows)
+    return pl.DataFrame(rows, schema=HOLDOUT_SCHEMA)

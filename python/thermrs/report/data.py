@@ -314,7 +314,9 @@ def table4(runs: Sequence[RunInput]) -> pl.DataFrame:
             for ax in "uv":
                 row[f"{cam}_{ax}_um"] = float(tc[f"drift_{ax}_um"][-1])
         rows.append(row)
-    return pl.DataFrame(rows)
+    # Every row read for the columns and their types: a run without a temperature has no
+    # such key, and the first hundred rows must not decide what the others may hold.
+    return pl.DataFrame(rows, infer_schema_length=None)
 
 
 def _diagnose(
