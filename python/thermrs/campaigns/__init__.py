@@ -37,10 +37,11 @@ from thermrs.campaigns.analyses import (
     report,
 )
 from thermrs.campaigns.dataset import Dataset
-from thermrs.campaigns.engine import CampaignResult, campaign
+from thermrs.campaigns.engine import CampaignInterrupted, CampaignResult, campaign
 from thermrs.campaigns.inputs import Split, open_dataset, select_runs, selected, splits
 
 __all__ = [
+    "CampaignInterrupted",
     "CampaignResult",
     "Dataset",
     "DesignFold",

@@ -12,6 +12,11 @@ anywhere resumes where it stopped, and a worker that dies only has its task (a r
 recordings, :mod:`thermrs.campaigns.split`) run again elsewhere (jobs have no side effects:
 nothing is lost or written twice).
 
+Stopping: a cluster thermrs starts is shut down at once when the campaign ends or Ctrl-C
+stops it (:func:`close_now`: its workers killed, not waited for), and its worker processes
+never take a Ctrl-C themselves (:func:`local_cluster`); Ctrl-C raises
+:class:`CampaignInterrupted`, which says how many recordings the dataset holds.
+
 Skipping work: a recording whose path, size and modification time match a catalog row made
 with the same rig and thermrs version is not read at all; one whose bytes hash to such a row
 (a file touched or copied) is hashed but not extracted.
@@ -19,8 +24,10 @@ with the same rig and thermrs version is not read at all; one whose bytes hash t
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import os
+import signal
 import time
 from collections.abc import Callable, Generator, Iterator, Sequence
 from contextlib import contextmanager, suppress
@@ -30,6 +37,7 @@ from typing import Any
 
 import polars as pl
 
+from thermrs.atomic import hold_interrupts, release_interrupts
 from thermrs.campaigns.dataset import Dataset
 from thermrs.campaigns.sources import Source, expand
 from thermrs.campaigns.split import split
@@ -38,11 +46,14 @@ from thermrs.errors import InputError
 from thermrs.rig import Rig, as_rig, load_rig
 
 __all__ = [
+    "KILL_AFTER_S",
     "QUIET_CLUSTER",
     "WORKER_ENV",
+    "CampaignInterrupted",
     "CampaignResult",
     "Progress",
     "campaign",
+    "close_now",
     "local_cluster",
     "quiet_workers",
     "rig_identity",
@@ -88,6 +99,33 @@ class CampaignResult:
         """Whether any recording of the campaign lost data (exit 3 for the CLI)."""
         cat = self.catalog
         return bool(cat.height and cat["losses"].sum())
+
+
+class CampaignInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a campaign, with how far it got: a ``KeyboardInterrupt`` (whoever stops
+    on Ctrl-C stops on it), raised once the cluster thermrs started is shut down.
+
+    Every recording counted in ``done`` is committed to the dataset; the same campaign run
+    again extracts only the others.
+
+    Attributes
+    ----------
+    done
+        Recordings of the campaign in the dataset: extracted now, or already there.
+    total
+        Recordings the campaign names.
+    extracted
+        Of ``done``, those this campaign extracted before the interruption.
+    """
+
+    def __init__(self, done: int, total: int, extracted: int) -> None:
+        super().__init__(done, total, extracted)
+        self.done = done
+        self.total = total
+        self.extracted = extracted
+
+    def __str__(self) -> str:
+        return f"{self.done} of {self.total} recordings extracted"
 
 
 def rig_identity(rig: Rig | str | os.PathLike[str] | None) -> tuple[Rig, str, str]:
@@ -166,6 +204,9 @@ def campaign(
     ------
     InputError
         A recording name that matches nothing; the dataset folder cannot be made.
+    CampaignInterrupted
+        Ctrl-C (a ``KeyboardInterrupt``): the cluster thermrs started is shut down at once
+        (its running extractions killed); how many recordings are in the dataset.
 
     Examples
     --------
@@ -232,17 +273,23 @@ def campaign(
     ]
     stat = {str(s.path): s for s in todo}
     sizes = [s.size_bytes for s in todo]
-    with _engine(jobs, sizes, client, scheduler, workers) as (results, dashboard):
-        if on_cluster is not None:
-            on_cluster(dashboard)
-        for res in results:
-            _absorb(ds, res, stat, by_hash, result)
-            done += 1
-            if progress is not None:
-                progress(done, total, res["path"])
-        result.dashboard = dashboard
-    ds.close_staging()
-    ds.consolidate()
+    try:
+        with _engine(jobs, sizes, client, scheduler, workers) as (results, dashboard):
+            if on_cluster is not None:
+                on_cluster(dashboard)
+            for res in results:
+                _absorb(ds, res, stat, by_hash, result)
+                done += 1
+                if progress is not None:
+                    progress(done, total, res["path"])
+            result.dashboard = dashboard
+        ds.close_staging()
+        ds.consolidate()
+    except KeyboardInterrupt:
+        # The cluster is shut down by now; what was committed stays (the next campaign
+        # removes the staged rest and writes catalog.parquet).
+        n = len(result.extracted) + len(result.unchanged)
+        raise CampaignInterrupted(n, total, len(result.extracted)) from None
     result.seconds = time.perf_counter() - t0
     return result
 
@@ -273,7 +320,12 @@ def _engine(
     jobs: list[Job], sizes: list[int], client: Any, scheduler: str | None, workers: int | None
 ) -> Iterator[tuple[Iterator[dict[str, Any]], str | None]]:
     """Results of ``jobs`` (recordings of ``sizes`` bytes) as they complete, and the dashboard
-    address where a cluster runs them."""
+    address where a cluster runs them.
+
+    A cluster it started is shut down at once when the campaign ends or is stopped (Ctrl-C):
+    its workers are killed, not waited for (:func:`close_now`). On a cluster it was given,
+    the tasks still running are cancelled and the cluster is left running.
+    """
     if not jobs:
         yield iter(()), None
         return
@@ -291,21 +343,26 @@ def _engine(
         else:
             slots = workers or max(1, min(len(jobs), os.cpu_count() or 1))
             cluster = local_cluster(slots)  # one thread per worker
-            client = Client(cluster)  # type: ignore[no-untyped-call]
+            try:
+                client = Client(cluster)  # type: ignore[no-untyped-call]
+            except BaseException:
+                close_now(cluster)
+                raise
     # None known yet (workers still to join a scheduler): one task per recording.
     slots = slots or sum(client.nthreads().values())
     tasks = [[jobs[i] for i in g] for g in split(sizes, slots)] if slots else [[j] for j in jobs]
-    results = _as_completed(client, tasks)
+    # Tasks on a cluster of our own are not cancelled when stopped: its workers are killed,
+    # which a cancellation would only make them log about first.
+    results = _as_completed(client, tasks, cancel=cluster is None)
     try:
         yield results, client.dashboard_link
     finally:
-        results.close()  # cancels what is still running, while the client is open
-        if own:
-            if cluster is not None:
-                quiet_workers(client)
+        results.close()  # cancels what is still running (not on a cluster of our own)
+        if cluster is not None:
+            # Done or stopped, the same: every result is committed or will not be.
+            close_now(cluster, client)
+        elif own:
             client.close()
-            if cluster is not None:
-                cluster.close()
 
 
 #: The environment of a worker of :func:`local_cluster`: every library's thread pool at one
@@ -331,10 +388,23 @@ QUIET_CLUSTER = {
 }
 
 
+#: Seconds a nanny of a cluster thermrs started is given to close when :func:`close_now` shuts
+#: the cluster down (its worker process is killed first: a worker inside an extraction would
+#: not stop before the extraction's end).
+KILL_AFTER_S = 0.25
+
+
 def local_cluster(workers: int, **kwargs: Any) -> Any:
     """The ``distributed.LocalCluster`` a campaign starts when given no client or scheduler:
     ``workers`` worker processes of one thread each (:data:`WORKER_ENV`), background work
-    turned down (:data:`QUIET_CLUSTER`), dashboard on a free port.
+    turned down (:data:`QUIET_CLUSTER`), dashboard on a free port; returned once every
+    worker has joined.
+
+    Ctrl-C is this process's alone: the cluster's event loop, and the worker processes it
+    starts, have SIGINT blocked (on POSIX), so that a Ctrl-C in a terminal, which signals
+    every process of the foreground job, stops the campaign without each worker printing
+    its own traceback. Interrupted while the workers start, the cluster is shut down
+    (:func:`close_now`) before the ``KeyboardInterrupt`` goes on.
 
     Parameters
     ----------
@@ -355,14 +425,123 @@ def local_cluster(workers: int, **kwargs: Any) -> Any:
 
     # Read when the scheduler and nannies are made; each nanny hands it to its worker.
     with dask.config.set(QUIET_CLUSTER):
-        return LocalCluster(  # type: ignore[no-untyped-call]
-            n_workers=workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            env=dict(WORKER_ENV),
-            **kwargs,
+        runner = _loop_without_sigint()
+        try:
+            cluster = LocalCluster(  # type: ignore[no-untyped-call]
+                n_workers=0,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",
+                env=dict(WORKER_ENV),
+                loop=None if runner is None else runner.loop,
+                **kwargs,
+            )
+        finally:
+            # Loop runners count the users of a loop and the last one stops it: from here the
+            # cluster's own runner is its only user (closing the cluster stops the loop).
+            if runner is not None:
+                runner.stop()
+        try:
+            cluster.scale(workers)  # type: ignore[no-untyped-call]
+            cluster.wait_for_workers(workers)
+        except BaseException:
+            close_now(cluster)
+            raise
+    return cluster
+
+
+def _loop_without_sigint() -> Any:
+    """A started ``distributed.utils.LoopRunner``: a Tornado IO loop on a thread of its own
+    that has SIGINT blocked, for a ``LocalCluster`` (``None`` where signal masks do not
+    exist: the cluster makes its own loop).
+
+    Threads and processes inherit the signal mask of the thread that starts them: the worker
+    processes a cluster starts from its loop's threads never take a Ctrl-C meant for the
+    campaign."""
+    if not hasattr(signal, "pthread_sigmask"):
+        return None
+    from multiprocessing import resource_tracker
+
+    from distributed.utils import LoopRunner
+
+    # Started here if it has not been: starting it later, on the loop's thread, would unblock
+    # SIGINT there (the tracker's start blocks SIGINT and SIGTERM and then unblocks them).
+    resource_tracker.ensure_running()
+    runner = LoopRunner()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        runner.start()  # type: ignore[no-untyped-call]
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    return runner
+
+
+@contextmanager
+def _dask_silenced() -> Iterator[None]:
+    """Dask's loggers in this process (and Tornado's, whose loop runs the cluster) silenced:
+    a cluster shut down in a hurry logs warnings about workers it killed."""
+    names = [
+        n
+        for n in list(logging.root.manager.loggerDict)
+        if n.split(".")[0] in ("distributed", "tornado")
+    ]
+    loggers = [logging.getLogger(n) for n in ["distributed", "tornado", *names]]
+    before = [lg.disabled for lg in loggers]
+    for lg in loggers:
+        lg.disabled = True
+    try:
+        yield
+    finally:
+        for lg, d in zip(loggers, before, strict=True):
+            lg.disabled = d
+
+
+def close_now(cluster: Any, client: Any = None) -> None:
+    """Shut a ``LocalCluster`` down at once, without waiting for the tasks it runs: its
+    worker processes killed and their nannies closed (at most :data:`KILL_AFTER_S` each),
+    then ``client`` (if given) and the cluster closed. What is shut down this way logs
+    nothing (Dask's loggers are silenced meanwhile; a killed worker cannot log). A Ctrl-C
+    meanwhile is raised once it is done.
+
+    Parameters
+    ----------
+    cluster
+        The cluster (one that :func:`local_cluster` made: its nannies in this process).
+    client
+        A client of that cluster, closed with it.
+    """
+
+    async def kill() -> None:
+        nannies = list(getattr(cluster, "workers", {}).values())
+        # Killed before their nannies close them: asked to stop, a worker would log the
+        # tasks it cancels. The nannies' closing starts before the loop hears of the deaths,
+        # so that none restarts its worker. Workers still starting (their nannies are not
+        # among the cluster's workers yet, only among those it made) are killed too: a
+        # nanny waits for its worker to have started before it closes it.
+        for n in {*nannies, *getattr(cluster, "_created", ())}:
+            pid = getattr(getattr(n, "process", None), "pid", None)
+            if pid:
+                with suppress(OSError):
+                    os.kill(pid, getattr(signal, "SIGKILL", signal.SIGTERM))
+        await asyncio.gather(
+            *(n.close(timeout=KILL_AFTER_S, reason="thermrs-close-now") for n in nannies),
+            return_exceptions=True,
         )
+
+    # A Ctrl-C meanwhile waits (it would cancel the closing half-way, leaving the cluster
+    # closing for ever), and is raised once the cluster is closed.
+    held = hold_interrupts()
+    try:
+        with _dask_silenced():
+            with suppress(Exception):
+                cluster.sync(kill, callback_timeout=5)
+            if client is not None:
+                with suppress(Exception):
+                    client.close(timeout=2)
+            with suppress(Exception):
+                cluster.close(timeout=5)
+    finally:
+        release_interrupts(held)
 
 
 def _quiet_worker_log() -> None:
@@ -370,19 +549,22 @@ def _quiet_worker_log() -> None:
 
 
 def quiet_workers(client: Any) -> None:
-    """Before thermrs closes a cluster it started: silence its workers' log, whose last
-    heartbeat can race the scheduler's closing and print a traceback after a campaign that
-    succeeded (``Failed to communicate with scheduler during heartbeat``; dask/distributed
-    issue 7105, seen here about once in twenty closings). Nothing is lost: the campaign's
-    results are committed by then."""
+    """Before closing a cluster gracefully (one of the caller's own, after a campaign):
+    silence its workers' log, whose last heartbeat can race the scheduler's closing and print
+    a traceback after a campaign that succeeded (``Failed to communicate with scheduler
+    during heartbeat``; dask/distributed issue 7105, seen about once in twenty closings).
+    A cluster thermrs started needs none of it: :func:`close_now` kills its workers, which
+    then log nothing."""
     with suppress(Exception):
         client.run(_quiet_worker_log)
 
 
-def _as_completed(client: Any, tasks: list[list[Job]]) -> Generator[dict[str, Any], None, None]:
+def _as_completed(
+    client: Any, tasks: list[list[Job]], *, cancel: bool = True
+) -> Generator[dict[str, Any], None, None]:
     """Map the tasks (each a run of recordings) on the cluster and yield each recording's
     result as its task's arrive (the future released right after, so that the cluster holds
-    no finished result)."""
+    no finished result); stopped, the tasks are cancelled if ``cancel``."""
     from distributed import as_completed
 
     # Keys name the campaign (its staging token) as well as the task's first file: a task of
@@ -400,5 +582,6 @@ def _as_completed(client: Any, tasks: list[list[Job]]) -> Generator[dict[str, An
             fut.release()
             yield from res
     except BaseException:
-        client.cancel(futures)
+        if cancel:
+            client.cancel(futures)
         raise

@@ -18,7 +18,8 @@ from thermrs.errors import ThermrsError
 
 
 class _Interrupted(Exception):
-    """Ctrl-C, carried past click (which would print an empty line first)."""
+    """Ctrl-C, carried past click (which would print an empty line first); its message, if
+    any, is what the interrupted command had done (the ``KeyboardInterrupt``'s)."""
 
 
 class ThermrsGroup(click.Group):
@@ -28,8 +29,8 @@ class ThermrsGroup(click.Group):
     def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
-        except KeyboardInterrupt:
-            raise _Interrupted() from None
+        except KeyboardInterrupt as e:
+            raise _Interrupted(str(e)) from None
 
 
 @click.group(cls=ThermrsGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -91,10 +92,11 @@ def _is_interrupt(e: BaseException) -> bool:
     return False
 
 
-def _exit_interrupted() -> None:
-    """One line, exit 130, at once: the stack has unwound (temporary files are gone); nothing
-    in the interpreter's shutdown may turn this into another exit status."""
-    click.echo("thermrs: interrupted", err=True)
+def _exit_interrupted(detail: str = "") -> None:
+    """One line (``thermrs: interrupted``, and ``: detail`` where the command said how far it
+    got), exit 130, at once: the stack has unwound (temporary files are gone); nothing in the
+    interpreter's shutdown may turn this into another exit status."""
+    click.echo("thermrs: interrupted" + (f": {detail}" if detail else ""), err=True)
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(EXIT_INTERRUPTED)
@@ -128,7 +130,9 @@ def main(argv: list[str] | None = None) -> None:
     except click.ClickException as e:  # exit 2
         e.show()
         sys.exit(EXIT_BAD_INPUT)
-    except (click.exceptions.Abort, KeyboardInterrupt, _Interrupted):
+    except (KeyboardInterrupt, _Interrupted) as e:
+        _exit_interrupted(str(e))
+    except click.exceptions.Abort:
         _exit_interrupted()
     except OutputError as e:  # an output the system would not take (full disk): exit 1
         click.echo(f"thermrs: error: {e}", err=True)

@@ -42,10 +42,13 @@ def extract_campaign(
     quiet: bool,
 ) -> None:
     """Run the campaign with one progress bar over its recordings, print the dashboard's
-    address and a summary; exit 3 if a recording lost data, 2 if one could not be read."""
+    address and a summary; exit 3 if a recording lost data, 2 if one could not be read.
+    Interrupted (Ctrl-C): exit 130 with one line, how many of the recordings are in the
+    dataset and that the same command resumes."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from thermrs.campaigns import campaign
+    from thermrs.campaigns.engine import CampaignInterrupted
     from thermrs.cli.common import EXIT_BAD_INPUT, EXIT_DATA_LOSS, console, table
 
     err = console(stderr=True)
@@ -69,16 +72,20 @@ def extract_campaign(
         def on_progress(done: int, total: int, path: str) -> None:
             bar.update(task, completed=done, total=total, last=Path(path).name if path else "")
 
-        res = campaign(
-            list(recordings),
-            out,
-            rig=rig_path,
-            scheduler=scheduler,
-            workers=workers,
-            visit_tolerance_deg=visit_tolerance_deg,
-            progress=on_progress,
-            on_cluster=on_cluster,
-        )
+        try:
+            res = campaign(
+                list(recordings),
+                out,
+                rig=rig_path,
+                scheduler=scheduler,
+                workers=workers,
+                visit_tolerance_deg=visit_tolerance_deg,
+                progress=on_progress,
+                on_cluster=on_cluster,
+            )
+        except CampaignInterrupted as e:
+            # The one line of the interruption (thermrs.cli.app): how far, and how to go on.
+            raise KeyboardInterrupt(f"{e}; run the same command again to resume") from None
     cat = res.catalog
     if not quiet:
         err.print(
