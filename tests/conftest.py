@@ -1,7 +1,10 @@
-"""Shared fixtures: the embedded paper rig and the shared folder beside the checkout."""
+"""Shared fixtures: the embedded paper rig, the shared folder beside the checkout, and Ctrl-C
+as a terminal delivers it."""
 
 from __future__ import annotations
 
+import signal
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -21,3 +24,16 @@ def shared() -> Path:
     if not SHARED.is_dir():
         pytest.skip(f"shared folder not found at {SHARED}")
     return SHARED
+
+
+@pytest.fixture
+def sigint_raises() -> Iterator[None]:
+    """SIGINT raises ``KeyboardInterrupt`` in this process for the test, as in a terminal,
+    whatever the process inherited: a shell that runs the suite in the background, ``nohup``
+    and some CI runners start it with SIGINT ignored, and then ``signal.raise_signal``
+    does nothing at all."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
