@@ -50,8 +50,10 @@ Progress = Callable[[int, int, int], object]
 class ExtractReport:
     """What an extraction read, skipped and lost.
 
-    Each entry of ``losses`` has ``kind`` (``truncated``, ``corrupt_chunk`` or
-    ``corrupt_record``), ``offset`` and ``bytes`` (the lost byte range is
+    Each entry of ``losses`` has ``kind`` (``truncated``, ``corrupt_chunk``,
+    ``corrupt_record``, ``undefined_channel`` (messages on a channel the file never defines),
+    ``zeros`` (the recording ends in zeros a writer reserved) or ``hole`` (a trailing hole the
+    file system holds no data for)), ``offset`` and ``bytes`` (the lost byte range is
     ``offset .. offset + bytes``), ``detail`` (one line) and ``messages_lost`` (messages per
     topic the range held, where the file tells: its message indexes, the summary's chunk index
     or the damaged chunk's own records). ``crc_failures`` counts chunks skipped because their
@@ -76,6 +78,9 @@ class ExtractReport:
     #: BLAKE3 of the whole file (hex), taken in the extraction's own pass when asked for
     #: (``extract(..., content_hash=True)``), else None.
     content_hash: str | None = None
+    #: How the file was read where that is worth saying and nothing was lost (a summary
+    #: unreadable; an id defined twice, each message read with the definition before it).
+    notes: list[str] = field(default_factory=list)
 
     @property
     def data_loss(self) -> bool:

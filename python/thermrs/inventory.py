@@ -21,7 +21,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -76,6 +76,9 @@ class Inventory:
         expands); ``thermal_frames`` and ``ambient_readings`` give the file's counts.
     losses
         What could not be read, one line each.
+    notes
+        How the file was read where that is worth saying and nothing was lost (a summary that
+        is unreadable or leaves something out, so the data section was read instead).
     metadata
         The Metadata records (``name``, ``values``).
     """
@@ -99,6 +102,7 @@ class Inventory:
     joint_states: int | None
     losses: list[str]
     metadata: list[dict[str, Any]]
+    notes: list[str] = field(default_factory=list)
 
     @property
     def duration_s(self) -> float:
@@ -129,6 +133,7 @@ class Inventory:
             "ambient_readings": self.ambient_readings,
             "joint_states": self.joint_states,
             "losses": self.losses,
+            "notes": self.notes,
             "metadata": self.metadata,
         }
 
@@ -223,6 +228,7 @@ def inventory(
         joint_states=m.joints,
         losses=list(doc["losses"]),
         metadata=list(doc["metadata"]),
+        notes=list(doc.get("notes", [])),
     )
 
 

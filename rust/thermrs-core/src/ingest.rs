@@ -105,45 +105,62 @@ enum Role {
     Ambient,
 }
 
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 struct ChannelInfo {
     topic: String,
     schema_id: u16,
     encoding: String,
 }
 
-/// Channels and schemas known so far, and the roles the rig gives their topics.
+/// Channels and schemas known so far (the latest definition of each id).
 #[derive(Debug, Clone, Default)]
 struct Registry {
     schemas: HashMap<u16, String>,
     channels: HashMap<u16, ChannelInfo>,
+    /// An id was defined twice with different contents (MCAP forbids it; a writer that
+    /// reused ids did it): which definition a message means then depends on where it is in
+    /// the file, so the file is read again in file order ([`Walk`] in exact order).
+    conflict: bool,
 }
 
 impl Registry {
     fn absorb(&mut self, record: &Record<'_>) {
         match record {
-            Record::Schema { header, .. } => {
-                self.schemas.insert(header.id, header.name.clone());
-            }
-            Record::Channel(c) => {
-                self.channels.insert(
-                    c.id,
-                    ChannelInfo {
-                        topic: c.topic.clone(),
-                        schema_id: c.schema_id,
-                        encoding: c.message_encoding.clone(),
-                    },
-                );
-            }
+            Record::Schema { header, .. } => self.add_schema(header.id, &header.name),
+            Record::Channel(c) => self.add_channel(
+                c.id,
+                ChannelInfo {
+                    topic: c.topic.clone(),
+                    schema_id: c.schema_id,
+                    encoding: c.message_encoding.clone(),
+                },
+            ),
             _ => {}
         }
     }
 
+    fn add_schema(&mut self, id: u16, name: &str) {
+        if let Some(old) = self.schemas.insert(id, name.to_string()) {
+            self.conflict |= old != name;
+        }
+    }
+
+    fn add_channel(&mut self, id: u16, info: ChannelInfo) {
+        if let Some(old) = self.channels.get(&id) {
+            self.conflict |= *old != info;
+        }
+        self.channels.insert(id, info);
+    }
+
+    /// Take in what a unit later in the file defined (its definitions win).
     fn merge(&mut self, o: &Registry) {
-        self.schemas
-            .extend(o.schemas.iter().map(|(k, v)| (*k, v.clone())));
-        self.channels
-            .extend(o.channels.iter().map(|(k, v)| (*k, v.clone())));
+        self.conflict |= o.conflict;
+        for (k, v) in &o.schemas {
+            self.add_schema(*k, v);
+        }
+        for (k, v) in &o.channels {
+            self.add_channel(*k, v.clone());
+        }
     }
 }
 
@@ -206,11 +223,14 @@ struct Part {
     tables: Tables,
     report: Report,
     registry: Registry,
-    /// The chunk used a channel nobody had defined yet: run it again later.
-    retry: bool,
+    /// Messages on a channel nobody had defined yet (as the unit saw the file): where they
+    /// are in the unit (a chunk's record offset, a loose batch's index) and their channel.
+    /// The rest of the unit is read; these are read again once the channel is known.
+    deferred: Vec<(usize, u16)>,
 }
 
 /// A unit of parallel work.
+#[derive(Clone)]
 enum Work<'a> {
     Chunk {
         offset: u64,
@@ -259,12 +279,27 @@ fn extract_by(
             bytes: len,
         });
     }
+    // A hole at the end (space a crashed writer pre-allocated and never filled) is neither
+    // mapped nor read: it holds no record, only zeros, and is reported as what it is.
+    let holes = crate::holes::holes(&crate::holes::data_ranges(&file, len), len);
+    let data_end = match holes.last() {
+        Some(&(start, end)) if end == len => start.max(MAGIC.len() as u64),
+        _ => len,
+    };
     // SAFETY: the map is read-only; a file truncated by another process while mapped would
     // fault, which no safe API can prevent; recordings are not written while being read.
-    let mmap = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| Error::Io {
-        path: path.display().to_string(),
-        source,
-    })?;
+    let mmap = usize::try_from(data_end)
+        .ok()
+        .map(|n| unsafe { memmap2::MmapOptions::new().len(n).map(&file) })
+        .unwrap_or_else(|| {
+            Err(std::io::Error::other(
+                "the file is larger than the address space",
+            ))
+        })
+        .map_err(|source| Error::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
     let _ = mmap.advise(memmap2::Advice::Sequential);
     extract_in(
         &mmap,
@@ -272,12 +307,20 @@ fn extract_by(
             file: &file,
             map: &mmap,
         }),
+        Extent { len, holes },
         &path.display().to_string(),
         rig,
         opts,
         progress,
         route,
     )
+}
+
+/// The file a walked buffer comes from: its whole length (the buffer may stop where a
+/// trailing hole starts) and its holes (file offsets).
+pub(crate) struct Extent {
+    pub(crate) len: u64,
+    pub(crate) holes: Vec<(u64, u64)>,
 }
 
 /// [`extract`] over bytes already in memory: `buf`, or with `source`, the whole map of a
@@ -293,12 +336,18 @@ pub fn extract_bytes(
     opts: &ExtractOptions,
     progress: &ProgressFn<'_>,
 ) -> Result<(Tables, Report)> {
-    extract_in(buf, source, name, rig, opts, progress, None)
+    let extent = Extent {
+        len: buf.len() as u64,
+        holes: Vec::new(),
+    };
+    extract_in(buf, source, extent, name, rig, opts, progress, None)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn extract_in(
     buf: &[u8],
     source: Option<Source<'_>>,
+    extent: Extent,
     name: &str,
     rig: &Rig,
     opts: &ExtractOptions,
@@ -315,12 +364,28 @@ fn extract_in(
     }
     let mut ctx = Context::new(rig, opts.spot.clone(), source, route);
     ctx.verify_crc = opts.verify_crc;
-    let mut walk = Walk::new(buf, &ctx, opts.window_bytes, progress);
+    let holes = extent.holes.clone();
+    let mut walk = Walk::new(buf, extent, &ctx, opts.window_bytes, progress);
     if opts.content_hash {
         walk.hash_content();
     }
     if !walk.run() {
         return Err(Error::Interrupted);
+    }
+    if walk.reg.conflict {
+        // An id defined twice with different contents: read again in file order, one unit
+        // at a time, each message taking the definition before it (as a streamed reader does).
+        let extent = Extent {
+            len: walk.report.file_bytes,
+            holes,
+        };
+        let hash = walk.report.content_hash.take();
+        walk = Walk::new(buf, extent, &ctx, opts.window_bytes, progress);
+        walk.exact_order();
+        if !walk.run() {
+            return Err(Error::Interrupted);
+        }
+        walk.report.content_hash = hash;
     }
     // A recording with none of the rig's topics is an error naming them.
     let present: Vec<&str> = walk

@@ -64,6 +64,9 @@ pub struct Inventory {
     pub losses: Vec<String>,
     /// Chunks decompressed to learn channels or message times (0 on a summarised file).
     pub chunks_decompressed: u64,
+    /// How the file was read where that is worth saying (a summary unreadable or leaving
+    /// something out, so the data section was read instead); nothing was lost.
+    pub notes: Vec<String>,
 }
 
 /// Read what the recording at `path` holds; `topics` are those whose messages' log times
@@ -78,37 +81,85 @@ pub fn inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
         source,
     };
     let file = std::fs::File::open(path).map_err(io)?;
+    let len = file.metadata().map_err(io)?.len();
+    // A hole at the end (space a crashed writer reserved) is not mapped: it holds no record.
+    let holes = crate::holes::holes(&crate::holes::data_ranges(&file, len), len);
+    let data_end = match holes.last() {
+        Some(&(start, end)) if end == len => start.max(8.min(len)),
+        _ => len,
+    };
+    let n = usize::try_from(data_end).map_err(|_| {
+        io(std::io::Error::other(
+            "the file is larger than the address space",
+        ))
+    })?;
     // SAFETY: read-only map of a file nobody is expected to change while it is read; a
     // change would at worst give wrong counts, never unsafety in this code (bytes only).
-    let map = unsafe { memmap2::Mmap::map(&file) }.map_err(io)?;
+    let map = unsafe { memmap2::MmapOptions::new().len(n).map(&file) }.map_err(io)?;
     let buf: &[u8] = &map;
     if buf.len() < 8 || !buf.starts_with(mcap::MAGIC) {
         return Err(Error::NotMcap {
             path: path.display().to_string(),
-            bytes: buf.len() as u64,
+            bytes: len,
         });
     }
     let mut inv = Inventory {
-        bytes: buf.len() as u64,
+        bytes: len,
         ..Inventory::default()
     };
     read_header(buf, &mut inv);
     let summary = if buf.ends_with(mcap::MAGIC) {
-        Summary::read(buf).ok().flatten()
+        match Summary::read(buf) {
+            Ok(s) => s,
+            Err(e) => {
+                inv.notes.push(format!(
+                    "the summary section is unreadable ({e}): the file was read record by record"
+                ));
+                None
+            }
+        }
     } else {
         None
     };
     match summary {
-        Some(s) if !s.chunk_indexes.is_empty() || s.stats.is_some() => {
-            from_summary(buf, &s, topics, &mut inv)
+        Some(s) if summary_is_whole(&s) => from_summary(buf, &s, topics, &mut inv),
+        Some(_) => {
+            inv.notes.push(
+                "the summary leaves out channels, counts, metadata or attachments the file \
+                 holds: the file was read record by record"
+                    .to_string(),
+            );
+            walk(buf, topics, &mut inv)
         }
-        _ => walk(buf, topics, &mut inv),
+        None => walk(buf, topics, &mut inv),
+    }
+    if data_end < len {
+        inv.losses.push(format!(
+            "bytes {data_end}..{len} are a hole: space the writer reserved and never filled \
+             (the file system holds no data there), not read"
+        ));
     }
     for times in inv.log_times.values_mut() {
         times.sort_unstable();
     }
     inv.channels.sort_by_key(|c| c.id);
     Ok(inv)
+}
+
+/// Whether a summary tells everything an inventory reports: statistics (message counts per
+/// channel, metadata and attachment counts), every counted channel's definition, and an
+/// index for every metadata record and attachment. A writer may leave any of these out;
+/// what it leaves out is read from the data section instead, never printed as zero.
+fn summary_is_whole(s: &Summary) -> bool {
+    let Some(st) = &s.stats else {
+        return false;
+    };
+    st.channel_message_counts
+        .iter()
+        .all(|(id, &n)| n == 0 || s.channels.contains_key(id))
+        && (st.message_count == 0 || !st.channel_message_counts.is_empty())
+        && u64::from(st.metadata_count) == s.metadata_indexes.len() as u64
+        && u64::from(st.attachment_count) == s.attachment_indexes.len() as u64
 }
 
 fn read_header(buf: &[u8], inv: &mut Inventory) {
@@ -225,6 +276,9 @@ fn from_summary(buf: &[u8], s: &Summary, topics: &[String], inv: &mut Inventory)
 struct Walk<'a> {
     channels: BTreeMap<u16, ChannelInfo>,
     schemas: BTreeMap<u16, String>,
+    /// Messages met on ids not defined yet (a definition may come later in a file without a
+    /// summary): their count and log times, given to the channel once it is defined.
+    early: BTreeMap<u16, (u64, Vec<u64>)>,
     /// The last chunk seen, not yet decompressed: (header, compressed data).
     pending: Option<(records::ChunkHeader, Cow<'a, [u8]>)>,
     pending_indexed: bool,
@@ -253,6 +307,32 @@ impl Walk<'_> {
                     .entry(c.topic.clone())
                     .or_default()
                     .push(log_time);
+            }
+        } else {
+            let e = self.early.entry(id).or_default();
+            e.0 += 1;
+            e.1.push(log_time);
+        }
+    }
+
+    /// At the end: messages met before their channel's definition counted on it; those on
+    /// ids the file never defines reported.
+    fn settle(&mut self, topics: &[String], inv: &mut Inventory) {
+        for (id, (n, times)) in std::mem::take(&mut self.early) {
+            match self.channels.get_mut(&id) {
+                Some(c) => {
+                    c.messages += n;
+                    if topics.contains(&c.topic) {
+                        inv.log_times
+                            .entry(c.topic.clone())
+                            .or_default()
+                            .extend(times);
+                    }
+                }
+                None => inv.losses.push(format!(
+                    "{n} message{} on channel {id}, which the file never defines",
+                    if n == 1 { "" } else { "s" }
+                )),
             }
         }
     }
@@ -359,12 +439,23 @@ fn walk(buf: &[u8], topics: &[String], inv: &mut Inventory) {
                 at_end = true;
                 break;
             }
+            Record::Unknown { opcode: 0, .. } => {
+                // Opcode 0 is never written: zeros where a record should start (space a
+                // writer reserved and never filled), not records to step through 9 at a time.
+                inv.losses.push(
+                    "the data section holds zeros where a record should start (space the \
+                     writer reserved and never filled): read stopped there"
+                        .to_string(),
+                );
+                break;
+            }
             _ => {}
         }
     }
     if w.pending.is_some() && !w.pending_indexed {
         w.open_pending(true, topics, inv);
     }
+    w.settle(topics, inv);
     if !at_end && inv.losses.is_empty() {
         inv.losses
             .push("the file ends before its data-end record (cut short)".to_string());

@@ -27,6 +27,7 @@ pub mod effects;
 pub mod error;
 pub mod explain;
 pub mod heat;
+pub mod holes;
 pub mod ingest;
 pub mod inventory;
 pub mod kinematics;

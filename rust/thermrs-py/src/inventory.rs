@@ -53,6 +53,7 @@ fn inventory(py: Python<'_>, path: PathBuf, topics: Option<Vec<String>>) -> PyRe
         "attachments": attachments,
         "log_times": inv.log_times,
         "losses": inv.losses,
+        "notes": inv.notes,
     })
     .to_string())
 }

@@ -6,7 +6,8 @@ use mcap::records::MessageHeader;
 use super::*;
 
 impl<'r> Context<'r> {
-    /// Interpret one message into `part`. Returns false if its channel is unknown.
+    /// Interpret one message into `part`. Returns false if its channel, or its channel's
+    /// schema, is not known (yet).
     pub(super) fn message(
         &self,
         reg: &Registry,
@@ -26,6 +27,16 @@ impl<'r> Context<'r> {
             part.report.other_messages += 1;
             return true;
         };
+        // A schema defined elsewhere (a chunk run beside this one): read again once it is known.
+        let Some(schema) = local
+            .schemas
+            .get(&ch.schema_id)
+            .or_else(|| reg.schemas.get(&ch.schema_id))
+            .map(String::as_str)
+            .or((ch.schema_id == 0).then_some(""))
+        else {
+            return false;
+        };
         let topic = ch.topic.as_str();
         // Counted without a new `String` per message: the key is made once per topic.
         match part.report.messages.get_mut(topic) {
@@ -34,12 +45,6 @@ impl<'r> Context<'r> {
                 part.report.messages.insert(topic.to_string(), 1);
             }
         }
-        let schema = local
-            .schemas
-            .get(&ch.schema_id)
-            .or_else(|| reg.schemas.get(&ch.schema_id))
-            .map(String::as_str)
-            .unwrap_or("");
         if ch.encoding != "cdr" {
             part.report.skip(
                 topic,

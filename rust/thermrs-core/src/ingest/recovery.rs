@@ -66,8 +66,14 @@ pub fn plausible_at(body: &[u8], pos: usize) -> bool {
 }
 
 /// The next offset after `pos` where an intact record starts: the next chunk of the summary's
-/// index if it has one there, else the first plausible record found by scanning.
-pub fn resync(body: &[u8], pos: usize, chunk_starts: &[usize]) -> Option<usize> {
+/// index if it has one there, else the first plausible record found by scanning (`holes`,
+/// ranges of `body` the file system holds no data for, are jumped over unread).
+pub fn resync(
+    body: &[u8],
+    pos: usize,
+    chunk_starts: &[usize],
+    holes: &[(usize, usize)],
+) -> Option<usize> {
     let i = chunk_starts.partition_point(|&s| s <= pos);
     for &s in &chunk_starts[i..] {
         if record_at(body, s).is_some_and(|(o, _, _)| o == op::CHUNK) {
@@ -78,6 +84,10 @@ pub fn resync(body: &[u8], pos: usize, chunk_starts: &[usize]) -> Option<usize> 
     // data-section opcode followed by a length that fits; most fail on the length.
     let mut q = pos + 1;
     while q + 9 <= body.len() {
+        if let Some(&(_, end)) = holes.iter().find(|&&(a, b)| a <= q && q < b) {
+            q = end;
+            continue;
+        }
         if matches!(body[q], 0x02..=0x0F) && plausible_at(body, q) {
             return Some(q);
         }
@@ -153,8 +163,12 @@ pub(super) fn name_losses(
 ) {
     report.losses.sort_by_key(|l| l.offset);
     for loss in &mut report.losses {
-        if let Some(m) = indexed.get(&loss.offset) {
-            loss.channels_lost = m.clone();
+        // A lost chunk's message indexes tell what it held (not for messages lost within a
+        // chunk read otherwise whole, which name their own channels).
+        if loss.kind != "undefined_channel" {
+            if let Some(m) = indexed.get(&loss.offset) {
+                loss.channels_lost = m.clone();
+            }
         }
         for (ch, n) in &loss.channels_lost {
             let topic = reg
@@ -198,11 +212,11 @@ mod tests {
         let good = body.len();
         body.extend(rec(op::DATA_END, &[0, 0, 0, 0]));
         body.extend(rec(op::MESSAGE_INDEX, &[1, 0, 0, 0, 0, 0]));
-        assert_eq!(resync(&body, 0, &[]), Some(good));
+        assert_eq!(resync(&body, 0, &[], &[]), Some(good));
         // An index entry wins over scanning, if a chunk is there; a bad one is ignored.
-        assert_eq!(resync(&body, 0, &[good]), Some(good));
+        assert_eq!(resync(&body, 0, &[good], &[]), Some(good));
         // Nothing after the last record: no resync.
-        assert_eq!(resync(&body, good + 13, &[]), None);
+        assert_eq!(resync(&body, good + 13, &[], &[]), None);
     }
 
     #[test]

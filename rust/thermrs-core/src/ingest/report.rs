@@ -58,6 +58,9 @@ pub struct Report {
     pub crc_failures: u64,
     /// Messages lost per topic, summed over `losses` (where known).
     pub lost_messages: BTreeMap<String, u64>,
+    /// How the file was read where that is worth saying and nothing was lost (a summary
+    /// unreadable, so the data section's own definitions were used; ids defined twice).
+    pub notes: Vec<String>,
     /// BLAKE3 of the whole file (hex), when asked for ([`super::ExtractOptions::content_hash`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub content_hash: Option<String>,

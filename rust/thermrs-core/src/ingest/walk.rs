@@ -10,8 +10,8 @@ use rayon::prelude::*;
 
 use super::chunk::partial_chunk;
 use super::{
-    recovery, ChannelInfo, Context, Loss, MetadataRecord, Part, ProgressFn, Registry, Report,
-    Tables, Work, MAGIC,
+    recovery, ChannelInfo, Context, Extent, Loss, MetadataRecord, Part, ProgressFn, Registry,
+    Report, Tables, Work, MAGIC,
 };
 
 /// Loose messages batched into one unit of work.
@@ -44,6 +44,20 @@ pub(super) struct Walk<'b, 'c> {
     indexed: HashMap<u64, BTreeMap<u16, u64>>,
     /// The file's content hash so far, and the bytes of `buf` it covers.
     hasher: Option<(blake3::Hasher, usize)>,
+    /// Units with messages on channels not defined anywhere before their window ended, and
+    /// where those messages are in them: read again at the end of the file, once every
+    /// definition it holds is known.
+    deferred: Vec<(Work<'b>, Vec<(usize, u16)>)>,
+    /// The file's length (`buf` stops where a trailing hole starts).
+    file_len: u64,
+    /// The holes the file system reports inside `body` (offsets in `body`).
+    holes: Vec<(usize, usize)>,
+    /// Whether the bytes from where the recording ends to the end of the file were reported
+    /// as zeros.
+    zeros_reported: bool,
+    /// Read in file order, one unit at a time, definitions taken in as they come (a file
+    /// that defines an id twice).
+    exact: bool,
 }
 
 impl<'b, 'c> Walk<'b, 'c> {
@@ -51,6 +65,7 @@ impl<'b, 'c> Walk<'b, 'c> {
     /// index of the file's summary where it has one.
     pub(super) fn new(
         buf: &'b [u8],
+        extent: Extent,
         ctx: &'c Context<'c>,
         window_limit: usize,
         progress: &'c ProgressFn<'c>,
@@ -63,7 +78,7 @@ impl<'b, 'c> Walk<'b, 'c> {
             window_limit,
             reg: Registry::default(),
             report: Report {
-                file_bytes: buf.len() as u64,
+                file_bytes: extent.len,
                 ..Report::default()
             },
             tables: Tables::default(),
@@ -77,6 +92,22 @@ impl<'b, 'c> Walk<'b, 'c> {
             last_chunk: None,
             indexed: HashMap::new(),
             hasher: None,
+            deferred: Vec::new(),
+            file_len: extent.len,
+            holes: extent
+                .holes
+                .iter()
+                .filter_map(|&(a, b)| {
+                    let a = usize::try_from(a).ok()?.max(MAGIC.len()) - MAGIC.len();
+                    let b = usize::try_from(b)
+                        .ok()?
+                        .min(buf.len())
+                        .checked_sub(MAGIC.len())?;
+                    (b > a).then_some((a, b))
+                })
+                .collect(),
+            zeros_reported: false,
+            exact: false,
         };
         walk.read_summary();
         walk
@@ -102,13 +133,35 @@ impl<'b, 'c> Walk<'b, 'c> {
         }
     }
 
+    /// Read in file order: one unit at a time, each schema and channel definition taken in
+    /// where it is, so that a message takes the last definition before it (see
+    /// `Registry::conflict`).
+    pub(super) fn exact_order(&mut self) {
+        self.exact = true;
+        self.report.notes.push(
+            "a schema or channel id is defined twice with different contents (MCAP forbids \
+             it): each message was read with the definition before it in the file"
+                .to_string(),
+        );
+    }
+
     fn read_summary(&mut self) {
-        let Ok(Some(summary)) = mcap::read::Summary::read(self.buf) else {
-            return;
+        let summary = match mcap::read::Summary::read(self.buf) {
+            Ok(Some(s)) => s,
+            Ok(None) => return,
+            Err(e) => {
+                if recovery::closed(self.body) {
+                    self.report.notes.push(format!(
+                        "the summary section is unreadable ({e}): channels and schemas were \
+                         taken from the data section"
+                    ));
+                }
+                return;
+            }
         };
         self.report.used_summary = true;
         for (id, s) in &summary.schemas {
-            self.reg.schemas.insert(*id, s.name.clone());
+            self.reg.add_schema(*id, &s.name);
         }
         for (id, c) in &summary.channels {
             self.reg.channels.insert(
@@ -145,6 +198,20 @@ impl<'b, 'c> Walk<'b, 'c> {
             if let Some((opcode, from, end)) = rec.filter(|_| damage.is_none()) {
                 match opcode {
                     op::DATA_END | op::FOOTER => break,
+                    op::SCHEMA | op::CHANNEL
+                        if self.exact && !(self.loose.is_empty() && self.window.is_empty()) =>
+                    {
+                        // What came before is read with the definitions before it.
+                        if !self.loose.is_empty() {
+                            self.window
+                                .push(Work::Loose(std::mem::take(&mut self.loose)));
+                        }
+                        self.window_bytes = 0;
+                        if !self.flush(pos) {
+                            return false;
+                        }
+                        damage = self.record(pos, opcode, from, end);
+                    }
                     _ => damage = self.record(pos, opcode, from, end),
                 }
                 if damage.is_none() {
@@ -169,8 +236,29 @@ impl<'b, 'c> Walk<'b, 'c> {
         if !self.flush(self.body.len()) {
             return false;
         }
+        self.read_deferred();
+        let mapped = self.buf.len() as u64;
+        if self.file_len > mapped && !self.zeros_reported {
+            self.report.losses.push(Loss::new(
+                "hole",
+                mapped,
+                self.file_len - mapped,
+                format!(
+                    "bytes {mapped}..{} are a hole: space the writer reserved and never filled \
+                     (the file system holds no data there), not read",
+                    self.file_len
+                ),
+            ));
+        }
         recovery::name_losses(&mut self.report, &self.indexed, &self.reg);
         self.hash_upto(self.buf.len());
+        if let Some((h, _)) = self.hasher.as_mut() {
+            // A trailing hole counts by its length (its zeros are never read).
+            if self.file_len > mapped {
+                h.update(b"\0thermrs-hole\0");
+                h.update(&(self.file_len - mapped).to_le_bytes());
+            }
+        }
         if let Some((h, _)) = self.hasher.take() {
             self.report.content_hash = Some(h.finalize().to_hex().to_string());
         }
@@ -263,6 +351,27 @@ impl<'b, 'c> Walk<'b, 'c> {
     fn skip_damage(&mut self, pos: usize, whole: bool, closed: bool, why: &str) -> Option<usize> {
         let body = self.body;
         let at = (pos + MAGIC.len()) as u64;
+        if body[pos] == 0 && self.zeros_to_end(pos) {
+            // Zeros to the end: a writer that reserved space and died. The recording ends
+            // here; nothing was lost in the zeros.
+            let holes: u64 = self.holes.iter().map(|(a, b)| (b - a) as u64).sum::<u64>()
+                + (self.file_len - self.buf.len() as u64);
+            let end = self.file_len;
+            let mut detail = format!(
+                "bytes {at}..{end} hold only zeros: space the writer reserved and never filled; \
+                 the recording ends at byte {at}"
+            );
+            if holes > 0 {
+                detail.push_str(&format!(
+                    " ({holes} of those bytes a hole the file system holds no data for, not read)"
+                ));
+            }
+            self.report
+                .losses
+                .push(Loss::new("zeros", at, end - at, detail));
+            self.zeros_reported = true;
+            return None;
+        }
         let is_chunk = body[pos] == op::CHUNK;
         // A file cut inside a chunk: decode what is there, nothing follows.
         let cut_chunk = !closed
@@ -273,7 +382,7 @@ impl<'b, 'c> Walk<'b, 'c> {
         let next = if cut_chunk {
             None
         } else {
-            recovery::resync(body, pos, &self.chunk_starts)
+            recovery::resync(body, pos, &self.chunk_starts, &self.holes)
         };
         if next.is_none() && !closed && !whole {
             // A record running past the end of a file without its closing magic: the cut.
@@ -305,6 +414,35 @@ impl<'b, 'c> Walk<'b, 'c> {
         next
     }
 
+    /// Whether `body` holds only zeros from `pos` to its end: holes are taken as zeros without
+    /// reading them; other bytes are read a block at a time, their pages released behind.
+    fn zeros_to_end(&self, pos: usize) -> bool {
+        const BLOCK: usize = 1 << 20;
+        let mut q = pos;
+        while q < self.body.len() {
+            if let Some(&(_, b)) = self.holes.iter().find(|&&(a, b)| a <= q && q < b) {
+                q = b;
+                continue;
+            }
+            let next_hole = self
+                .holes
+                .iter()
+                .map(|&(a, _)| a)
+                .filter(|&a| a > q)
+                .min()
+                .unwrap_or(self.body.len());
+            let end = (q + BLOCK).min(next_hole);
+            if self.body[q..end].iter().any(|&b| b != 0) {
+                return false;
+            }
+            if let Some(src) = self.ctx.source {
+                src.release(MAGIC.len() + q, MAGIC.len() + end);
+            }
+            q = end;
+        }
+        true
+    }
+
     /// The file is cut inside the record at `pos`: the complete messages of a cut chunk are
     /// decoded, and the cut is reported.
     fn finish_cut(&mut self, pos: usize) {
@@ -332,11 +470,86 @@ impl<'b, 'c> Walk<'b, 'c> {
             .push(Loss::new("truncated", offset, rest.len() as u64, detail));
     }
 
+    /// At the end of the file: the messages deferred for a channel not yet defined, read now
+    /// that every definition the file holds is known; those whose channel the file never
+    /// defines are reported as lost, per unit, with their byte range and channel.
+    fn read_deferred(&mut self) {
+        let deferred = std::mem::take(&mut self.deferred);
+        let ctx = self.ctx;
+        // A schema the file never defines is read as none (the message is then skipped for
+        // its schema, with the reason).
+        let mut reg = self.reg.clone();
+        let missing: Vec<u16> = reg
+            .channels
+            .values()
+            .map(|c| c.schema_id)
+            .filter(|id| *id != 0 && !reg.schemas.contains_key(id))
+            .collect();
+        for id in missing {
+            reg.schemas.insert(id, String::new());
+        }
+        let reg = &reg;
+        let parts: Vec<Part> = deferred
+            .par_iter()
+            .map(|(w, d)| {
+                let at: Vec<usize> = d.iter().map(|x| x.0).collect();
+                ctx.run(reg, w, Some(&at))
+            })
+            .collect();
+        for ((w, _), p) in deferred.iter().zip(parts) {
+            self.frames_done += p.tables.frames.t_ns.len() as u64;
+            self.tables.append(&p.tables);
+            self.report.merge(&p.report);
+            if p.deferred.is_empty() {
+                continue;
+            }
+            let mut by: BTreeMap<u16, u64> = BTreeMap::new();
+            for &(_, ch) in &p.deferred {
+                *by.entry(ch).or_insert(0) += 1;
+            }
+            let ids: Vec<String> = by.keys().map(|c| c.to_string()).collect();
+            let n = p.deferred.len();
+            let (offset, bytes, place) = match w {
+                Work::Chunk { offset, bytes, .. } => (
+                    *offset,
+                    *bytes,
+                    format!("chunk at bytes {offset}..{}", offset + bytes),
+                ),
+                Work::Loose(msgs) => {
+                    // The loose messages' own bytes, from the first deferred to the last.
+                    let span = |i: usize| {
+                        let d = msgs[i].1;
+                        let at = d.as_ptr() as usize - self.buf.as_ptr() as usize;
+                        (at, at + d.len())
+                    };
+                    let from = span(p.deferred[0].0).0 as u64;
+                    let to = span(p.deferred[n - 1].0).1 as u64;
+                    (from, to - from, format!("messages at bytes {from}..{to}"))
+                }
+            };
+            let mut loss = Loss::new(
+                "undefined_channel",
+                offset,
+                bytes,
+                format!(
+                    "{place}: {n} message{} on channel{} {} that the file never defines skipped \
+                     (its other messages kept)",
+                    if n == 1 { "" } else { "s" },
+                    if by.len() == 1 { "" } else { "s" },
+                    ids.join(", ")
+                ),
+            );
+            loss.channels_lost = by;
+            self.report.losses.push(loss);
+        }
+    }
+
     /// The window holds enough to run (its bytes, or its units for the pool); loose messages
     /// gathered so far join it.
     fn window_full(&mut self) -> bool {
         let full = self.window_bytes >= self.window_limit
-            || self.window.len() >= 16 * rayon::current_num_threads().max(1);
+            || self.window.len() >= 16 * rayon::current_num_threads().max(1)
+            || (self.exact && !self.window.is_empty());
         if full {
             if !self.loose.is_empty() {
                 self.window
@@ -359,47 +572,41 @@ impl<'b, 'c> Walk<'b, 'c> {
         // were a tenth of a one-thread extraction's switches, `perf record -e sched:sched_switch`).
         let serial = rayon::current_num_threads() <= 1;
         let parts: Vec<Part> = if serial {
-            self.window.iter().map(|w| ctx.run(reg, w)).collect()
+            self.window.iter().map(|w| ctx.run(reg, w, None)).collect()
         } else {
-            self.window.par_iter().map(|w| ctx.run(reg, w)).collect()
+            self.window
+                .par_iter()
+                .map(|w| ctx.run(reg, w, None))
+                .collect()
         };
-        let mut retry = Vec::new();
-        let mut done: Vec<Option<Part>> = Vec::with_capacity(parts.len());
-        for (i, p) in parts.into_iter().enumerate() {
+        for p in &parts {
             self.reg.merge(&p.registry);
-            if p.retry {
-                retry.push(i);
-                done.push(None);
-            } else {
-                done.push(Some(p));
-            }
         }
+        // Messages on channels defined elsewhere in the window (a chunk run beside the one
+        // defining them) are read again now; those still unknown wait for the end of the file.
         let reg = &self.reg;
         let window = &self.window;
-        let again: Vec<(usize, Part)> = if serial || retry.is_empty() {
-            retry
-                .iter()
-                .map(|&i| (i, ctx.run(reg, &window[i])))
-                .collect()
-        } else {
-            retry
-                .par_iter()
-                .map(|&i| (i, ctx.run(reg, &window[i])))
-                .collect()
+        let rerun = |(i, p): (usize, &Part)| {
+            (!p.deferred.is_empty()).then(|| {
+                let at: Vec<usize> = p.deferred.iter().map(|d| d.0).collect();
+                (i, ctx.run(reg, &window[i], Some(&at)))
+            })
         };
+        let again: Vec<(usize, Part)> = if serial {
+            parts.iter().enumerate().filter_map(rerun).collect()
+        } else {
+            parts.par_iter().enumerate().filter_map(rerun).collect()
+        };
+        let mut done: Vec<Vec<Part>> = parts.into_iter().map(|p| vec![p]).collect();
         for (i, mut p) in again {
-            if p.retry {
-                // Still unknown: count the chunk's messages as skipped rather than loop
-                // (loose messages are counted one by one).
-                if matches!(self.window[i], Work::Chunk { .. }) {
-                    p.report
-                        .skip("?", "message on a channel the file never defines");
-                }
-                p.retry = false;
+            if !p.deferred.is_empty() {
+                self.deferred
+                    .push((self.window[i].clone(), std::mem::take(&mut p.deferred)));
             }
-            done[i] = Some(p);
+            done[i].push(p);
         }
         for p in done.into_iter().flatten() {
+            // Deferred messages are in `self.deferred` (or read by the rerun just added).
             self.frames_done += p.tables.frames.t_ns.len() as u64;
             self.tables.append(&p.tables);
             self.report.merge(&p.report);

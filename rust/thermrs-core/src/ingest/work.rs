@@ -7,10 +7,12 @@ use mcap::records::{op, ChunkHeader, MessageHeader, Record};
 use super::*;
 
 impl Context<'_> {
-    /// Process one unit of work.
-    pub(super) fn run(&self, reg: &Registry, work: &Work<'_>) -> Part {
+    /// Process one unit of work: every message, or with `only` just those at the places
+    /// listed (sorted; a rerun of messages deferred for an unknown channel, whose unit was
+    /// already checked, counted and reported).
+    pub(super) fn run(&self, reg: &Registry, work: &Work<'_>, only: Option<&[usize]>) -> Part {
         match work {
-            Work::Loose(msgs) => self.run_loose(reg, msgs),
+            Work::Loose(msgs) => self.run_loose(reg, msgs, only),
             Work::Chunk {
                 offset,
                 bytes,
@@ -26,29 +28,51 @@ impl Context<'_> {
                     partial: *partial,
                 },
                 data,
+                only,
             ),
         }
     }
 
-    fn run_loose(&self, reg: &Registry, msgs: &[(MessageHeader, &[u8])]) -> Part {
+    fn run_loose(
+        &self,
+        reg: &Registry,
+        msgs: &[(MessageHeader, &[u8])],
+        only: Option<&[usize]>,
+    ) -> Part {
         let mut part = Part::default();
         let local = Registry::default();
-        for (h, d) in msgs {
+        for (i, (h, d)) in msgs.iter().enumerate() {
+            if only.is_some_and(|o| o.binary_search(&i).is_err()) {
+                continue;
+            }
             if !self.message(reg, &local, h, d, &mut part) {
-                // Perhaps defined in a chunk of the same window: run again later.
-                part.retry = true;
-                part.report
-                    .skip("?", format!("message on unknown channel {}", h.channel_id));
+                // Perhaps defined later in the file: read again once it is.
+                part.deferred.push((i, h.channel_id));
             }
         }
         part
     }
 
-    fn run_chunk(&self, reg: &Registry, at: ChunkAt<'_>, data: &[u8]) -> Part {
+    fn run_chunk(
+        &self,
+        reg: &Registry,
+        at: ChunkAt<'_>,
+        data: &[u8],
+        only: Option<&[usize]>,
+    ) -> Part {
         let mut part = Part::default();
-        part.report.chunks = 1;
+        part.report.chunks = u64::from(only.is_none());
         let started = std::time::Instant::now();
-        let route = self.route_for(&at, data);
+        // A rerun reads the chunk in place (or decompressed), untimed.
+        let route = match only {
+            None => self.route_for(&at, data),
+            Some(_) => {
+                if let Some(src) = self.source {
+                    src.populate(data);
+                }
+                None
+            }
+        };
         CHUNK_BUF.with(|cell| {
             INPUT_BUF.with(|icell| {
                 let mut scratch = cell.borrow_mut();
@@ -63,7 +87,7 @@ impl Context<'_> {
                 } else {
                     &scratch
                 };
-                let mut reader = ChunkReader::new(self, reg, &at, &mut part);
+                let mut reader = ChunkReader::new(self, reg, &at, &mut part, only);
                 // Read route: the chunk's records are copied window by window into a buffer
                 // that stays in cache (`walk_read`), not mapped.
                 let read = match (route, self.source) {
@@ -170,6 +194,8 @@ struct ChunkReader<'a, 'r> {
     n: u64,
     /// Records visited.
     visited: usize,
+    /// Read only the messages at these record offsets (a rerun of deferred messages).
+    only: Option<&'a [usize]>,
 }
 
 impl<'a, 'r> ChunkReader<'a, 'r> {
@@ -178,11 +204,15 @@ impl<'a, 'r> ChunkReader<'a, 'r> {
         reg: &'a Registry,
         at: &'a ChunkAt<'a>,
         part: &'a mut Part,
+        only: Option<&'a [usize]>,
     ) -> Self {
         ChunkReader {
             ctx,
             reg,
-            check: ctx.verify_crc && !at.partial && at.header.uncompressed_crc != 0,
+            check: ctx.verify_crc
+                && !at.partial
+                && at.header.uncompressed_crc != 0
+                && only.is_none(),
             at,
             part,
             hasher: crc32fast::Hasher::new(),
@@ -191,16 +221,23 @@ impl<'a, 'r> ChunkReader<'a, 'r> {
             err: None,
             n: 0,
             visited: 0,
+            only,
         }
     }
 
     /// One record at chunk offset `at` (`record`: its bytes with opcode and length). Returns
-    /// false to stop the walk (a bad record, or a channel nobody has defined yet).
+    /// false to stop the walk (a bad record). A message on a channel nobody has defined yet
+    /// is deferred and the walk goes on.
     fn visit(&mut self, at: usize, opcode: u8, body: &[u8], record: &[u8]) -> bool {
         self.visited += 1;
         if self.check {
             self.hasher.update(record);
             self.hashed = at + record.len();
+        }
+        if let Some(only) = self.only {
+            if opcode != op::MESSAGE || only.binary_search(&at).is_err() {
+                return true;
+            }
         }
         match opcode {
             op::SCHEMA | op::CHANNEL => match mcap::read::parse_record(opcode, body) {
@@ -220,9 +257,9 @@ impl<'a, 'r> ChunkReader<'a, 'r> {
                         .ctx
                         .message(self.reg, &self.local, &header, &data, self.part);
                     if !known {
-                        self.part.retry = true;
+                        self.part.deferred.push((at, header.channel_id));
                     }
-                    known
+                    true
                 }
                 Ok(_) => true,
                 Err(e) => {
@@ -238,7 +275,11 @@ impl<'a, 'r> ChunkReader<'a, 'r> {
     /// checked over the whole chunk (`buf`), and what went wrong reported.
     fn finish(self, buf: &[u8], stop: Option<usize>) {
         let (at, part) = (self.at, self.part);
-        if self.check && !part.retry {
+        if self.only.is_some() {
+            // A rerun: the chunk's damage was reported by its first reading.
+            return;
+        }
+        if self.check {
             let mut hasher = self.hasher;
             hasher.update(&buf[self.hashed..]);
             let crc = hasher.finalize();
@@ -257,9 +298,6 @@ impl<'a, 'r> ChunkReader<'a, 'r> {
             }
         }
         part.registry = self.local;
-        if part.retry {
-            return;
-        }
         let n = self.n;
         if let Some(e) = self.err {
             part.report
