@@ -14,7 +14,7 @@ use std::borrow::Cow;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
-use mcap::read::{ChunkReader, LinearReader, Options, Summary};
+use mcap::read::{ChunkReader, LinearReader, Summary};
 use mcap::records::{self, Record};
 
 use crate::error::{Error, Result};
@@ -371,22 +371,43 @@ impl Walk<'_> {
     }
 }
 
+/// The records of `buf` (a whole MCAP file) after its magic, in file order, parsed in place
+/// (a chunk's data is borrowed from the map, never copied or read unless it is opened), or
+/// where the walk must stop and why.
+fn records(buf: &[u8]) -> impl Iterator<Item = std::result::Result<Record<'_>, String>> {
+    let body = &buf[mcap::MAGIC.len()..];
+    let mut pos = 0usize;
+    let mut done = false;
+    std::iter::from_fn(move || {
+        if done || pos >= body.len() {
+            return None;
+        }
+        let at = pos + mcap::MAGIC.len();
+        let Some((opcode, from, end)) = crate::ingest::record_at(body, pos) else {
+            done = true;
+            return Some(Err(format!(
+                "the file is cut short: the record at byte {at} is incomplete"
+            )));
+        };
+        pos = end;
+        match mcap::read::parse_record(opcode, &body[from..end]) {
+            Ok(r) => Some(Ok(r)),
+            Err(e) => {
+                done = true;
+                Some(Err(format!("the record at byte {at} is corrupt: {e}")))
+            }
+        }
+    })
+}
+
 fn walk(buf: &[u8], topics: &[String], inv: &mut Inventory) {
     let mut w = Walk::default();
-    let reader = match LinearReader::new_with_options(buf, Options::IgnoreEndMagic.into()) {
-        Ok(r) => r,
-        Err(e) => {
-            inv.losses.push(format!("unreadable from the start: {e}"));
-            return;
-        }
-    };
     let mut at_end = false;
-    for rec in reader {
+    for rec in records(buf) {
         let rec = match rec {
             Ok(r) => r,
             Err(e) => {
-                inv.losses
-                    .push(format!("the file is cut short or corrupt: {e}"));
+                inv.losses.push(e);
                 break;
             }
         };
