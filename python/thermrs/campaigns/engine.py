@@ -278,7 +278,13 @@ def campaign(
             if on_cluster is not None:
                 on_cluster(dashboard)
             for res in results:
-                _absorb(ds, res, stat, by_hash, result)
+                # A commit is whole and counted, or not made: Ctrl-C waits for it (renames
+                # and one catalog fragment), so that the count it reports is the dataset's.
+                held = hold_interrupts()
+                try:
+                    _absorb(ds, res, stat, by_hash, result)
+                finally:
+                    release_interrupts(held)
                 done += 1
                 if progress is not None:
                     progress(done, total, res["path"])
