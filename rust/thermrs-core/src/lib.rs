@@ -23,6 +23,7 @@
 pub mod cdr;
 pub mod centroid;
 pub mod config;
+pub mod digest;
 pub mod effects;
 pub mod error;
 pub mod explain;

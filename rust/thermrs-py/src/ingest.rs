@@ -154,6 +154,17 @@ fn checksum_chunks(py: Python<'_>, path: PathBuf) -> PyResult<(u64, u64, u32)> {
     Ok((s.chunks, s.bytes, s.last_crc))
 }
 
+/// The content hash that identifies a recording in a campaign (BLAKE3 of its bytes, a
+/// trailing hole counted by its length; the core's `digest` module), as hex.
+#[pyfunction]
+fn content_hash(py: Python<'_>, path: PathBuf) -> PyResult<String> {
+    py.detach(|| {
+        call("hashing a recording", || {
+            thermrs_core::digest::content_hash(&path)
+        })
+    })
+}
+
 /// Names of the frame status codes, in code order.
 #[pyfunction]
 fn status_names() -> Vec<&'static str> {
@@ -165,5 +176,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(status_names, m)?)?;
     m.add_function(wrap_pyfunction!(decompress_chunks, m)?)?;
     m.add_function(wrap_pyfunction!(checksum_chunks, m)?)?;
+    m.add_function(wrap_pyfunction!(content_hash, m)?)?;
     Ok(())
 }

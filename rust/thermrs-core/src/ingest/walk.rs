@@ -252,15 +252,10 @@ impl<'b, 'c> Walk<'b, 'c> {
         }
         recovery::name_losses(&mut self.report, &self.indexed, &self.reg);
         self.hash_upto(self.buf.len());
-        if let Some((h, _)) = self.hasher.as_mut() {
-            // A trailing hole counts by its length (its zeros are never read).
-            if self.file_len > mapped {
-                h.update(b"\0thermrs-hole\0");
-                h.update(&(self.file_len - mapped).to_le_bytes());
-            }
-        }
         if let Some((h, _)) = self.hasher.take() {
-            self.report.content_hash = Some(h.finalize().to_hex().to_string());
+            // A trailing hole counts by its length (its zeros are never read).
+            let hole = self.file_len - self.buf.len() as u64;
+            self.report.content_hash = Some(crate::digest::finish(h, hole));
         }
         true
     }
