@@ -24,7 +24,6 @@ with the same rig and thermrs version is not read at all; one whose bytes hash t
 
 from __future__ import annotations
 
-import asyncio
 import logging
 import os
 import signal
@@ -516,6 +515,8 @@ def close_now(cluster: Any, client: Any = None) -> None:
     client
         A client of that cluster, closed with it.
     """
+
+    import asyncio
 
     async def kill() -> None:
         nannies = list(getattr(cluster, "workers", {}).values())
