@@ -29,7 +29,7 @@ class Source:
     Attributes
     ----------
     path
-        The file (absolute).
+        The file (absolute, unless :func:`expand` was asked for the paths as named).
     size_bytes, mtime_ns
         From ``stat``: with the path, the key under which a previous campaign's hash of the
         file is trusted without reading the file again.
@@ -40,7 +40,9 @@ class Source:
     mtime_ns: int
 
 
-def expand(specs: list[str] | tuple[str, ...] | list[Path]) -> list[Source]:
+def expand(
+    specs: list[str] | tuple[str, ...] | list[Path], *, resolve: bool = True
+) -> list[Source]:
     """The recordings named by ``specs``, each once, in the order first named.
 
     Parameters
@@ -48,6 +50,10 @@ def expand(specs: list[str] | tuple[str, ...] | list[Path]) -> list[Source]:
     specs
         Files, glob patterns (``*``, ``?``, ``[…]``, ``**``) and folders (every ``*.mcap``
         below them, sorted).
+    resolve
+        Give each recording's absolute path (a campaign's key); else its path as named (a
+        file as given, a folder's or pattern's files below it as written). A file named
+        twice is found once either way.
 
     Raises
     ------
@@ -70,8 +76,8 @@ def expand(specs: list[str] | tuple[str, ...] | list[Path]) -> list[Source]:
                 raise InputError(f"recordings {s!r}: the pattern matches no file")
         else:
             raise InputError(f"recording {s}: no such file")
-        for p in found:
-            p = p.resolve()
+        for named in found:
+            p = named.resolve()
             if p in seen:
                 continue
             seen.add(p)
@@ -79,7 +85,7 @@ def expand(specs: list[str] | tuple[str, ...] | list[Path]) -> list[Source]:
                 st = p.stat()
             except OSError as e:
                 raise InputError(f"recording {p}: {e.strerror or e}") from None
-            out.append(Source(p, st.st_size, st.st_mtime_ns))
+            out.append(Source(p if resolve else named, st.st_size, st.st_mtime_ns))
     if not out:
         raise InputError("no recording given")
     return out

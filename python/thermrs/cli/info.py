@@ -1,6 +1,8 @@
-"""``thermrs info REC…``: what a recording holds, from its summary and indexes (no message is
-decoded): topics, message counts, duration, runs (markers or idle gaps), the cameras and ROIs
-the rig maps, losses. Parses and renders; :mod:`thermrs.inventory` computes."""
+"""``thermrs info REC… | 'GLOB' | FOLDER``: what recordings hold, from their summaries and
+indexes (no message is decoded): topics, message counts, duration, runs (markers or idle
+gaps), the cameras and ROIs the rig maps, losses. Recordings are named as for ``thermrs
+extract`` (:func:`thermrs.campaigns.sources.expand`). Parses and renders;
+:mod:`thermrs.inventory` computes."""
 
 from __future__ import annotations
 
@@ -12,7 +14,18 @@ import click
 
 from thermrs.cli.common import EXIT_DATA_LOSS, input_file, out, table
 
-__all__ = ["info"]
+__all__ = ["VISIT_RULE", "info"]
+
+#: How ``info`` counts visits, and why it can count otherwise than ``thermrs extract``: it
+#: decodes no message, so it sees no joint state and no header stamp.
+VISIT_RULE = (
+    "a visit is a burst of one camera topic's frames, by log time (no message decoded); "
+    "`thermrs extract` counts a visit only where the joints are at the camera's pose, so "
+    "a camera's frames taken at another pose make more visits here, and may split runs "
+    "that extract keeps whole"
+)
+#: Without a rig, which topics are cameras.
+NO_RIG_RULE = "without --rig every sensor_msgs/msg/Image topic counts as a camera, thermal too"
 
 
 def _span(ns: float) -> str:
@@ -21,7 +34,7 @@ def _span(ns: float) -> str:
 
 
 @click.command()
-@click.argument("recordings", nargs=-1, required=True, type=input_file)
+@click.argument("recordings", nargs=-1, required=True)
 @click.option(
     "--rig",
     "rig_path",
@@ -30,18 +43,25 @@ def _span(ns: float) -> str:
     help="Rig file: name each topic's role and list the cameras and ROIs it maps.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of tables.")
-def info(recordings: tuple[Path, ...], rig_path: Path | None, as_json: bool) -> None:
+def info(recordings: tuple[str, ...], rig_path: Path | None, as_json: bool) -> None:
     """What recordings hold, in about a second whatever their size: topics and message
     counts, duration, runs (run markers, else idle gaps), the cameras and ROIs the rig maps,
     and what could not be read. Read from the MCAP summary and indexes; no frame is decoded.
+    Recordings: paths, globs and folders (every *.mcap below them), as for extract.
+
+    Visits are bursts of each camera topic's frames by log time: without joint states (not
+    decoded) a camera's frame at another pose counts too, so visits and runs can differ from
+    extract's; without --rig every Image topic counts as a camera.
 
     Exits 3 if part of a recording cannot be read (cut short, an index past its end).
     """
+    from thermrs.campaigns.sources import expand
     from thermrs.inventory import inventory
     from thermrs.rig import load_rig
 
     rig = load_rig(rig_path) if rig_path is not None else None
-    invs = [inventory(p, rig=rig) for p in recordings]
+    paths = [s.path for s in expand(recordings, resolve=False)]
+    invs = [inventory(p, rig=rig) for p in paths]
     if as_json:
         click.echo(json.dumps([i.to_json() for i in invs], indent=2))
     for inv in invs if not as_json else []:
@@ -91,6 +111,9 @@ def info(recordings: tuple[Path, ...], rig_path: Path | None, as_json: bool) -> 
             out.print(t)
         for loss in inv.losses:
             out.print(f"[bold]loss[/bold]: {loss}")
+    if invs and not as_json:
+        rule = VISIT_RULE + ("" if rig is not None else f"; {NO_RIG_RULE}")
+        out.print(f"[dim]Runs: {rule}.[/dim]", soft_wrap=True)
     lost = [i for i in invs if i.losses]
     for i in lost:
         click.echo(f"thermrs: data loss: {i.path}: {'; '.join(i.losses)}", err=True)
