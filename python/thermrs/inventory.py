@@ -163,9 +163,23 @@ def _visits(log_times: dict[str, list[int]], topic_camera: dict[str, str]) -> pl
         rows["camera"] += [topic_camera.get(topic, topic)] * len(s)
         rows["t_start_ns"] += s.tolist()
         rows["t_end_ns"] += e.tolist()
-    return pl.DataFrame(
+    bursts = pl.DataFrame(
         rows, schema={"camera": pl.String, "t_start_ns": pl.Int64, "t_end_ns": pl.Int64}
     )
+    # A camera's frames taken while another camera's burst is under way belong to that visit
+    # (every camera may record at every pose): a burst inside another camera's is not a visit.
+    start = bursts["t_start_ns"].to_numpy()
+    end = bursts["t_end_ns"].to_numpy()
+    cam = bursts["camera"].to_numpy()
+    inside = np.zeros(bursts.height, dtype=bool)
+    order = np.argsort(start, kind="stable")
+    for k, i in enumerate(order):
+        for j in order[k + 1 :]:
+            if start[j] > end[i]:
+                break
+            if cam[j] != cam[i] and end[j] <= end[i] and (start[j], end[j]) != (start[i], end[i]):
+                inside[j] = True
+    return bursts.filter(~pl.Series(inside)).sort("t_start_ns")
 
 
 def inventory(

@@ -7,10 +7,10 @@ Written by :func:`tests.support.mcap_conformance.write_layout` from a simulated 
 the paper rig. The requirement (issue: "0 frames lost on any valid file") is that thermrs'
 extraction keeps every intact frame: the frames table equals that of the same messages in a
 clean layout, every message is counted on its topic, a message on a channel never declared is
-reported skipped (naming the channel id) and nothing else is. A message belongs to the channel
-declared under its id most recently before it in the file, as the ``mcap`` package's streamed
-reader reads them; a channel declared only after its messages is still that channel (the file
-names no other).
+a loss naming the channel id (it cannot be read: its topic is unknown) and nothing else is.
+A message belongs to the channel declared under its id most recently before it in the file, as
+the ``mcap`` package's streamed reader reads them; a channel declared only after its messages is
+still that channel (the file names no other).
 
 Each layout also states what the ``mcap`` package's own readers yield (its streamed reader,
 ``NonSeekingReader``; its indexed reader, ``make_reader(f, validate_crcs=False)`` on a file),

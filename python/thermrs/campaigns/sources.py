@@ -18,9 +18,6 @@ from thermrs.errors import InputError
 
 __all__ = ["Source", "content_hash", "expand", "recording_id"]
 
-#: Bytes read per hashing step (the file is streamed, never held whole).
-_BLOCK = 8 << 20
-
 
 @dataclass(frozen=True)
 class Source:
@@ -92,25 +89,19 @@ def expand(
 
 
 def content_hash(path: str | os.PathLike[str]) -> str:
-    """BLAKE3 hash (hex) of the file's bytes, streamed in blocks on the calling thread.
+    """The hash (hex) that identifies a recording: BLAKE3 of the file's bytes, a trailing hole
+    (space a crashed writer reserved) counted by its length rather than read; the same as an
+    extraction's own pass gives (``extract(..., content_hash=True)``). Read in the core with
+    the GIL released.
 
     Raises
     ------
     InputError
         The file cannot be read.
     """
-    from blake3 import blake3
+    from thermrs import _native
 
-    h = blake3()
-    buf = bytearray(_BLOCK)
-    view = memoryview(buf)
-    try:
-        with open(path, "rb", buffering=0) as fh:
-            while n := fh.readinto(view):
-                h.update(view[:n])
-    except OSError as e:
-        raise InputError(f"recording {path}: {e.strerror or e}") from None
-    return h.hexdigest()
+    return _native.content_hash(os.fspath(path))
 
 
 def recording_id(path: str | os.PathLike[str], digest: str) -> str:

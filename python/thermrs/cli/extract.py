@@ -101,6 +101,10 @@ def extract(
     rep = ex.report
     if not quiet:
         _say_extracted(err, ex, elapsed, paths)
+    # How the file was read where that is worth saying (nothing lost; not with --quiet).
+    if not quiet:
+        for note in rep.notes:
+            click.echo(f"thermrs: note: {recording}: {note}", err=True)
     # The loss is reported even with --quiet: exit 3 never goes unexplained.
     for loss in rep.losses:
         click.echo(f"thermrs: data loss: {recording}: {loss['detail']}", err=True)

@@ -109,6 +109,8 @@ def info(recordings: tuple[str, ...], rig_path: Path | None, as_json: bool) -> N
             for row in inv.rois.iter_rows(named=True):
                 t.add_row(row["roi"], ", ".join(map(str, row["rect_px"])), row["drives"] or "—")
             out.print(t)
+        for note in inv.notes:
+            out.print(f"note: {note}", markup=False, soft_wrap=True)
         for loss in inv.losses:
             out.print(f"[bold]loss[/bold]: {loss}")
     if invs and not as_json:

@@ -122,7 +122,9 @@ pub fn inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
         None
     };
     match summary {
-        Some(s) if summary_is_whole(&s) => from_summary(buf, &s, topics, &mut inv),
+        Some(s) if summary_is_whole(&s) && indexes_times(&s, topics) => {
+            from_summary(buf, &s, topics, &mut inv)
+        }
         Some(_) => {
             inv.notes.push(
                 "the summary leaves out channels, counts, metadata or attachments the file \
@@ -160,6 +162,22 @@ fn summary_is_whole(s: &Summary) -> bool {
         && (st.message_count == 0 || !st.channel_message_counts.is_empty())
         && u64::from(st.metadata_count) == s.metadata_indexes.len() as u64
         && u64::from(st.attachment_count) == s.attachment_indexes.len() as u64
+}
+
+/// Whether the summary's chunk index points at a message index for every channel of the
+/// `topics` whose log times are wanted (an unchunked file, or one written without message
+/// indexes, has none: its times are read from the data section).
+fn indexes_times(s: &Summary, topics: &[String]) -> bool {
+    let counted = s.stats.as_ref().map(|st| &st.channel_message_counts);
+    s.channels
+        .values()
+        .filter(|c| topics.contains(&c.topic))
+        .filter(|c| counted.is_none_or(|n| n.get(&c.id).copied().unwrap_or(0) > 0))
+        .all(|c| {
+            s.chunk_indexes
+                .iter()
+                .any(|ci| ci.message_index_offsets.contains_key(&c.id))
+        })
 }
 
 fn read_header(buf: &[u8], inv: &mut Inventory) {

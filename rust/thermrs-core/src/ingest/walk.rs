@@ -309,12 +309,33 @@ impl<'b, 'c> Walk<'b, 'c> {
                 }) => {
                     self.last_chunk = Some(at);
                     self.window_bytes += data.len();
+                    // A writer that died while writing a chunk into space it had reserved
+                    // leaves the chunk's length right and its data ending in zeros, with
+                    // zeros after it: decoded as a cut chunk (every complete message kept).
+                    let cut = !recovery::closed(self.body)
+                        && data.len() >= 16
+                        && data[data.len() - 16..].iter().all(|&b| b == 0)
+                        && self.body.get(end).is_none_or(|&b| b == 0);
+                    if cut {
+                        let zeros = data.iter().rev().take_while(|&&b| b == 0).count() as u64;
+                        let to = (end + MAGIC.len()) as u64;
+                        self.report.losses.push(Loss::new(
+                            "truncated",
+                            to - zeros,
+                            zeros,
+                            format!(
+                                "the chunk at bytes {at}..{to} ends in zeros where its data \
+                                 should be (its writer died while writing it into reserved \
+                                 space): complete messages in the chunk are recovered"
+                            ),
+                        ));
+                    }
                     self.window.push(Work::Chunk {
                         offset: at,
                         bytes: (end - pos) as u64,
                         header,
                         data,
-                        partial: false,
+                        partial: cut,
                     });
                 }
                 Ok(_) => {}
