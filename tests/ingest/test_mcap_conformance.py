@@ -252,8 +252,10 @@ def check_same_extraction(path: Path, sample: Sample, rig: thermrs.Rig) -> None:
         "skipped": ex.report.skipped,
         "losses": ex.report.losses,
         "lost": ex.report.lost_messages,
+        "notes": ex.report.notes,
     }
     want = {
+        "notes": [],
         "frames per camera": sample.ccd_messages,
         "messages": sample.original.report.messages,
         "skipped": {},

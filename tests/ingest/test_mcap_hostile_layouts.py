@@ -469,3 +469,26 @@ def test_inventory_counts_every_message_on_its_topic(
         else [],
     }
     assert got == want
+
+
+@pytest.mark.parametrize(
+    ("name", "says"),
+    [
+        ("summary-start-past-end", "summary section is unreadable"),
+        ("summary-crc-wrong", "CRC-32"),
+        ("schema-type-changed-chunked-summary", "defined twice"),
+        ("channel-ids-swapped-unchunked", "defined twice"),
+    ],
+)
+def test_a_damaged_summary_or_a_redefined_id_is_said(
+    tmp_path: Path, world: World, name: str, says: str
+) -> None:
+    """Nothing is lost, so the exit stays 0, but the user is told how the file was read."""
+    path = tmp_path / f"{name}.mcap"
+    path.write_bytes(world.layout(name)[1])
+    ex = thermrs.extract(path, world.rig)
+    assert not ex.report.data_loss
+    assert any(says in n for n in ex.report.notes), ex.report.notes
+    if name.startswith("summary"):
+        inv = thermrs.inventory.inventory(path, rig=world.rig)
+        assert any(says in n for n in inv.notes), inv.notes

@@ -54,7 +54,7 @@ mod work;
 use chunk::{decompress, walk, walk_read, CHUNK_BUF, INPUT_BUF};
 pub use floor::{checksum_chunks, ChecksumScan};
 pub use png::decode_png;
-pub use recovery::{record_at, MAX_CHUNK_BYTES};
+pub use recovery::{record_at, summary_crc, MAX_CHUNK_BYTES};
 pub use report::{Loss, MetadataRecord, Report};
 pub use source::Source;
 use source::{Route, RouteChooser};

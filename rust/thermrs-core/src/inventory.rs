@@ -108,9 +108,18 @@ pub fn inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
         ..Inventory::default()
     };
     read_header(buf, &mut inv);
-    let summary = if buf.ends_with(mcap::MAGIC) {
+    let bad_crc = crate::ingest::summary_crc(buf).filter(|(a, b)| a != b);
+    if let Some((stored, got)) = bad_crc {
+        inv.notes.push(format!(
+            "the summary section's CRC-32 is {got:08x}, the footer says {stored:08x}: the \
+             summary was not used; the file was read record by record"
+        ));
+    }
+    let summary = if buf.ends_with(mcap::MAGIC) && bad_crc.is_none() {
         match Summary::read(buf) {
             Ok(s) => s,
+            // Channels repeated without their schemas: valid, read from the data section.
+            Err(mcap::McapError::UnknownSchema(..)) => None,
             Err(e) => {
                 inv.notes.push(format!(
                     "the summary section is unreadable ({e}): the file was read record by record"

@@ -96,6 +96,25 @@ pub fn resync(
     None
 }
 
+/// The summary CRC-32 a complete file's footer stores, and the one its bytes give, where the
+/// writer stored one (the footer's `summary_crc` covers the summary section up to the footer's
+/// own CRC field; 0 means none was stored). `buf` is the whole file.
+pub fn summary_crc(buf: &[u8]) -> Option<(u32, u32)> {
+    const FOOTER: usize = 1 + 8 + 8 + 8 + 4;
+    let magic = super::MAGIC.len();
+    let at = buf.len().checked_sub(magic + FOOTER)?;
+    let f = &buf[at..buf.len() - magic];
+    if f[0] != op::FOOTER || !buf.ends_with(super::MAGIC) {
+        return None;
+    }
+    let start = usize::try_from(u64::from_le_bytes(f[9..17].try_into().ok()?)).ok()?;
+    let stored = u32::from_le_bytes(f[25..29].try_into().ok()?);
+    if stored == 0 || start == 0 || start > at {
+        return None;
+    }
+    Some((stored, crc32fast::hash(&buf[start..at + 25])))
+}
+
 /// Whether the file ends with the closing magic (a complete file, not one cut short).
 pub fn closed(body: &[u8]) -> bool {
     body.len() >= super::MAGIC.len() && body.ends_with(super::MAGIC)

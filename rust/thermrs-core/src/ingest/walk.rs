@@ -146,9 +146,19 @@ impl<'b, 'c> Walk<'b, 'c> {
     }
 
     fn read_summary(&mut self) {
+        if let Some((stored, got)) = recovery::summary_crc(self.buf).filter(|(a, b)| a != b) {
+            self.report.notes.push(format!(
+                "the summary section's CRC-32 is {got:08x}, the footer says {stored:08x}: the \
+                 summary was not used; channels and schemas were taken from the data section"
+            ));
+            return;
+        }
         let summary = match mcap::read::Summary::read(self.buf) {
             Ok(Some(s)) => s,
             Ok(None) => return,
+            // A summary that repeats channels but not their schemas is valid MCAP the crate
+            // will not assemble: the data section has what it lacks; nothing to say.
+            Err(mcap::McapError::UnknownSchema(..)) => return,
             Err(e) => {
                 if recovery::closed(self.body) {
                     self.report.notes.push(format!(
