@@ -434,10 +434,14 @@ def test_end_errors_inside_the_noise_and_undetermined_heating_curves_are_said_so
     assert len(rows) == len(table)
     quiet = 0
     for row, ln in zip(table, rows, strict=True):
-        inside = abs(row["measured_um"]) <= 2 * math.sqrt(2) * row["noise_um"]
+        pair = 2 * math.sqrt(2) * row["noise_um"]
+        inside = abs(row["measured_um"]) <= pair
         quiet += inside
-        # Inside the noise: compared in µm, no % of a drift that is not there.
-        assert ("within noise" in ln) == inside, ln
+        # A drift inside the noise: compared in µm, no % of a drift that is not there; "within
+        # noise" only where the prediction's error is inside it too.
+        error_inside = abs(row["predicted_um"] - row["measured_um"]) <= pair
+        assert ("within noise" in ln) == (inside and error_inside), ln
+        assert ("too small for a %" in ln) == (inside and not error_inside), ln
         if inside:
             assert f"{row['error_pct']:+.2f}" not in ln
     assert quiet >= 1  # the control's slow 40 minutes move the spot less than its noise

@@ -1,8 +1,8 @@
 """Numbers as a metrologist may read them: a figure shown only where it means something.
 
-- :func:`end_error`: a % error of an end-of-run drift, or "within noise" where the measured
-  drift is not distinguishable from zero (a % of a drift inside the noise is arbitrary), with
-  the difference in µm beside the noise.
+- :func:`end_error`: a % error of an end-of-run drift; where the measured drift is not
+  distinguishable from zero (a % of it would be arbitrary), the error in µm, said "within
+  noise" only where the prediction's error itself is inside the noise.
 - :func:`tau_determined`: whether a fitted heating curve's time constant is determined (its
   standard error below half of it); an undetermined one is not a heating curve to draw.
 - :func:`gap_closed`: the share of the gap above the noise floor an effect closed, capped at
@@ -70,8 +70,11 @@ def within_noise(measured_um: float, noise_um: float) -> bool:
 def end_error(
     predicted_um: float, measured_um: float, noise_um: float, *, suffix: str = " %"
 ) -> str:
-    """``+12.34 %``, or ``within noise (Δ +1.20 µm, noise 2.00 µm)`` where the measured drift
-    is inside the noise; ``suffix`` follows the percentage (a column headed "%" takes "").
+    """``+12.34 %``; where the measured drift is inside the noise (a % of it would be
+    arbitrary), the error in µm: ``within noise (Δ +1.20 µm, noise 2.00 µm)`` where the
+    prediction's error itself is inside the noise of a difference of two visits, else
+    ``Δ +6.10 µm, 2.2× the visit-pair noise (drift too small for a %)``. ``suffix`` follows
+    the percentage (a column headed "%" takes "").
 
     Examples
     --------
@@ -79,9 +82,16 @@ def end_error(
     '+25.00 %'
     >>> end_error(2.56, -0.67, 2.0)
     'within noise (Δ +3.23 µm, noise 2.00 µm)'
+    >>> end_error(7.0, 0.9, 1.0)
+    'Δ +6.10 µm, 4.3× the visit-pair noise (drift too small for a %)'
     """
     if within_noise(measured_um, noise_um) or measured_um == 0:
-        return f"within noise (Δ {predicted_um - measured_um:+.2f} µm, noise {noise_um:.2f} µm)"
+        diff = predicted_um - measured_um
+        if within_noise(diff, noise_um):
+            return f"within noise (Δ {diff:+.2f} µm, noise {noise_um:.2f} µm)"
+        pair = math.sqrt(2.0) * noise_um
+        times = f", {abs(diff) / pair:.1f}× the visit-pair noise" if pair > 0 else ""
+        return f"Δ {diff:+.2f} µm{times} (drift too small for a %)"
     return f"{(predicted_um - measured_um) / measured_um * 100:+.2f}{suffix}"
 
 

@@ -150,7 +150,7 @@ def _table7(d: ReportData) -> Table | Missing:
             "axis",
             "predicted (µm)",
             "measured (µm)",
-            "error (% or µm within noise)",
+            "error (% or µm where the drift is within noise)",
             "rms (µm)",
             "noise (µm)",
         ],
