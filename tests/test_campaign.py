@@ -249,7 +249,9 @@ def test_the_cluster_thermrs_starts_splits_by_its_workers(
 
     def spy_cluster(workers: int, **kwargs: Any) -> Any:
         cluster = real_cluster(workers, **kwargs)
-        seen["workers"] = len(cluster.workers)
+        # The workers the scheduler has (what `wait_for_workers` waited for); the cluster's
+        # own `workers` dict is filled a moment later on its loop.
+        seen["workers"] = len(cluster.scheduler_info["workers"])
         return cluster
 
     monkeypatch.setattr(engine, "split", spy_split)
