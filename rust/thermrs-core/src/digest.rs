@@ -31,11 +31,7 @@ pub fn content_hash(path: &Path) -> Result<String> {
     };
     let file = std::fs::File::open(path).map_err(io)?;
     let len = file.metadata().map_err(io)?.len();
-    let holes = crate::holes::holes(&crate::holes::data_ranges(&file, len), len);
-    let data_end = match holes.last() {
-        Some(&(start, end)) if end == len => start,
-        _ => len,
-    };
+    let (_, data_end) = crate::holes::layout(&file, len);
     let mut h = blake3::Hasher::new();
     let mut buf = vec![0u8; 8 << 20];
     let mut at = 0u64;

@@ -13,6 +13,17 @@ pub fn data_ranges(file: &File, len: u64) -> Vec<(u64, u64)> {
     imp::data_ranges(file, len).unwrap_or_else(|| vec![(0, len)])
 }
 
+/// The holes of `file` (`len` bytes), and where its trailing hole starts (`len` if it has
+/// none): what a reader maps and reads is the file up to there.
+pub fn layout(file: &File, len: u64) -> (Vec<(u64, u64)>, u64) {
+    let holes = holes(&data_ranges(file, len), len);
+    let data_end = match holes.last() {
+        Some(&(start, end)) if end == len => start,
+        _ => len,
+    };
+    (holes, data_end)
+}
+
 /// The holes of a file of `len` bytes whose data ranges are `data`: what lies between them.
 pub fn holes(data: &[(u64, u64)], len: u64) -> Vec<(u64, u64)> {
     let mut out = Vec::new();

@@ -281,11 +281,8 @@ fn extract_by(
     }
     // A hole at the end (space a crashed writer pre-allocated and never filled) is neither
     // mapped nor read: it holds no record, only zeros, and is reported as what it is.
-    let holes = crate::holes::holes(&crate::holes::data_ranges(&file, len), len);
-    let data_end = match holes.last() {
-        Some(&(start, end)) if end == len => start.max(MAGIC.len() as u64),
-        _ => len,
-    };
+    let (holes, data_end) = crate::holes::layout(&file, len);
+    let data_end = data_end.max(MAGIC.len() as u64);
     // SAFETY: the map is read-only; a file truncated by another process while mapped would
     // fault, which no safe API can prevent; recordings are not written while being read.
     let mmap = usize::try_from(data_end)

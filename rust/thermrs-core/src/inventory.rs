@@ -83,11 +83,8 @@ pub fn inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
     let file = std::fs::File::open(path).map_err(io)?;
     let len = file.metadata().map_err(io)?.len();
     // A hole at the end (space a crashed writer reserved) is not mapped: it holds no record.
-    let holes = crate::holes::holes(&crate::holes::data_ranges(&file, len), len);
-    let data_end = match holes.last() {
-        Some(&(start, end)) if end == len => start.max(8.min(len)),
-        _ => len,
-    };
+    let (_, data_end) = crate::holes::layout(&file, len);
+    let data_end = data_end.max(8.min(len));
     let n = usize::try_from(data_end).map_err(|_| {
         io(std::io::Error::other(
             "the file is larger than the address space",
