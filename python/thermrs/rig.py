@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -176,6 +177,9 @@ class Rig:
         self.alpha_per_k: float = exp["alpha_per_k"]
         self.reference_c: float = exp["reference_c"]
         self.lengths: list[LengthMap] = [LengthMap(**m) for m in exp["length"]]
+        #: ``[tolerances]``: standard uncertainties (1 σ) of the rig and its instruments
+        #: (SPEC §3), defaults filled in.
+        self.tolerances: dict[str, float] = {k: float(v) for k, v in d["tolerances"].items()}
 
     # --- construction -----------------------------------------------------------------------
     @classmethod
@@ -195,6 +199,11 @@ class Rig:
     def from_toml(cls, text: str, *, source_name: str = "<string>") -> Rig:
         """Parse and validate rig TOML text."""
         return cls(_native.Rig.from_toml(text, source_name), source_name)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, source_name: str = "<dict>") -> Rig:
+        """A rig from plain data (the keys of :meth:`to_dict`), validated as a file is."""
+        return cls(_native.Rig.from_json(json.dumps(data), source_name), source_name)
 
     # --- queries ----------------------------------------------------------------------------
     def camera(self, name: str) -> Camera:

@@ -24,6 +24,7 @@ with the same rig and thermrs version is not read at all; one whose bytes hash t
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import signal
@@ -129,7 +130,8 @@ class CampaignInterrupted(KeyboardInterrupt):
 
 def rig_identity(rig: Rig | str | os.PathLike[str] | None) -> tuple[Rig, str, str]:
     """The rig, its file's text (what workers load) and its hash (BLAKE3 of the validated
-    rig as JSON, so that two files of the same rig hash alike)."""
+    rig as JSON, so that two files of the same rig hash alike; its ``[tolerances]``, which
+    only the diagnoser's null uses, left out)."""
     from blake3 import blake3
 
     from thermrs import _native
@@ -139,7 +141,9 @@ def rig_identity(rig: Rig | str | os.PathLike[str] | None) -> tuple[Rig, str, st
     text = path.read_text(encoding="utf-8") if path.is_file() else None
     if text is None:
         raise InputError(f"rig {r.source}: a campaign needs a rig read from a file")
-    digest = blake3(_native.Rig.from_toml(text, r.source).to_json().encode()).hexdigest()
+    as_data = json.loads(_native.Rig.from_toml(text, r.source).to_json())
+    as_data.pop("tolerances", None)
+    digest = blake3(json.dumps(as_data, separators=(",", ":")).encode()).hexdigest()
     return r, text, digest
 
 

@@ -56,6 +56,7 @@ from thermrs.diagnose.null import Batch
 from thermrs.diagnose.resample import cycle_units
 from thermrs.diagnose.result import Diagnosis, assemble
 from thermrs.diagnose.selection import FamilyGrid, Step, build_grids, forward_selection
+from thermrs.diagnose.tolerances import nuisance_signatures
 from thermrs.diagnose.verdict import decide, format_params
 from thermrs.effects import Effect, Family
 from thermrs.rig import Rig
@@ -174,6 +175,9 @@ def _baseline(
     holdout_runs = set(vs.run.tolist()) - set(names_t)
     floor = noise_floor(vs, base.residual, holdout_runs, rig.mapped_temperatures)
     design.min_tau_min = floor.tau_c_max_s / 60.0
+    design.nuisance, design.nuisance_names = nuisance_signatures(
+        vs, rig, base.alpha, floor_um=floor.holdout_um
+    )
     return _Base(
         tables=tables,
         vs=vs,

@@ -91,6 +91,10 @@ class Design:
         #: Shortest time constant (min) a family may take: faster than the floor's allowed
         #: noise correlation time, an effect cannot be told from noise (set by the floor step).
         self.min_tau_min = 0.0
+        #: Signatures (2n × p) of the rig's tolerances, drawn in every null replicate
+        #: (:mod:`.tolerances`; set by the floor step), and their names.
+        self.nuisance: FloatArray = np.zeros((2 * n, 0))
+        self.nuisance_names: list[str] = []
         base = self.fit(None, {}, label="nominal")
         # Weights: inverse residual variance per camera and axis, from the nominal training fit.
         for ch in np.unique(self.channel):

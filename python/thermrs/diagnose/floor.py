@@ -10,7 +10,8 @@ Centroid
 Visit repeatability
     The visit-to-visit scatter at lags short against the thermal time scales, from a robust
     (Cressie–Hawkins) variogram of each (run, camera, axis) residual series over lags of up to
-    three allowed correlation times: γ(h) = σ_w² + σ_a²·(1 − e^(−h/τ_c)) + c·h², white noise,
+    the shortest thermal time constant (ten allowed correlation times, at most a third of the
+    series): γ(h) = σ_w² + σ_a²·(1 − e^(−h/τ_c)) + c·h², white noise,
     a pose error correlated over τ_c, and a smooth structure that grows with the lag
     (non-negative least squares, τ_c profiled on a grid). The floor is √(σ_w² + σ_a²).
 Correlated pose errors
@@ -196,7 +197,10 @@ def _series_noise(
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     if dt <= 0:
         return None
-    k_max = int(np.clip(np.ceil(3.0 * tau_c_max_s / dt), 4, len(r) // 3))
+    # Lags up to the shortest thermal time constant (SCALE_SEPARATION allowed correlation
+    # times): past the noise's own lags the smooth term is pinned by where the noise has
+    # levelled off, so that it cannot absorb a correlated part near its allowed limit.
+    k_max = int(np.clip(np.ceil(SCALE_SEPARATION * tau_c_max_s / dt), 4, len(r) // 3))
     lags = np.arange(1, k_max + 1)
     gam = _variogram(r, t, lags)
     h = lags * dt

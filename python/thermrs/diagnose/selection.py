@@ -157,7 +157,11 @@ def _world(
     obs = batch.fit(_stack(model), y, keep=True)
     if obs is None or obs.fitted is None:
         raise np.linalg.LinAlgError("the model cannot be fitted")
-    ys = np.column_stack([y, obs.fitted + draw_noise(design, floor, draws, rng)])
+    sim = obs.fitted + draw_noise(design, floor, draws, rng)
+    if design.nuisance.shape[1]:
+        # The user's world: a rig within its stated tolerances, not the file's exact one.
+        sim = sim + design.nuisance @ rng.standard_normal((design.nuisance.shape[1], draws))
+    ys = np.column_stack([y, sim])
     cur = batch.fit(_stack(model), ys)
     assert cur is not None
     return ys, cur

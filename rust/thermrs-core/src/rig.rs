@@ -35,6 +35,56 @@ pub struct Rig {
     #[serde(default)]
     pub ambient: Option<Ambient>,
     pub expansion: Expansion,
+    #[serde(default)]
+    pub tolerances: Tolerances,
+}
+
+/// `[tolerances]`: how well the rig and its instruments are known, as standard uncertainties
+/// (1 σ). A real rig is never exactly its file; the diagnoser's null world draws these, so
+/// that what they alone leave over the nominal model is never named as an effect.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Tolerances {
+    /// Every DH length (`a_mm`, `d_mm`).
+    pub length_mm: f64,
+    /// Every DH twist and joint zero.
+    pub angle_deg: f64,
+    /// Each chip's centre, along each base axis.
+    pub chip_mm: f64,
+    /// Each chip's orientation, about each of its axes.
+    pub chip_deg: f64,
+    /// The laser's origin in the flange frame, along each axis.
+    pub laser_mm: f64,
+    /// The laser's direction, about each of two axes across it.
+    pub laser_deg: f64,
+    /// The IR camera's gain on the rise above the room, common to every ROI (relative).
+    pub ir_scale: f64,
+    /// Each ROI's own gain error on the rise above the room (relative).
+    pub ir_gain: f64,
+    /// Each ROI's offset drifting over a run (kelvin from the run's start to its end).
+    pub ir_drift_k: f64,
+    /// The IR camera's clock against the CCD cameras', per run (seconds).
+    pub ir_clock_s: f64,
+}
+
+impl Default for Tolerances {
+    /// An ordinary rig: geometry measured to a few tenths of a millimetre and a few
+    /// hundredths of a degree, an IR camera calibrated to a few per cent, clocks within
+    /// tens of seconds.
+    fn default() -> Tolerances {
+        Tolerances {
+            length_mm: 0.2,
+            angle_deg: 0.02,
+            chip_mm: 0.3,
+            chip_deg: 0.05,
+            laser_mm: 0.2,
+            laser_deg: 0.05,
+            ir_scale: 0.03,
+            ir_gain: 0.01,
+            ir_drift_k: 0.05,
+            ir_clock_s: 30.0,
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -222,7 +272,54 @@ impl Rig {
         topics.insert(self.robot.joint_states_topic.as_str());
         self.validate_cameras(&pose_names, &mut topics)?;
         let temp_names = self.validate_thermal_and_ambient(&mut topics)?;
-        self.validate_expansion(&temp_names)
+        self.validate_expansion(&temp_names)?;
+        self.validate_tolerances()
+    }
+
+    /// `[tolerances]`: every value finite and not negative.
+    fn validate_tolerances(&self) -> Result<(), KeyError> {
+        let t = &self.tolerances;
+        for (name, v) in [
+            ("length_mm", t.length_mm),
+            ("angle_deg", t.angle_deg),
+            ("chip_mm", t.chip_mm),
+            ("chip_deg", t.chip_deg),
+            ("laser_mm", t.laser_mm),
+            ("laser_deg", t.laser_deg),
+            ("ir_scale", t.ir_scale),
+            ("ir_gain", t.ir_gain),
+            ("ir_drift_k", t.ir_drift_k),
+            ("ir_clock_s", t.ir_clock_s),
+        ] {
+            let key = format!("tolerances.{name}");
+            check_finite(v, &key)?;
+            if v < 0.0 {
+                return Err(KeyError::new(
+                    key,
+                    format!("is {v}, expected a standard uncertainty (0 or more)"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// A rig given as JSON (the keys of [`Rig::to_json`]), validated as a file would be.
+    pub fn from_json(text: &str, source_name: &str) -> Result<Rig, RigError> {
+        let err = |key: String, message: String| RigError {
+            kind: FileKind::Rig,
+            source_name: source_name.to_string(),
+            line: None,
+            key,
+            message,
+        };
+        let mut de = serde_json::Deserializer::from_str(text);
+        let rig: Rig = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+            let path = e.path().to_string();
+            let key = if path == "." { String::new() } else { path };
+            err(key, e.into_inner().to_string())
+        })?;
+        rig.validate().map_err(|e| err(e.key, e.message))?;
+        Ok(rig)
     }
 
     /// `[robot]`: model, joint names, topic, the six DH rows.

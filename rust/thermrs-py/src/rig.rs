@@ -31,6 +31,14 @@ impl PyRig {
         Ok(PyRig { inner })
     }
 
+    /// Parse and validate a rig given as JSON (the keys of `to_json`).
+    #[staticmethod]
+    #[pyo3(signature = (text, source_name = "<json>"))]
+    fn from_json(text: &str, source_name: &str) -> PyResult<PyRig> {
+        let inner = call("reading a rig", || Ok(Rig::from_json(text, source_name)?))?;
+        Ok(PyRig { inner })
+    }
+
     /// The rig as a JSON string (all keys of the file, defaults filled in).
     fn to_json(&self) -> PyResult<String> {
         call("writing a rig as JSON", || Ok(self.inner.to_json()))

@@ -1,0 +1,202 @@
+"""The rig's tolerances in the null world: what a rig within its stated uncertainties leaves
+over the nominal model, so that it is never named as an effect.
+
+A real rig is never exactly its file: its lengths and chips are measured to tenths of a
+millimetre, its IR camera is calibrated to a few per cent, its clocks disagree by seconds.
+The rig file's ``[tolerances]`` (SPEC §3) states these as standard uncertainties. Each is a
+direction in which the true rig may differ from the file; its *signature* is the change of
+the fitted nominal model's spots (2n, u then v) when that quantity moves by one standard
+uncertainty, computed with the same forward model the fits use:
+
+geometry
+    every DH length, twist and joint zero, each chip's centre and orientation, the laser's
+    origin and direction — the change of the thermal part of the spots (α̂ times the change
+    of :meth:`thermrs.signatures.VisitSet.alpha_column`); the static part is a constant per
+    (run, camera), which the unknown mountings absorb;
+IR camera
+    a common gain on every ROI's rise above the room, each ROI's own gain, each ROI's offset
+    drifting over each run, the IR clock per run (the spots' sensitivity to each mapped
+    temperature, times the reading error).
+
+Every null replicate (:mod:`.selection`) adds these signatures with independent standard
+normal weights: the statistics then have the distribution they have over rigs within their
+tolerances, which is the world the user lives in.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import numpy.typing as npt
+
+from thermrs.rig import Rig
+from thermrs.signatures import VisitSet
+
+__all__ = ["nuisance_signatures"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def _with(
+    vs: VisitSet, *, rig: Rig | None = None, temps: dict[str, FloatArray] | None = None
+) -> VisitSet:
+    """``vs`` with another rig or other temperatures (nothing else recomputed)."""
+    out = copy.copy(vs)
+    if rig is not None:
+        out.rig = rig
+    if temps is not None:
+        out.temps = temps
+    out._cache = {}
+    return out
+
+
+def _rotation(axis: FloatArray, angle_rad: float) -> FloatArray:
+    a = axis / np.linalg.norm(axis)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    out: FloatArray = np.eye(3) + np.sin(angle_rad) * k + (1.0 - np.cos(angle_rad)) * (k @ k)
+    return out
+
+
+def _unit_perpendiculars(d: FloatArray) -> tuple[FloatArray, FloatArray]:
+    d = d / np.linalg.norm(d)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(d, helper)
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(d, e1)
+
+
+def _geometry_variants(rig: Rig) -> list[tuple[str, dict[str, object]]]:
+    """(name, rig data) with one geometric quantity moved by its standard uncertainty."""
+    tol = rig.tolerances
+    base = rig.to_dict()
+    out: list[tuple[str, dict[str, object]]] = []
+
+    def variant(name: str, edit: object) -> None:
+        d = copy.deepcopy(base)
+        edit(d)  # type: ignore[operator]
+        out.append((name, d))
+
+    for i in range(len(base["robot"]["dh"])):
+        for key, sd in (
+            ("a_mm", tol["length_mm"]),
+            ("d_mm", tol["length_mm"]),
+            ("alpha_deg", tol["angle_deg"]),
+            ("theta_offset_deg", tol["angle_deg"]),
+        ):
+            if sd > 0:
+                variant(
+                    f"dh[{i}].{key}",
+                    lambda d, i=i, key=key, sd=sd: d["robot"]["dh"][i].__setitem__(
+                        key, d["robot"]["dh"][i][key] + sd
+                    ),
+                )
+    for j, cam in enumerate(base["camera"]):
+        if tol["chip_mm"] > 0:
+            for k in range(3):
+
+                def shift(d: dict, j: int = j, k: int = k) -> None:  # type: ignore[type-arg]
+                    d["camera"][j]["centre_mm"][k] += tol["chip_mm"]
+
+                variant(f"camera[{cam['name']}].centre_mm[{k}]", shift)
+        if tol["chip_deg"] > 0:
+            x = np.asarray(cam["x_axis"], dtype=np.float64)
+            y = np.asarray(cam["y_axis"], dtype=np.float64)
+            for name, axis in (("x", x), ("y", y), ("normal", np.cross(x, y))):
+                rot = _rotation(axis, np.deg2rad(tol["chip_deg"]))
+
+                def turn(d: dict, j: int = j, rot: FloatArray = rot) -> None:  # type: ignore[type-arg]
+                    for key in ("x_axis", "y_axis"):
+                        d["camera"][j][key] = (rot @ np.asarray(d["camera"][j][key])).tolist()
+
+                variant(f"camera[{cam['name']}].turned about {name}", turn)
+    if tol["laser_mm"] > 0:
+        for k in range(3):
+
+            def move(d: dict, k: int = k) -> None:  # type: ignore[type-arg]
+                d["laser"]["origin_mm"][k] += tol["laser_mm"]
+
+            variant(f"laser.origin_mm[{k}]", move)
+    if tol["laser_deg"] > 0:
+        direction = np.asarray(base["laser"]["direction"], dtype=np.float64)
+        for k, axis in enumerate(_unit_perpendiculars(direction)):
+            rot = _rotation(axis, np.deg2rad(tol["laser_deg"]))
+
+            def tilt(d: dict, rot: FloatArray = rot) -> None:  # type: ignore[type-arg]
+                d["laser"]["direction"] = (rot @ np.asarray(d["laser"]["direction"])).tolist()
+
+            variant(f"laser.direction tilted ({k + 1})", tilt)
+    return out
+
+
+def _geometry(vs: VisitSet, rig: Rig, alpha: float) -> list[tuple[str, FloatArray]]:
+    s0 = vs.alpha_column()
+    out = []
+    for name, data in _geometry_variants(rig):
+        try:
+            moved = Rig.from_dict(data, source_name=f"{rig.source} ({name})")
+            s1 = _with(vs, rig=moved).alpha_column()
+        except Exception:  # a variant the forward model cannot follow (the ray leaves a chip)
+            continue
+        col = alpha * (s1 - s0)
+        if np.all(np.isfinite(col)):
+            out.append((name, col))
+    return out
+
+
+def _ir(vs: VisitSet, rig: Rig, alpha: float) -> list[tuple[str, FloatArray]]:
+    tol = rig.tolerances
+    rois = [t for t in rig.mapped_temperatures if t != "ambient" and vs.has(t)]
+    if not rois:
+        return []
+    hot = vs.positions(alpha_per_k=alpha)
+    room = vs.temps.get("ambient")
+    room = room if room is not None else np.full(vs.n, rig.reference_c)
+    sens: dict[str, FloatArray] = {}
+    for r in rois:
+        temps = dict(vs.temps)
+        temps[r] = temps[r] + 1.0
+        sens[r] = _with(vs, temps=temps).positions(alpha_per_k=alpha) - hot  # µm per K
+    rise = {r: np.concatenate([vs.temps[r] - room] * 2) for r in rois}
+    out: list[tuple[str, FloatArray]] = []
+    if tol["ir_scale"] > 0:
+        out.append(("IR gain (common)", tol["ir_scale"] * sum(sens[r] * rise[r] for r in rois)))
+    if tol["ir_gain"] > 0:
+        out += [(f"IR gain ({r})", tol["ir_gain"] * sens[r] * rise[r]) for r in rois]
+    runs = list(dict.fromkeys(vs.run.tolist()))
+    run2 = np.concatenate([vs.run, vs.run])
+    for run in runs:
+        rows = run2 == run
+        if tol["ir_drift_k"] > 0:
+            t = np.concatenate([vs.t_since_start] * 2)
+            span = float(np.max(t[rows])) or 1.0
+            for r in rois:
+                col = np.where(rows, tol["ir_drift_k"] * sens[r] * t / span, 0.0)
+                out.append((f"IR offset drift ({r}, run {run})", col))
+        if tol["ir_clock_s"] > 0:
+            col = np.zeros(2 * vs.n)
+            for g in vs.groups:
+                if vs.run[g[0]] != run or len(g) < 2:
+                    continue
+                t = vs.t_s[g]
+                for r in rois:
+                    rate = np.gradient(vs.temps[r][g], t)  # K/s
+                    for off in (0, vs.n):
+                        col[g + off] += tol["ir_clock_s"] * sens[r][g + off] * rate
+            out.append((f"IR clock (run {run})", col))
+    return out
+
+
+def nuisance_signatures(
+    vs: VisitSet, rig: Rig, alpha: float, *, floor_um: float
+) -> tuple[FloatArray, list[str]]:
+    """Every tolerance's signature (2n × p) at the fitted α, and their names (module docs).
+
+    Signatures smaller than a thousandth of the noise floor everywhere are left out (they
+    cannot move a statistic).
+    """
+    cols = [*_geometry(vs, rig, alpha), *_ir(vs, rig, alpha)]
+    keep = [(n, c) for n, c in cols if float(np.max(np.abs(c))) > 1e-3 * max(floor_um, 1e-9)]
+    if not keep:
+        return np.zeros((2 * vs.n, 0)), []
+    return np.column_stack([c for _, c in keep]), [n for n, _ in keep]
