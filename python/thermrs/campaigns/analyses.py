@@ -315,9 +315,11 @@ def diagnose_splits(
     exclude: Sequence[str] = (),
     bootstrap: int = 30,
     seed: int = 0,
+    margin_um: float | None = None,
     progress: Progress | None = None,
 ) -> list[DiagnosisFold]:
-    """A diagnosis per split: fitted on its training runs, scored on its held-out runs."""
+    """A diagnosis per split: fitted on its training runs, scored on its held-out runs
+    (``margin_um``: the practical margin, :func:`thermrs.diagnose.diagnose`)."""
     from thermrs.diagnose import diagnose as run
     from thermrs.errors import InputError
 
@@ -333,6 +335,7 @@ def diagnose_splits(
             exclude=list(exclude),
             bootstrap=bootstrap,
             seed=seed,
+            margin_um=margin_um,
             progress=say,
         )
         res.append(DiagnosisFold(s, d))

@@ -68,8 +68,11 @@ __all__ = ["LEVEL", "Diagnosis", "diagnose"]
 FloatArray = npt.NDArray[np.float64]
 
 #: The level of the diagnoser's tests: a run without a gap is called otherwise at most this
-#: often (the three tests `none` must pass are each at a third of it).
+#: often (the four tests `none` must pass are each at a quarter of it).
 LEVEL = 0.05
+#: The default practical margin: an effect is named only if it takes at least this share of
+#: the held-out noise floor off the held-out rms.
+MARGIN_SHARE = 0.05
 #: Replicates of the parametric bootstrap (the null world) per selection step.
 NULL_DRAWS = 199
 
@@ -87,6 +90,7 @@ def diagnose(
     seed: int = 0,
     level: float = LEVEL,
     null_draws: int = NULL_DRAWS,
+    margin_um: float | None = None,
     progress: Callable[[str], object] | None = None,
 ) -> Diagnosis:
     """Diagnose the nominal model's gap on ``holdout`` runs after fitting on ``train`` runs.
@@ -113,6 +117,10 @@ def diagnose(
         The level of the tests (module docs of :mod:`thermrs.diagnose.verdict`).
     null_draws
         Replicates of the parametric bootstrap per selection step.
+    margin_um
+        The practical margin: an effect is named only if it takes at least this much off the
+        held-out rms (µm), beyond being significant against the null (default: 5 % of the
+        held-out noise floor, :data:`MARGIN_SHARE`).
     progress
         Called with a short message at each stage.
 
@@ -130,6 +138,8 @@ def diagnose(
 
     if not 0.0 < level < 1.0:
         raise ValueError(f"level must be between 0 and 1, got {level}")
+    if margin_um is not None and not (np.isfinite(margin_um) and margin_um >= 0):
+        raise ValueError(f"margin_um must be a finite number of µm, 0 or more, got {margin_um}")
     # Thousands of small least-squares problems: one BLAS thread each is several times faster
     # than a pool that spins (and fights other processes for the cores).
     with threadpool_limits(limits=1, user_api="blas"):
@@ -143,6 +153,7 @@ def diagnose(
             seed=seed,
             level=level,
             null_draws=null_draws,
+            margin_um=margin_um,
             say=progress or (lambda _m: None),
         )
 
@@ -211,6 +222,7 @@ def _diagnose(
     seed: int,
     level: float,
     null_draws: int,
+    margin_um: float | None,
     say: Callable[[str], object],
 ) -> Diagnosis:
     tr, ho, names_t, classes = check_inputs(train, holdout, rig, exclude, library)
@@ -220,14 +232,21 @@ def _diagnose(
     say("where")
     where = _where(b, rig)
     say("candidates")
-    grids, steps = _select(b, classes, rig, level=level, null_draws=null_draws, rng=rng, say=say)
+    margin = MARGIN_SHARE * b.floor.holdout_um if margin_um is None else float(margin_um)
+    grids, steps = _select(
+        b, classes, rig, level=level, null_draws=null_draws, margin_um=margin, rng=rng, say=say
+    )
     say("evidence")
     cands, n_eff_train = _evidence(b, grids, steps, rig, bootstrap=bootstrap, rng=rng)
     say("confounding")
     confounded = _confounded(b, cands)
     say("verdict")
     status, reason, rivals = decide(
-        steps, level=level, base_rms=b.base.holdout_rms_um, floor_um=b.floor.holdout_um
+        steps,
+        level=level,
+        base_rms=b.base.holdout_rms_um,
+        floor_um=b.floor.holdout_um,
+        margin_um=margin,
     )
     final, selected = _final_model(b.design, steps, rig)
     return assemble(
@@ -244,6 +263,8 @@ def _diagnose(
         role_visit=b.role_visit,
         library=(sorted(classes), sorted(exclude)),
         n_eff_train=n_eff_train,
+        margin_um=margin,
+        tolerances=(rig.tolerances, b.design.nuisance_names),
     )
 
 
@@ -254,11 +275,12 @@ def _select(
     *,
     level: float,
     null_draws: int,
+    margin_um: float,
     rng: np.random.Generator,
     say: Callable[[str], object],
 ) -> tuple[list[FamilyGrid], list[Step]]:
     """Every family of the library on these runs, and the forward selection among them
-    (each step at level / 3: Bonferroni over the three tests `none` must pass)."""
+    (each step at level / 4: Bonferroni over the four tests `none` must pass)."""
     fams: list[Family] = []
     for cls in classes.values():
         fams.extend(cls.families(rig, b.vs))
@@ -269,8 +291,9 @@ def _select(
         b.design,
         b.floor,
         grids,
-        level=level / 3.0,
+        level=level / 4.0,
         draws=null_draws,
+        margin_um=margin_um,
         rng=rng,
         plausible=plausibility(b.design, rig),
         say=say,

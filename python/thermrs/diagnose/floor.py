@@ -41,7 +41,13 @@ from thermrs.errors import InputError
 from thermrs.heating import fit_curve
 from thermrs.signatures import VisitSet
 
-__all__ = ["NoiseFloor", "SeriesNoise", "noise_floor", "thermal_time_scales"]
+__all__ = [
+    "NoiseFloor",
+    "SeriesNoise",
+    "holdout_floor_draws",
+    "noise_floor",
+    "thermal_time_scales",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -86,6 +92,10 @@ class NoiseFloor:
     centroid_note: str
     joints_um: float | None
     extra: dict[str, Any] = field(default_factory=dict)
+    #: The held-out floor's standard error and 95 % interval (µm): the floor re-estimated on
+    #: replicates of the null world (:func:`holdout_floor_draws`); unset until then.
+    holdout_se_um: float | None = None
+    holdout_ci95: tuple[float, float] | None = None
 
     def by_key(self) -> dict[tuple[str, str, str], SeriesNoise]:
         """The series' noise by (run, camera, axis)."""
@@ -98,6 +108,11 @@ class NoiseFloor:
         taus = [s.tau_c_s for s in self.series if s.correlated_um > 0]
         return {
             "holdout_um": self.holdout_um,
+            "holdout_se_um": self.holdout_se_um,
+            "holdout_ci95": None if self.holdout_ci95 is None else list(self.holdout_ci95),
+            "holdout_uncertainty": "the floor re-estimated on replicates of the gap-free null "
+            "world (noise and the rig's tolerances): their standard deviation, and the floor "
+            "± 1.96 of it",
             "train_um": self.train_um,
             "per_run_um": self.per_run_um,
             "parts": {
@@ -221,6 +236,39 @@ def _series_noise(
     if tau < dt:  # decorrelated within one cycle: white at this sampling
         w2, a2, tau = w2 + a2, 0.0, 0.0
     return float(np.sqrt(max(w2, 0.0))), float(np.sqrt(max(a2, 0.0))), tau
+
+
+def holdout_floor_draws(
+    visits: VisitSet,
+    rows: npt.NDArray[np.intp],
+    residuals: FloatArray,
+    holdout_runs: set[str],
+    tau_c_max_s: float,
+) -> FloatArray:
+    """The held-out floor re-estimated, as :func:`noise_floor` does, on every column of
+    ``residuals`` (held-out rows ``rows`` of the 2n vector × replicates)."""
+    n = visits.n
+    where = {int(r): i for i, r in enumerate(rows)}
+    series: list[tuple[npt.NDArray[np.intp], FloatArray, int]] = []
+    for g in visits.groups:
+        if str(visits.run[g[0]]) not in holdout_runs:
+            continue
+        for off in (0, n):
+            pos = [where.get(int(i) + off, -1) for i in g]
+            if min(pos) < 0:
+                continue
+            series.append((np.asarray(pos, dtype=np.intp), visits.t_s[g], len(g)))
+    out = np.full(residuals.shape[1], np.nan)
+    for b in range(residuals.shape[1]):
+        vals, wts = [], []
+        for idx, t, m in series:
+            got = _series_noise(residuals[idx, b], t, tau_c_max_s)
+            if got is not None:
+                vals.append(float(np.hypot(got[0], got[1])))
+                wts.append(m)
+        if vals:
+            out[b] = _pool(vals, wts)
+    return out
 
 
 def noise_floor(

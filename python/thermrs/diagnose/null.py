@@ -28,13 +28,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy import stats as sps
 from scipy.linalg import solve_triangular
 
 from thermrs.diagnose.engine import Design
 from thermrs.diagnose.floor import NoiseFloor
 
-__all__ = ["Batch", "BatchFit", "Observations", "draw_noise", "quantile_above"]
+__all__ = ["Batch", "BatchFit", "Observations", "draw_noise", "format_p", "quantile_above"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -240,14 +239,16 @@ def _ar(t: FloatArray, z: FloatArray, s: object) -> FloatArray:
 
 def quantile_above(null: FloatArray, observed: float) -> float:
     """The bootstrap p-value of ``observed`` against ``null``: P(null ≥ observed), with the
-    observed value counted among the draws. Beyond every draw the empirical value (1/(B+1))
-    only says "less than that"; there the tail is extrapolated by the normal law of the
-    draws (mean and standard deviation), so that a value far out is told from one just out."""
+    observed value counted among the draws, (1 + k)/(B + 1). It is never below 1/(B + 1):
+    beyond every draw the data only say "less than that" (:func:`format_p`)."""
     null = null[np.isfinite(null)]
     k = int(np.sum(null >= observed))
-    p = (1 + k) / (len(null) + 1)
-    if k == 0 and len(null) > 2:
-        sd = float(np.std(null, ddof=1))
-        if sd > 0:
-            p = min(p, float(sps.norm.sf((observed - float(np.mean(null))) / sd)))
-    return float(p)
+    return float((1 + k) / (len(null) + 1))
+
+
+def format_p(p: float, draws: int) -> str:
+    """A bootstrap p-value as text: ``< 0.005`` where it is the smallest the draws resolve."""
+    floor = 1.0 / (draws + 1)
+    if draws > 0 and p <= floor * (1 + 1e-9):
+        return f"< {floor:.2g}" if floor < 0.01 else f"≤ {floor:.2g}"
+    return f"{p:.3f}" if p < 0.01 else f"{p:.2f}"

@@ -116,10 +116,11 @@ def _ranking_row(c: Candidate, base_rms: float, n_eff_train: float) -> dict[str,
 def _tests(steps: list[Step], level: float) -> dict[str, Any]:
     return {
         "level": level,
-        "per_test_level": level / 3.0,
+        "per_test_level": level / 4.0,
         "method": "parametric bootstrap of the whole pipeline in a world where the model of "
-        "each step is the truth (its fit plus the floor's noise model per series); "
-        "Bonferroni over the three tests that `none` must pass",
+        "each step is the truth (its fit, the floor's noise model per series, and the rig "
+        "drawn within its stated tolerances); Bonferroni over the four tests that `none` must "
+        "pass; p-values are (1 + k)/(B + 1), never below what the draws resolve",
         "steps": [
             {
                 "model": [c.label for c in s.model],
@@ -134,6 +135,8 @@ def _tests(steps: list[Step], level: float) -> dict[str, Any]:
                 "gain_threshold_um2": s.threshold,
                 "significant": s.significant,
                 "chosen": None if s.chosen is None else s.chosen.label,
+                "draws": s.draws,
+                "detectable_um": s.detectable_um,
                 "rivals": s.rivals,
                 "rival_p": s.rival_p,
             }
@@ -201,6 +204,8 @@ def assemble(
     role_visit: npt.NDArray[np.str_],
     library: tuple[list[str], list[str]],
     n_eff_train: float,
+    margin_um: float = 0.0,
+    tolerances: tuple[dict[str, float], list[str]] = ({}, []),
 ) -> Diagnosis:
     """The :class:`Diagnosis` from the steps' results."""
     status, reason, rivals = verdict
@@ -224,8 +229,12 @@ def assemble(
         if first is None or status in ("unexplained", "partially explained")
         else first["effect"],
         "effects": [s["effect"] for s in selected],
-        "params": {} if first is None else first["params"],
-        "params_ci95": {} if first is None else first["params_ci95"],
+        # SPEC §7: no parameters without their effect (a partial explanation's are in
+        # `selected`).
+        "params": {} if first is None or status == "partially explained" else first["params"],
+        "params_ci95": {}
+        if first is None or status == "partially explained"
+        else first["params_ci95"],
         "confounded_with": rivals if status == "ambiguous" else [],
         "holdout_rms_um": after.holdout_rms_um,
         "reason": reason,
@@ -257,7 +266,13 @@ def assemble(
         summary="",
         residuals=residuals,
         noise_floor=floor.to_json(),
-        tests=_tests(steps, level),
+        tests={
+            **_tests(steps, level),
+            "margin_um": margin_um,
+            "detectable_um": steps[0].detectable_um,
+            "tolerances": tolerances[0],
+            "tolerance_signatures": tolerances[1],
+        },
     )
     d.summary = summary(d)
     return d

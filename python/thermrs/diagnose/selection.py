@@ -93,6 +93,10 @@ class Step:
     null_hold_ms: FloatArray = field(default_factory=lambda: np.zeros(0))
     low: float = 0.0
     null_low: FloatArray = field(default_factory=lambda: np.zeros(0))
+    #: The held-out rms (µm) a family must remove to be named at this step: what the null's
+    #: threshold gain removes, or the practical margin if that is more.
+    detectable_um: float = 0.0
+    draws: int = 0
 
 
 def build_grids(families: list[Family], visits: VisitSet, design: Design) -> list[FamilyGrid]:
@@ -178,8 +182,11 @@ def run_step(
     draws: int,
     rng: np.random.Generator,
     plausible: Callable[[list[Choice], Choice], bool],
+    margin_um: float = 0.0,
 ) -> Step:
-    """Test the model against its null world and score every family added to it."""
+    """Test the model against its null world and score every family added to it. A family
+    is significant when its held-out gain beats the null's threshold *and* it takes at least
+    ``margin_um`` off the held-out rms (practical significance)."""
     ys_raw, cur = _world(batch, design, floor, model, draws, rng)
     ys = batch.prepare(ys_raw)
     assert cur.hold_resid is not None
@@ -196,6 +203,8 @@ def run_step(
         min_hold_null = cur.hold_ms[1:]
         obs_min_hold = float(cur.hold_ms[0])
     threshold = float(np.quantile(max_null, 1.0 - level))
+    h0 = float(cur.hold_ms[0])
+    detectable = float(np.sqrt(h0) - np.sqrt(max(h0 - threshold, 0.0)))
     step = Step(
         model=list(model),
         hold_ms=float(cur.hold_ms[0]),
@@ -213,14 +222,45 @@ def run_step(
         null_hold_ms=cur.hold_ms[1:],
         low=float(low[0]),
         null_low=low[1:],
+        detectable_um=max(detectable, margin_um),
+        draws=draws,
     )
-    ok = sc.significant(threshold, model, plausible)
+    if not model and floor.holdout_se_um is None:
+        _floor_uncertainty(batch, design, floor, ys_raw, cur)
+    ok = sc.significant(threshold, model, plausible, removes=np.sqrt(h0) - margin_um)
     step.significant = [c.label for c in ok]
     if not ok:
         return step
     step.chosen = ok[0]
     _test_rivals(step, ok, batch, design, floor, model, level=level, draws=draws, rng=rng)
     return step
+
+
+#: Null replicates the floor is re-estimated on for its uncertainty.
+FLOOR_DRAWS = 49
+
+
+def _floor_uncertainty(
+    batch: Batch, design: Design, floor: NoiseFloor, ys_raw: FloatArray, cur: BatchFit
+) -> None:
+    """The held-out floor's standard error and 95 % interval, from the floor re-estimated on
+    replicates of the gap-free world (residuals of the nominal refit)."""
+    from thermrs.diagnose.floor import holdout_floor_draws
+
+    assert cur.hold_resid is not None
+    k = min(FLOOR_DRAWS, cur.hold_resid.shape[1] - 1)
+    if k < 5 or not np.isfinite(floor.holdout_um):
+        return
+    hold_runs = set(np.concatenate([design.vs.run, design.vs.run])[design.hold].tolist())
+    est = holdout_floor_draws(
+        design.vs, batch.ho, cur.hold_resid[:, 1 : 1 + k], hold_runs, floor.tau_c_max_s
+    )
+    est = est[np.isfinite(est)]
+    if len(est) < 5:
+        return
+    se = float(np.std(est, ddof=1))
+    floor.holdout_se_um = se
+    floor.holdout_ci95 = (max(floor.holdout_um - 1.96 * se, 0.0), floor.holdout_um + 1.96 * se)
 
 
 @dataclass
@@ -263,10 +303,16 @@ class _Scores:
         threshold: float,
         model: list[Choice],
         plausible: Callable[[list[Choice], Choice], bool],
+        *,
+        removes: float = np.inf,
     ) -> list[Choice]:
-        """The families whose gain on the data beats ``threshold`` and that are plausible,
-        the one leaving least first."""
-        sig = [k for k, v in self.gains.items() if v[0] > threshold]
+        """The families whose gain on the data beats ``threshold``, that leave a held-out rms
+        of at most ``removes`` and that are plausible, the one leaving least first."""
+        sig = [
+            k
+            for k, v in self.gains.items()
+            if v[0] > threshold and np.sqrt(max(float(self.hold[k][0]), 0.0)) <= removes
+        ]
         sig.sort(key=lambda k: float(self.hold[k][0]))
         ok = []
         for k in sig:
@@ -298,10 +344,15 @@ def _test_rivals(
         if ch.effect not in seen:
             seen.add(ch.effect)
             rivals.append(ch)
+    if not rivals:
+        return
+    cut = level / len(rivals)
+    # Enough draws that the cut lies inside what they resolve (1/(B+1) at most half of it).
+    n = max(draws, int(np.ceil(2.0 / cut)) - 1)
     for ch in rivals:
-        p = _rival_p(batch, design, floor, model, best, ch, draws=draws, rng=rng)
+        p = _rival_p(batch, design, floor, model, best, ch, draws=n, rng=rng)
         step.rival_p[ch.effect] = p
-        if p >= level / len(rivals):
+        if p >= cut:
             step.rivals.append(ch.effect)
 
 
@@ -338,6 +389,7 @@ def forward_selection(
     rng: np.random.Generator,
     plausible: Callable[[list[Choice], Choice], bool],
     max_effects: int = 3,
+    margin_um: float = 0.0,
     say: Callable[[str], object] = lambda _m: None,
 ) -> list[Step]:
     """The selection's steps (module docs); the last step tests the final model."""
@@ -355,6 +407,7 @@ def forward_selection(
             draws=draws,
             rng=rng,
             plausible=plausible,
+            margin_um=margin_um,
         )
         steps.append(st)
         # After the first step an effect is added only while what is left is still a gap:

@@ -3,8 +3,11 @@
 ``none``
     earned: the nominal model's held-out residual is at the floor (its mean square within the
     null world's), white at the thermal time scales (its smoothed mean square within the
-    null's), no candidate has a significant held-out gain, and no candidate leaves less than
-    the null's best does (a candidate clearly below the floor proves the floor wrong).
+    null's), no candidate has a significant held-out gain that also clears the practical
+    margin, and no candidate leaves less than the null's best does (a candidate clearly below
+    the floor proves the floor wrong). Said with the size of effect the data rule out: "no
+    effect above X µm at 95 %". The null world is the user's: noise, and a rig within its
+    stated tolerances (:mod:`.tolerances`).
 ``identified``
     one or more effects selected, none with a rival the data cannot reject, and what is left
     at the floor and white at the thermal time scales — judged against the gap-free world of
@@ -18,8 +21,9 @@
     a residual above the floor (or structured, or one the floor cannot account for) and no
     candidate with a significant, plausible held-out gain.
 
-Every test is at ``level``/3 (Bonferroni over the three tests ``none`` must pass, so a run
-without any gap is called otherwise at most ``level`` of the time).
+Every test is at ``level``/4 (Bonferroni over the four tests ``none`` must pass, so a run
+without any gap is called otherwise at most ``level`` of the time). A p-value is never
+printed below what the draws resolve (``< 0.005`` with 199 draws).
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from thermrs.diagnose.null import quantile_above
+from thermrs.diagnose.null import format_p, quantile_above
 from thermrs.diagnose.selection import Step
 
 __all__ = ["decide", "english_list", "format_params", "summary"]
@@ -59,10 +63,15 @@ def format_params(p: dict[str, Any]) -> str:
 
 
 def decide(
-    steps: list[Step], *, level: float, base_rms: float, floor_um: float
+    steps: list[Step], *, level: float, base_rms: float, floor_um: float, margin_um: float = 0.0
 ) -> tuple[str, str, list[str]]:
     """(status, reason, rivals) from the selection's steps (module docs)."""
-    lvl = level / 3.0
+    lvl = level / 4.0
+    b = steps[0].draws
+
+    def fp(p: float) -> str:
+        return format_p(p, b)
+
     first, last = steps[0], steps[-1]
     chosen = [s.chosen for s in steps if s.chosen is not None]
     # What is left is judged against the gap-free world of the first step (the nominal model
@@ -76,21 +85,25 @@ def decide(
         if first.p_at_floor >= lvl and first.p_low >= lvl and not contradicted:
             return (
                 "none",
-                f"the held-out residual ({base_rms:.2f} µm) is at the noise floor "
-                f"({floor_um:.2f} µm; p = {first.p_at_floor:.2f}), white at the thermal time "
-                f"scales (p = {first.p_low:.2f}), and no candidate has a significant held-out "
-                f"gain (p = {first.p_gain:.2f})",
+                f"no effect above {first.detectable_um:.2f} µm at {1 - level:.0%}: the held-out "
+                f"residual ({base_rms:.2f} µm) is within what noise (floor {floor_um:.2f} µm) "
+                "and the rig's stated tolerances leave "
+                f"(p = {fp(first.p_at_floor)}), white at the thermal time scales "
+                f"(p = {fp(first.p_low)}), and no effect of the library takes more than "
+                f"{first.detectable_um:.2f} µm off it (the most any took: "
+                f"{_best_removal(first):.2f} µm; p = {fp(first.p_gain)}; practical margin "
+                f"{margin_um:.2f} µm)",
                 [],
             )
         why = []
         if first.p_at_floor < lvl:
-            why.append(f"above the noise floor ({floor_um:.2f} µm; p = {first.p_at_floor:.3f})")
+            why.append(f"above the noise floor ({floor_um:.2f} µm; p = {fp(first.p_at_floor)})")
         if first.p_low < lvl:
-            why.append(f"slow at the thermal time scales (p = {first.p_low:.3f})")
+            why.append(f"slow at the thermal time scales (p = {fp(first.p_low)})")
         if contradicted:
             why.append(
                 "a candidate takes it further below the floor than noise would "
-                f"(p = {first.p_floor_contradicted:.3f}), so it is not noise"
+                f"(p = {fp(first.p_floor_contradicted)}), so it is not noise"
             )
         return (
             "unexplained",
@@ -103,9 +116,9 @@ def decide(
     if not (at_floor and white):
         left = []
         if not at_floor:
-            left.append(f"above the floor (p = {p_floor:.3f})")
+            left.append(f"above the floor (p = {fp(p_floor)})")
         if not white:
-            left.append(f"slow at the thermal time scales (p = {p_low:.3f})")
+            left.append(f"slow at the thermal time scales (p = {fp(p_low)})")
         return (
             "partially explained",
             f"{english_list(names)} explain{'s' if len(names) == 1 else ''} part of the gap; "
@@ -125,13 +138,29 @@ def decide(
             "(the data cannot reject any of them as the truth)",
             rivals,
         )
+    tested = sorted({r for s in steps for r in s.rival_p})
+    rivals_said = (
+        f"{english_list(tested)} {'is' if len(tested) == 1 else 'are'} rejected as the truth"
+        if tested
+        else "no other effect is significant"
+    )
+    removed = base_rms - last.hold_ms**0.5
     return (
         "identified",
-        f"{english_list(names)} take{'s' if len(names) == 1 else ''} the held-out residual to "
-        f"the noise floor (p = {p_floor:.2f}), white at the thermal time scales "
-        f"(p = {p_low:.2f}); every rival is rejected",
+        f"{english_list(names)} take{'s' if len(names) == 1 else ''} {removed:.2f} µm off the "
+        f"held-out rms ({base_rms:.2f} → {last.hold_ms**0.5:.2f} µm), to the noise floor "
+        f"(p = {fp(p_floor)}), white at the thermal time scales (p = {fp(p_low)}); "
+        f"{rivals_said}",
         [],
     )
+
+
+def _best_removal(step: Step) -> float:
+    """The most any family took off the held-out rms at this step (µm)."""
+    if not step.gain:
+        return 0.0
+    g = max(step.gain.values())
+    return float(step.hold_ms**0.5 - max(step.hold_ms - g, 0.0) ** 0.5) if g > 0 else 0.0
 
 
 def summary(d: Any) -> str:
@@ -154,11 +183,23 @@ def summary(d: Any) -> str:
     st = v["status"]
     if st == "identified":
         eff = english_list([s["family"] for s in d.selected]) or str(v["effect"])
+        before, after = hf["holdout_rms_before_um"], hf["holdout_rms_after_um"]
+        se = (d.noise_floor or {}).get("holdout_se_um")
+        gap = before - d.noise_floor_um
         closed = hf.get("gap_closed")
+        if se is not None and gap <= 1.96 * se:
+            share = (
+                f"; the gap above the floor ({gap:.2f} µm) is within the floor's uncertainty "
+                f"(± {1.96 * se:.2f} µm), so no share of it is stated"
+            )
+        elif closed is not None:
+            share = f", closing {closed:.0%} of the gap above the floor"
+        else:
+            share = ""
         what = (
-            f" Verdict: identified — {eff} ({format_params(v['params'])}); with it the "
-            f"held-out rms falls to {hf['holdout_rms_after_um']:.2f} µm"
-            + (f", closing {closed:.0%} of the gap above the floor." if closed is not None else ".")
+            f" Verdict: identified — {eff} ({format_params(v['params'])}); it takes "
+            f"{before - after:.2f} µm off the held-out rms ({before:.2f} → {after:.2f} µm)"
+            f"{share}."
         )
     else:
         what = f" Verdict: {st} — {v['reason']}."
