@@ -20,7 +20,7 @@ from thermrs.diagnose.bench_world import (
     render,
 )
 from thermrs.diagnose.bench_world.geometry import laser_spots, length_index
-from thermrs.diagnose.bench_world.score import outcome
+from thermrs.diagnose.bench_world.score import outcome, withheld_outcome
 from thermrs.diagnose.bench_world.world import RUNS
 
 REPO = Path(__file__).resolve().parents[1]
@@ -204,8 +204,18 @@ def test_scoring_follows_the_issue() -> None:
     assert outcome(row("none", [], "unexplained", [])) == "false gap"
     pair = ["thermal_lag", "fixture_drift"]
     assert outcome(row("pair", pair, "identified", ["thermal_lag"])) == "wrong"
-    assert outcome(row("pair", pair, "partially explained", ["thermal_lag"])) == "right"
+    # Issue 31: a pair is right only with both names; a withheld verdict that states a wrong
+    # effect as found is a false attribution, a stand-in said as one is not.
+    assert outcome(row("pair", pair, "partially explained", ["thermal_lag"])) == "wrong"
+    assert outcome(row("pair", pair, "unexplained", [])) == "wrong"
+    assert outcome(row("pair", pair, "partially explained", pair)) == "right"
     assert outcome(row("pair", pair, "identified", pair)) == "right"
+    held = {"excluded": {"status": "ambiguous"}}
+    assert withheld_outcome(held) == "false attribution"
+    assert withheld_outcome({"excluded": {"status": "identified"}}) == "false attribution"
+    assert withheld_outcome({"excluded": {"status": "partially explained"}}) == "stand-in"
+    assert withheld_outcome({"excluded": {"status": "unexplained"}}) == "honest"
+    assert withheld_outcome({"excluded": {"status": "none"}}) == "none"
 
 
 def test_diagnose_bench_cli_runs_a_case_blind_and_withheld(tmp_path: Path) -> None:

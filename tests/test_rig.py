@@ -313,6 +313,19 @@ BAD_RIGS = [
         rename("expansion.length[1].temperature", "temp"),
         "expansion.length[1].temp",
     ),
+    bad(
+        "unknown-tolerance",
+        put("tolerances", {"dh_mm": 0.1}),
+        "tolerances.dh_mm",
+        "unknown field",
+    ),
+    bad(
+        "tolerance-negative",
+        put("tolerances", {"ir_gain": -0.01}),
+        "tolerances.ir_gain",
+        "standard uncertainty",
+    ),
+    bad("tolerance-nan", put("tolerances", {"ir_clock_s": float("nan")}), "tolerances.ir_clock_s"),
     # --- missing required keys ----------------------------------------------------------------
     bad("missing-format", drop("format"), "", "missing field `format`"),
     bad("missing-robot", drop("robot"), "", "missing field `robot`"),
@@ -982,3 +995,33 @@ def test_cli_rig_json_matches_the_paper(args: list[str]) -> None:
     assert a["spot_px"]["B"] is None
     assert abs(a["incidence_deg"]["A"]) < 1e-4
     assert poses["B"]["spot_px"]["B"] is not None
+
+
+def test_tolerances_default_to_an_ordinary_rig_and_a_table_overrides_some() -> None:
+    # SPEC §3 [tolerances]: standard uncertainties; absent keys take the documented defaults.
+    r = thermrs.load_rig()
+    assert r.tolerances == {
+        "length_mm": 0.2,
+        "angle_deg": 0.02,
+        "chip_mm": 0.3,
+        "chip_deg": 0.05,
+        "laser_mm": 0.2,
+        "laser_deg": 0.05,
+        "ir_scale": 0.03,
+        "ir_gain": 0.01,
+        "ir_drift_k": 0.05,
+        "ir_clock_s": 30.0,
+    }
+    text = GOOD_TEXT + "\n[tolerances]\nir_gain = 0.02\nir_clock_s = 0\n"
+    t = thermrs.Rig.from_toml(text).tolerances
+    assert t["ir_gain"] == 0.02 and t["ir_clock_s"] == 0.0 and t["length_mm"] == 0.2
+
+
+def test_a_rig_from_its_own_data_is_the_same_rig() -> None:
+    r = thermrs.load_rig()
+    again = thermrs.Rig.from_dict(r.to_dict())
+    assert again.to_dict() == r.to_dict()
+    d = r.to_dict()
+    d["camera"][0]["x_axis"] = [0.0, 0.0, 2.0]
+    with pytest.raises(thermrs.RigError, match=r"camera\[0\]\.x_axis"):
+        thermrs.Rig.from_dict(d)

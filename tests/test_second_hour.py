@@ -213,21 +213,25 @@ def test_the_compensation_law_applied_by_hand_removes_what_the_diagnosis_promise
     law = pl.read_csv(law_csv)
     doc = json.loads(law_json.read_text())
     assert doc["linearity_um"] < 0.1 and doc["reference_c"] == 23.0
-    assert (law["ci95_low"] <= law["coefficient"]).all()
-    assert (law["coefficient"] <= law["ci95_high"]).all()
+    # The CSV alone is the law: one row per pose and axis, the reference temperature in it,
+    # a µm/K column per temperature name, each with its interval.
+    slopes = [
+        c for c in law.columns if c.endswith("_um_per_k") and c != "chip_mount_ambient_um_per_k"
+    ]
+    assert slopes and (law["reference_c"] == 23.0).all()
+    for c in slopes:
+        assert (law[f"{c}_ci95_low"] <= law[c]).all() and (law[c] <= law[f"{c}_ci95_high"]).all()
     # A controller's arithmetic on the replicate's measured temperatures: Σ c·(T − T_ref).
     t = _run_temperatures(d["rep"], "s75")
     before, after = [], []
     for cam in ("A", "B"):
         g = t.filter(pl.col("camera") == cam)
         for axis in "uv":
-            rows = law.filter(
-                (pl.col("camera") == cam) & (pl.col("axis") == axis) & (pl.col("unit") == "um/K")
-            )
+            (row,) = law.filter((pl.col("camera") == cam) & (pl.col("axis") == axis)).to_dicts()
             pred = np.zeros(g.height)
-            for r in rows.iter_rows(named=True):
-                name = r["term"].split(" ")[0]
-                pred += r["coefficient"] * (g[f"{name}_c"].to_numpy() - doc["reference_c"])
+            for c in slopes:
+                name = c.removesuffix("_um_per_k")
+                pred += (row[c] or 0.0) * (g[f"{name}_c"].to_numpy() - row["reference_c"])
             meas = g[f"{axis}_um"].to_numpy()
             # The nominal model: the diagnosis' baseline α, no effect.
             nominal = (

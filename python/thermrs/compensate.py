@@ -250,6 +250,25 @@ class CompensationLaw:
     residual_um: float | None
     model: DiagnosedModel
 
+    def wide(self) -> pl.DataFrame:
+        """The law as one self-contained row per camera pose and chip axis (the CSV a
+        controller reads): ``reference_c``, then per temperature name ``<T>_um_per_k`` with
+        its ``_ci95_low``/``_ci95_high``, then the chip and time terms (``chip_mount_…``,
+        ``chip_drift_um``/``chip_drift_tau_min``, ``structure_lag_tau_min``). Units are in the
+        column names; drift (µm) = Σ ``<T>_um_per_k`` · (T − ``reference_c``) + chip terms."""
+        rows: dict[tuple[str, str, str], dict[str, Any]] = {}
+        for r in self.table.iter_rows(named=True):
+            key = (r["camera"], r["pose"], r["axis"])
+            row = rows.setdefault(
+                key,
+                {"camera": key[0], "pose": key[1], "axis": key[2], "reference_c": self.reference_c},
+            )
+            col = _wide_column(r)
+            for suffix, v in (("", r["coefficient"]), ("_ci95_low", r["ci95_low"]),
+                              ("_ci95_high", r["ci95_high"])):  # fmt: skip
+                row[col + suffix] = v
+        return pl.DataFrame(list(rows.values()))
+
     def to_json(self) -> dict[str, Any]:
         """The document ``thermrs compensate -o comp.json`` writes."""
         m = self.model
@@ -272,6 +291,20 @@ class CompensationLaw:
             },
             "terms": self.table.to_dicts(),
         }
+
+
+def _wide_column(r: dict[str, Any]) -> str:
+    """The wide table's column of a law row (:meth:`CompensationLaw.wide`)."""
+    term = str(r["term"])
+    if term.endswith("(T - reference_c)"):
+        return f"{term.split(' ')[0]}_um_per_k"
+    if term.startswith("ambient (T - reference_c), chip mount"):
+        return "chip_mount_ambient_um_per_k"
+    if term.startswith("chip self-drift"):
+        return "chip_drift_um"
+    if term.startswith("structure lag"):
+        return "structure_lag_tau_min"
+    return term
 
 
 def _spot(model: ForwardModel, rig: Rig, cam: str, temps: dict[str, np.ndarray]) -> np.ndarray:
@@ -302,16 +335,34 @@ def _slopes(
 
 
 def _param_corners(effects: Sequence[Effect], ci: dict[str, Any]) -> list[list[Effect]]:
-    """The effects with each scalar parameter that has an interval at its two ends."""
+    """The effects with each parameter that has an interval at its two ends: a scalar's, and
+    each entry of a per-temperature one (``alpha_per_link``'s α of each temperature, whose
+    interval comes from the joint fit's covariance with the common α)."""
     variants: list[list[Effect]] = [list(effects)]
+
+    def ends(v: list[Effect], i: int, key: str, entry: str | None, c: Any) -> list[list[Effect]]:
+        out = []
+        for end in c:
+            if entry is None:
+                new = replace(v[i], **{key: float(end)})
+            else:
+                value = dict(getattr(v[i], key))
+                value[entry] = float(end)
+                new = replace(v[i], **{key: value})
+            out.append([*v[:i], new, *v[i + 1 :]])
+        return out
+
     for i, e in enumerate(effects):
+        d = e.to_dict()
         for key, c in ci.items():
-            if key in e.to_dict() and isinstance(e.to_dict()[key], (int, float)) and len(c) == 2:
-                variants = [
-                    [*v[:i], replace(v[i], **{key: float(end)}), *v[i + 1 :]]
-                    for v in variants
-                    for end in c
-                ]
+            if key not in d:
+                continue
+            if isinstance(d[key], int | float) and len(c) == 2:
+                variants = [w for v in variants for w in ends(v, i, key, None, c)]
+            elif isinstance(d[key], dict) and isinstance(c, dict):
+                for entry, ce in c.items():
+                    if entry in d[key] and len(ce) == 2 and all(np.isfinite(ce)):
+                        variants = [w for v in variants for w in ends(v, i, key, entry, ce)]
     return variants
 
 
@@ -339,6 +390,14 @@ def compensation_law(
     r = as_rig(rig)
     if not span_k > 0:
         raise InputError(f"span_k must be > 0, got {span_k}")
+    if model.status == "ambiguous":
+        # Confounded laws agree on the runs diagnosed and may disagree anywhere else: a
+        # controller must not be handed one of them as the law.
+        raise InputError(
+            f"the diagnosis is ambiguous ({model.note}): its effects give different laws "
+            "where these runs did not go; separate them first (thermrs design proposes the "
+            "run that does) and compensate from a diagnosis that identifies one"
+        )
     geometric = [e for e in model.effects if e.name not in _TIME_EFFECTS]
     ref = r.reference_c
     steps = np.linspace(0.0, span_k, 21)

@@ -116,7 +116,9 @@ def predict_diagnosed(
     "out_path",
     required=True,
     type=click.Path(path_type=Path),
-    help="The law to write (atomically): CSV (.csv, one row per pose, axis and term) or JSON "
+    help="The law to write (atomically): CSV (.csv, one self-contained row per pose and chip "
+    "axis: the reference temperature, a µm/K column per temperature name with its 95 % "
+    "interval, the chip and time terms) or JSON "
     "(.json, with the model and the diagnosis' promise).",
 )
 @click.option(
@@ -142,7 +144,7 @@ def compensate(rig_path: Path, diagnosis: Path, out_path: Path, span_k: float) -
     _say_model(model)
     law = compensation_law(r, model, span_k=span_k)
     if out_path.name.endswith(".csv"):
-        write_csv(out_path, law.table)
+        write_csv(out_path, law.wide())
     else:
         write_json(out_path, law.to_json())
     t = table(

@@ -16,7 +16,7 @@
     as identified, but a selected effect has rivals (named) the data cannot reject.
 ``partially explained``
     effects selected, but what is left is still above the floor or not white: the effects
-    named explain a part, the rest is unexplained.
+    named take a part off, and may only stand in for an effect outside the library.
 ``unexplained``
     a residual above the floor (or structured, or one the floor cannot account for) and no
     candidate with a significant, plausible held-out gain.
@@ -119,11 +119,13 @@ def decide(
             left.append(f"above the floor (p = {fp(p_floor)})")
         if not white:
             left.append(f"slow at the thermal time scales (p = {fp(p_low)})")
+        removed = base_rms - last.hold_ms**0.5
         return (
             "partially explained",
-            f"{english_list(names)} explain{'s' if len(names) == 1 else ''} part of the gap; "
-            f"what is left ({last.hold_ms**0.5:.2f} µm) is still {english_list(left)}: "
-            "an effect outside the library, or a second one too small to attribute",
+            f"{english_list(names)} take{'s' if len(names) == 1 else ''} {removed:.2f} µm off "
+            f"the held-out rms, but what is left ({last.hold_ms**0.5:.2f} µm) is still "
+            f"{english_list(left)}: {english_list(names)} may only stand in for an effect "
+            "outside the library, or a second effect is too small to attribute",
             rivals,
         )
     if rivals:

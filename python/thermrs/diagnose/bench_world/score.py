@@ -4,14 +4,17 @@
   ``partially explained``) names the true effect among its effect, confounded set or selected
   effects; ``false none``: ``none``; ``false attribution``: effects named, the truth not among
   them; ``unexplained`` is counted on its own (honest, not right).
-- **Withheld** (the same runs, the true effect excluded from the library): ``honest`` is
-  ``unexplained``, ``ambiguous`` or ``partially explained``; ``none`` is a failure (where the
-  SNR ≥ 1); ``identified`` is a false attribution.
+- **Withheld** (the same runs, the true effect excluded from the library): the verdict can
+  only name wrong effects. ``identified`` or ``ambiguous`` states them as found (or as
+  candidates for the truth): a false attribution. ``partially explained`` says that what is
+  left is still a gap and that the effects named may stand in for one outside the library:
+  ``stand-in``, honest. ``unexplained`` is honest; ``none`` is a failure (where the SNR ≥ 1).
 - **No effect**: ``none`` is right; ``identified``/``ambiguous``/``partially explained`` is a
-  false attribution; ``unexplained`` a false gap.
-- **Two effects**: right if the verdict names both, or says ``partially explained`` or
-  ``unexplained``; ``false none``: ``none``; anything else (one effect ``identified`` and
-  nothing else, or a wrong one) is wrong.
+  false attribution; ``unexplained`` a false gap. The total rate of anything but ``none`` is
+  reported beside them.
+- **Two effects**: right only if the verdict names both (by name, among its effect, confounded
+  set or selected effects); ``false none``: ``none``; anything else is wrong (one of them
+  named, or ``unexplained``).
 
 A case is binned by the SNR it reached (each effect's own, for a pair the smaller), at the
 nearest target on a log scale; the SNR ≥ 1 rates (``must_reach``) take every case that reached
@@ -41,9 +44,7 @@ def outcome(row: dict[str, Any]) -> str:
     if status == "none":
         return "false none"
     if row["kind"] == "pair":
-        if truth <= named or status in ("partially explained", "unexplained"):
-            return "right"
-        return "wrong"
+        return "right" if status in NAMING and truth <= named else "wrong"
     if status in NAMING:
         return "right" if truth <= named else "false attribution"
     return "unexplained"
@@ -54,9 +55,9 @@ def withheld_outcome(row: dict[str, Any]) -> str:
     status = row["excluded"]["status"]
     if status == "none":
         return "none"
-    if status == "identified":
+    if status in ("identified", "ambiguous"):
         return "false attribution"
-    return "honest"
+    return "stand-in" if status == "partially explained" else "honest"
 
 
 def _bin(snr: float, targets: tuple[float, ...]) -> str:
@@ -149,12 +150,20 @@ def _must_reach(done: list[dict[str, Any]]) -> dict[str, Any]:
             "false_attribution_on_none": _rate(
                 [r for r in here if r["kind"] == "none"], "outcome", ("false attribution",)
             ),
+            "not_none_on_none": _rate(
+                [r for r in here if r["kind"] == "none"],
+                "outcome",
+                ("false attribution", "false gap"),
+            ),
             "false_attribution_on_none_nuisance_lt_0.25": _rate(
                 [r for r in here if r["kind"] == "none" and r.get("nuisance_snr", 0.0) < 0.25],
                 "outcome",
                 ("false attribution",),
             ),
-            "withheld_honest_snr_ge_1": _rate(held, "excluded_outcome", ("honest",)),
+            "withheld_honest_snr_ge_1": _rate(held, "excluded_outcome", ("honest", "stand-in")),
+            "withheld_false_attribution_snr_ge_1": _rate(
+                held, "excluded_outcome", ("false attribution",)
+            ),
             "withheld_none_snr_ge_1": _rate(held, "excluded_outcome", ("none",)),
             "pair_right": _rate([r for r in here if r["kind"] == "pair"], "outcome", ("right",)),
         }

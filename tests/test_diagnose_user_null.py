@@ -1,0 +1,106 @@
+"""The diagnoser's null is the user's world: noise, and a rig known only to its tolerances.
+
+Every case here is rendered by the independent bench world (:mod:`thermrs.diagnose.bench_world`:
+its own kinematics, thermal network and instruments), which perturbs what the analysis does
+not model — the rig's geometry, the IR camera's gain, offset, drift and clock, α — within an
+ordinary rig's tolerances. The truth is the world's: no effect, a visit repeatability of
+σ = 2 µm per axis.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+import thermrs
+from thermrs.diagnose import diagnose
+from thermrs.diagnose.bench_world.cases import make_case
+from thermrs.diagnose.bench_world.world import Campaign
+
+#: The bench world's visit repeatability (µm per axis): the true noise floor.
+TRUE_FLOOR_UM = 2.0
+DRAWS = 99
+
+
+@pytest.fixture(scope="module")
+def effect_free() -> list[dict[str, Any]]:
+    """Six effect-free campaigns (white and AR(1) pose errors, three 12-h runs each),
+    diagnosed; seeds nobody tuned on."""
+    rig = thermrs.load_rig()
+    path = str(thermrs.default_rig_path())
+    docs = []
+    for world in ("white", "ar1"):
+        for seed in (5101, 5102, 5103):
+            tables, _, _ = make_case(path, (), 1.0, world=world, seed=seed, campaign=Campaign())
+            d = diagnose(tables[:1], tables[1:], rig, bootstrap=0, null_draws=DRAWS, seed=seed)
+            docs.append(d.to_json())
+    return docs
+
+
+def test_effect_free_rigs_within_their_tolerances_are_none(
+    effect_free: list[dict[str, Any]],
+) -> None:
+    # At a 5 % level, two or more of six wrong has probability 3 %.
+    wrong = [d["verdict"]["outcome"] for d in effect_free if d["verdict"]["status"] != "none"]
+    assert len(wrong) <= 1, wrong
+    for d in effect_free:
+        if d["verdict"]["status"] == "none":
+            # Said with the size of effect the data rule out.
+            assert d["verdict"]["reason"].startswith("no effect above ")
+            assert d["tests"]["detectable_um"] >= d["tests"]["margin_um"] > 0
+
+
+def test_the_floor_interval_covers_the_true_repeatability(
+    effect_free: list[dict[str, Any]],
+) -> None:
+    # A 95 % interval: two or more misses of six has probability 3 %.
+    miss = 0
+    for d in effect_free:
+        lo, hi = d["noise_floor"]["holdout_ci95"]
+        assert d["noise_floor"]["holdout_se_um"] > 0
+        miss += not lo <= TRUE_FLOOR_UM <= hi
+    assert miss <= 1
+
+
+def test_p_values_never_go_below_what_the_draws_resolve(
+    effect_free: list[dict[str, Any]],
+) -> None:
+    for d in effect_free:
+        for st in d["tests"]["steps"]:
+            for key in ("p_at_floor", "p_white_at_thermal_scales", "p_best_gain"):
+                assert st[key] >= 1.0 / (st["draws"] + 1) - 1e-12
+        assert d["tests"]["per_test_level"] == pytest.approx(0.05 / 4)
+
+
+def test_the_null_draws_the_rig_tolerances_the_file_states() -> None:
+    # A rig that claims to be exact (all tolerances 0) has no tolerance signatures; the
+    # default rig has the geometry's and the IR camera's.
+    path = thermrs.default_rig_path()
+    exact = thermrs.Rig.from_toml(
+        path.read_text(encoding="utf-8")
+        + "\n[tolerances]\n"
+        + "\n".join(f"{k} = 0.0" for k in thermrs.load_rig().tolerances),
+        source_name="exact rig",
+    )
+    tables, _, _ = make_case(str(path), (), 1.0, seed=5104, campaign=Campaign(hours=6.0))
+    d0 = diagnose(tables[:1], tables[1:], exact, bootstrap=0, null_draws=19).to_json()
+    d1 = diagnose(tables[:1], tables[1:], thermrs.load_rig(), bootstrap=0, null_draws=19)
+    names = d1.to_json()["tests"]["tolerance_signatures"]
+    assert d0["tests"]["tolerance_signatures"] == []
+    assert any(n.startswith("IR gain") for n in names)
+    assert any(n.startswith("IR clock") for n in names)
+    assert any(n.startswith("camera[") for n in names)
+
+
+def test_an_effect_that_cannot_clear_the_practical_margin_is_not_named() -> None:
+    path = str(thermrs.default_rig_path())
+    rig = thermrs.load_rig()
+    tables, _, _ = make_case(path, ("thermal_lag",), 2.0, seed=5105, campaign=Campaign())
+    named = diagnose(tables[:1], tables[1:], rig, bootstrap=0, null_draws=DRAWS)
+    assert "thermal_lag" in named.to_json()["verdict"]["effects"]
+    removed = named.how_far["holdout_rms_before_um"] - named.how_far["holdout_rms_after_um"]
+    strict = diagnose(
+        tables[:1], tables[1:], rig, bootstrap=0, null_draws=DRAWS, margin_um=2.0 * removed
+    ).to_json()
+    assert strict["verdict"]["effects"] == []
+    assert strict["tests"]["margin_um"] == pytest.approx(2.0 * removed)
