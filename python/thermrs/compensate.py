@@ -69,6 +69,7 @@ class DiagnosedModel:
     promised_shrink: float | None = None
     holdout_rms_before_um: float | None = None
     holdout_rms_after_um: float | None = None
+    holdout_rms_after_ci95: tuple[float, float] | None = None
     note: str = ""
 
     @property
@@ -155,8 +156,10 @@ def diagnosed_model(
     if status == "ambiguous":
         rivals = ", ".join(verdict.get("confounded_with", []))
         note = f"ambiguous: {rivals} explain the held-out runs about as well as {name}"
+    ci_after = how.get("holdout_rms_after_ci95")
     return replace(
         model,
+        holdout_rms_after_ci95=None if not ci_after else (float(ci_after[0]), float(ci_after[1])),
         alpha_per_k=float(row["alpha_per_k"]),
         effects=(effect,),
         params_ci95=dict(verdict.get("params_ci95", {})),
@@ -269,6 +272,33 @@ class CompensationLaw:
                 row[col + suffix] = v
         return pl.DataFrame(list(rows.values()))
 
+    def check(self, tables: Sequence[pl.DataFrame], rig: Rig) -> dict[str, Any]:
+        """The law on held-out runs: the rms of measured − compensated drift (both axes, each
+        series' mean removed) against the nominal model's, per run and over them all, and
+        whether the rms over them all lies in the range the diagnosis promised for its own
+        held-out runs taken together (:attr:`DiagnosedModel.holdout_rms_after_ci95`)."""
+        series = predict_series(tables, rig, self.model)
+
+        def row(name: str, part: pl.DataFrame) -> dict[str, Any]:
+            (r,) = shrink_table(part).filter(pl.col("run") == "all").to_dicts()
+            return {
+                "run": name,
+                "nominal_rms_um": r["nominal_rms_um"],
+                "compensated_rms_um": r["diagnosed_rms_um"],
+            }
+
+        runs = series["run"].unique(maintain_order=True).to_list()
+        every = row("all", series)
+        ci = self.model.holdout_rms_after_ci95
+        every["promised_ci95"] = None if ci is None else list(ci)
+        every["inside"] = (
+            None if ci is None else bool(ci[0] <= every["compensated_rms_um"] <= ci[1])
+        )
+        return {
+            "runs": [row(str(r), series.filter(pl.col("run") == r)) for r in runs],
+            "all": every,
+        }
+
     def to_json(self) -> dict[str, Any]:
         """The document ``thermrs compensate -o comp.json`` writes."""
         m = self.model
@@ -279,6 +309,11 @@ class CompensationLaw:
             "span_k": self.span_k,
             "linearity_um": self.linearity_um,
             "residual_um": self.residual_um,
+            "residual_ci95": None
+            if m.holdout_rms_after_ci95 is None
+            else list(m.holdout_rms_after_ci95),
+            "residual_note": "the held-out rms a compensated run like the diagnosis' held-out "
+            "runs keeps, and the range 95 % of such runs fall in",
             "alpha_per_k": m.alpha_per_k,
             "alpha_ci95": list(m.alpha_ci95),
             "effects": [e.to_dict() for e in m.effects],

@@ -122,6 +122,15 @@ def predict_diagnosed(
     "(.json, with the model and the diagnosis' promise).",
 )
 @click.option(
+    "--check",
+    "check",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    metavar="RUN",
+    help="Held-out runs (FILE or FILE#RUN, repeatable) to check the law on: their rms with "
+    "the law against the nominal model's and against the range the diagnosis promised.",
+)
+@click.option(
     "--span-k",
     type=click.FloatRange(min=0, min_open=True, max=200),
     default=20.0,
@@ -129,12 +138,15 @@ def predict_diagnosed(
     help="Temperature rise above the rig's reference over which slopes are taken and "
     "linearity checked (K).",
 )
-def compensate(rig_path: Path, diagnosis: Path, out_path: Path, span_k: float) -> None:
+def compensate(
+    rig_path: Path, diagnosis: Path, out_path: Path, check: tuple[Path, ...], span_k: float
+) -> None:
     """Export the diagnosed model as a compensation law: per taught pose (camera) and chip
     axis, the drift as a function of the measured temperatures, µm per kelvin above the rig's
     reference temperature, with 95 % intervals, plus the chip and time terms of the effect
     (fixture, sensor drift, lag); a robot controller or a CMM program applies it.
     """
+    from thermrs.cli.common import run_tables
     from thermrs.compensate import compensation_law, load_diagnosis
     from thermrs.rig import load_rig
 
@@ -143,10 +155,14 @@ def compensate(rig_path: Path, diagnosis: Path, out_path: Path, span_k: float) -
     model = load_diagnosis(diagnosis, r)
     _say_model(model)
     law = compensation_law(r, model, span_k=span_k)
+    checked = None
+    if check:
+        held, _ = run_tables(check, r, "--check")
+        checked = law.check(held, r)
     if out_path.name.endswith(".csv"):
         write_csv(out_path, law.wide())
     else:
-        write_json(out_path, law.to_json())
+        write_json(out_path, {**law.to_json(), "check": checked})
     t = table(
         f"Compensation law: drift (µm) = Σ coefficient × (T − {law.reference_c:g} °C)",
         [(c, "left" if c in ("pose", "axis", "term", "unit") else "right")
@@ -159,4 +175,22 @@ def compensate(rig_path: Path, diagnosis: Path, out_path: Path, span_k: float) -
         t.add_row(row["pose"], row["axis"], row["term"], f"{row['coefficient']:.4g}",
                   f"{row['ci95_low']:.4g} – {row['ci95_high']:.4g}", row["unit"])  # fmt: skip
     out.print(t)
+    if law.model.holdout_rms_after_ci95 is not None:
+        lo, hi = law.model.holdout_rms_after_ci95
+        out.print(
+            f"Promised: a compensated held-out run like the diagnosis' keeps {lo:.2f}–{hi:.2f} µm "
+            "rms (95 %)."
+        )
+    if checked is not None:
+        for row in checked["runs"]:
+            out.print(
+                f"Check on {row['run']}: nominal {row['nominal_rms_um']:.2f} µm → compensated "
+                f"{row['compensated_rms_um']:.2f} µm rms."
+            )
+        a = checked["all"]
+        inside = {True: "inside", False: "OUTSIDE", None: "no range was promised for"}
+        out.print(
+            f"Over the check runs: {a['compensated_rms_um']:.2f} µm rms compensated, "
+            f"{inside[a['inside']]} the promised range."
+        )
     click.echo(f"wrote {out_path}", err=True)

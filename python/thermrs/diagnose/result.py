@@ -216,6 +216,30 @@ def assemble(
     ranking = [_ranking_row(c, base_rms, n_eff_train) for c in cands]
     after = final if final is not None else base
     how_far = _how_far(base, after, fl, final is not None)
+    # What held-out runs like these keep after the model: the rms the model left on them,
+    # with the relative spread the held-out rms has from one set of runs to another (the
+    # last step's null world, where the final model is the truth: the floor's noise, the
+    # rig's tolerances, the model refitted).
+    spread = steps[-1].null_hold_ms_profiled
+    spread = spread if len(spread) else steps[-1].null_hold_ms
+    last = np.sqrt(spread[np.isfinite(spread)])
+    mid = float(np.median(last)) if len(last) else 0.0
+    # The rms left here is itself one draw: a new set of runs differs from it by the
+    # difference of two independent draws, √2 times one draw's spread.
+    how_far["holdout_rms_after_ci95"] = (
+        [
+            after.holdout_rms_um * (1.0 + np.sqrt(2.0) * (float(np.quantile(last, q)) / mid - 1.0))
+            for q in (0.025, 0.975)
+        ]
+        if len(last) >= 19 and mid > 0
+        else None
+    )
+    how_far["holdout_rms_after_ci95_note"] = (
+        "95 % of sets of held-out runs like these keep an rms in this range once the model "
+        "is applied: the rms it left here, spread as the held-out rms spreads in the model's "
+        "null world (the floor's noise, the rig's tolerances, the model refitted, its last "
+        "effect's time constant or choice profiled again)"
+    )
     first = selected[0] if selected else None
     verdict_doc = {
         # SPEC §7's four statuses; a partial explanation is `unexplained` there (what is left

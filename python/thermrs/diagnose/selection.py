@@ -97,6 +97,9 @@ class Step:
     #: threshold gain removes, or the practical margin if that is more.
     detectable_um: float = 0.0
     draws: int = 0
+    #: The null world's held-out mean squares with the model's last effect re-profiled on its
+    #: grid in every replicate (its non-linear parameters' estimation error included).
+    null_hold_ms_profiled: FloatArray = field(default_factory=lambda: np.zeros(0))
 
 
 def build_grids(families: list[Family], visits: VisitSet, design: Design) -> list[FamilyGrid]:
@@ -227,6 +230,10 @@ def run_step(
     )
     if not model and floor.holdout_se_um is None:
         _floor_uncertainty(batch, design, floor, ys_raw, cur)
+    if model:
+        again = _profile(batch, model[:-1], model[-1].grid, ys)
+        if again is not None:
+            step.null_hold_ms_profiled = again[0][1:]
     ok = sc.significant(threshold, model, plausible, removes=np.sqrt(h0) - margin_um)
     step.significant = [c.label for c in ok]
     if not ok:

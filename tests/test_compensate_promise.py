@@ -1,0 +1,78 @@
+"""A compensation law keeps its promise on runs it never saw.
+
+The runs come from the independent bench world (:mod:`thermrs.diagnose.bench_world`); the law
+is exported from the diagnosis of one campaign, then applied to an independent replicate of
+it (the same rig and effect, new pose errors, new noise): the rms it leaves there must lie in
+the range the diagnosis promised, as often as a 95 % range says.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import thermrs
+from thermrs.compensate import compensation_law, diagnosed_model
+from thermrs.diagnose import diagnose
+from thermrs.diagnose.bench_world.cases import _rigs, _truths, make_case
+from thermrs.diagnose.bench_world.world import Campaign, draw_scene, render
+from thermrs.errors import InputError
+
+CASES = [
+    (effect, world, seed)
+    for effect in ("thermal_lag", "sensor_drift")
+    for world in ("white", "ar1")
+    for seed in (6100, 6101)
+]
+
+
+def _promise_kept(effect: str, world: str, seed: int) -> bool | None:
+    rig, wrig = _rigs(str(thermrs.default_rig_path()))
+    scene = draw_scene(wrig, Campaign(), world, seed)
+    truths, _, _ = _truths(wrig, scene, (effect,), 2.0, seed)
+    tables = render(scene, tuple(truths))
+    doc = diagnose(tables[:1], tables[1:], rig, seed=seed, bootstrap=0).to_json()
+    if doc["verdict"]["status"] != "identified":
+        return None
+    law = compensation_law(rig, diagnosed_model(doc, rig))
+    replicate = render(dataclasses.replace(scene, seed=seed + 100_000), tuple(truths))
+    checked = law.check(replicate[1:], rig)["all"]
+    assert checked["compensated_rms_um"] < checked["nominal_rms_um"]
+    return bool(checked["inside"])
+
+
+@pytest.mark.slow
+def test_the_compensated_error_on_a_replicate_lies_in_the_promised_range() -> None:
+    kept = [_promise_kept(*c) for c in CASES]
+    judged = [k for k in kept if k is not None]
+    assert len(judged) >= 6, kept
+    # A 95 % range: two or more misses of eight has probability 6 %.
+    assert judged.count(False) <= 1, kept
+
+
+def test_an_ambiguous_diagnosis_is_not_exported_as_a_law(tmp_path: Path) -> None:
+    rig = thermrs.load_rig()
+    path = str(thermrs.default_rig_path())
+
+    tables, _, _ = make_case(path, ("thermal_lag",), 2.0, seed=6102, campaign=Campaign())
+    doc = diagnose(tables[:1], tables[1:], rig, bootstrap=0, null_draws=49).to_json()
+    doc["verdict"] = {
+        **doc["verdict"],
+        "status": "ambiguous",
+        "confounded_with": ["sensor_drift"],
+    }
+    with pytest.raises(InputError, match="ambiguous"):
+        compensation_law(rig, diagnosed_model(doc, rig))
+    # The same refusal at the command line: one line, exit 2, nothing written.
+    (tmp_path / "d.json").write_text(json.dumps(doc))
+    p = subprocess.run(
+        [sys.executable, "-m", "thermrs", "compensate", "--rig", path, "--diagnosis",
+         str(tmp_path / "d.json"), "-o", str(tmp_path / "law.csv")],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert p.returncode == 2 and "ambiguous" in p.stderr and "Traceback" not in p.stderr
+    assert not (tmp_path / "law.csv").exists()
