@@ -247,8 +247,10 @@ def _diagnose(
         base_rms=b.base.holdout_rms_um,
         floor_um=b.floor.holdout_um,
         margin_um=margin,
+        floor_se_um=b.floor.holdout_se_um,
     )
     final, selected = _final_model(b.design, steps, rig)
+    _agree(confounded, steps)
     return assemble(
         vs=b.vs,
         base=b.base,
@@ -266,6 +268,30 @@ def _diagnose(
         margin_um=margin,
         tolerances=(rig.tolerances, b.design.nuisance_names),
     )
+
+
+def _agree(confounded: list[dict[str, Any]], steps: list[Step]) -> None:
+    """One statement per pair: where the rival test rejected one of a confounded pair (their
+    signatures nearly parallel, yet the held-out data tell them apart), the pair says so
+    instead of "nothing separates them"."""
+    from thermrs.diagnose.null import format_p
+
+    chosen = {s.chosen.effect for s in steps if s.chosen is not None}
+    for c in confounded:
+        for mine, other in (c["effects"], c["effects"][::-1]):
+            st = next((s for s in steps if other in s.rival_p), None)
+            if mine not in chosen or st is None:
+                continue
+            p = format_p(st.rival_p[other], st.rival_draws)
+            if other in st.rivals:
+                c["rival_test"] = {"kept": other, "p": st.rival_p[other]}
+            else:
+                c["rival_test"] = {"rejected": other, "p": st.rival_p[other]}
+                c["separate_by"] = (
+                    f"their signatures are nearly parallel on these runs, yet the held-out "
+                    f"data reject {other} as the truth (rival test p {p}); `thermrs design` "
+                    "computes the measurement that would separate them by their signatures too"
+                )
 
 
 def _select(

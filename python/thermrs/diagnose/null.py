@@ -247,8 +247,9 @@ def quantile_above(null: FloatArray, observed: float) -> float:
 
 
 def format_p(p: float, draws: int) -> str:
-    """A bootstrap p-value as text: ``< 0.005`` where it is the smallest the draws resolve."""
+    """A bootstrap p-value with its relation, for "p {…}": ``= 0.12``, or ``< 0.005`` where
+    it is the smallest the draws resolve."""
     floor = 1.0 / (draws + 1)
     if draws > 0 and p <= floor * (1 + 1e-9):
         return f"< {floor:.2g}" if floor < 0.01 else f"≤ {floor:.2g}"
-    return f"{p:.3f}" if p < 0.01 else f"{p:.2f}"
+    return f"= {p:.3f}" if p < 0.01 else f"= {p:.2f}"

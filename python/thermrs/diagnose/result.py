@@ -136,6 +136,7 @@ def _tests(steps: list[Step], level: float) -> dict[str, Any]:
                 "significant": s.significant,
                 "chosen": None if s.chosen is None else s.chosen.label,
                 "draws": s.draws,
+                "rival_draws": s.rival_draws,
                 "detectable_um": s.detectable_um,
                 "rivals": s.rivals,
                 "rival_p": s.rival_p,

@@ -12,10 +12,10 @@ world), or when three effects are in.
 
 Rivals of a selected effect A are the other significant, plausible effects B (one family per
 effect name) that the data cannot reject as the truth: in a world where B (fitted) is the
-truth, how much better than B does A come out on the held-out runs? B is rejected when A's
-observed advantage is beyond that world's (1 − level/k) quantile, k the number of rivals
-tested (Bonferroni: an `identified` rejects them all together at the level). A parametric
-Cox-type test: collinear pairs are judged by what their difference would be under each, not
+truth, how much better than B does A come out on the held-out runs? The k rivals' p-values go
+through Holm's step-down (the smallest against level/k, the next against level/(k − 1), …),
+which, like Bonferroni, rejects them all together at the level. A parametric Cox-type test:
+collinear pairs are judged by what their difference would be under each, not
 by a standard error that vanishes with collinearity.
 """
 
@@ -97,6 +97,7 @@ class Step:
     #: threshold gain removes, or the practical margin if that is more.
     detectable_um: float = 0.0
     draws: int = 0
+    rival_draws: int = 0
     #: The null world's held-out mean squares with the model's last effect re-profiled on its
     #: grid in every replicate (its non-linear parameters' estimation error included).
     null_hold_ms_profiled: FloatArray = field(default_factory=lambda: np.zeros(0))
@@ -342,8 +343,8 @@ def _test_rivals(
     rng: np.random.Generator,
 ) -> None:
     """One candidate per other effect name: can the data reject it as the truth? Every rival
-    is tested, so each at level / (number of rivals) (Bonferroni): an `identified` claims
-    that all of them are rejected together. Fills ``step.rival_p`` and ``step.rivals``."""
+    is tested, the family by Holm's step-down at the level: an `identified` claims that all
+    of them are rejected together. Fills ``step.rival_p`` and ``step.rivals``."""
     best = ok[0]
     seen = {best.effect}
     rivals = []
@@ -353,14 +354,21 @@ def _test_rivals(
             rivals.append(ch)
     if not rivals:
         return
-    cut = level / len(rivals)
-    # Enough draws that the cut lies inside what they resolve (1/(B+1) at most half of it).
-    n = max(draws, int(np.ceil(2.0 / cut)) - 1)
+    k = len(rivals)
+    # Enough draws that the smallest cut (level / k) lies inside what they resolve: 1/(B+1)
+    # at most half of it.
+    n = max(draws, int(np.ceil(2.0 * k / level)) - 1)
+    step.rival_draws = n
     for ch in rivals:
-        p = _rival_p(batch, design, floor, model, best, ch, draws=n, rng=rng)
-        step.rival_p[ch.effect] = p
-        if p >= cut:
-            step.rivals.append(ch.effect)
+        step.rival_p[ch.effect] = _rival_p(batch, design, floor, model, best, ch, draws=n, rng=rng)
+    # Holm's step-down: the smallest p against level / k, the next against level / (k − 1),
+    # … until one is kept; it and every larger one are rivals the data cannot reject. The
+    # rivals are rejected together at the level, as with Bonferroni, with more power.
+    order = sorted(step.rival_p, key=lambda e: step.rival_p[e])
+    for i, e in enumerate(order):
+        if step.rival_p[e] >= level / (k - i):
+            step.rivals = order[i:]
+            break
 
 
 def _rival_p(

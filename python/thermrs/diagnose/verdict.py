@@ -15,8 +15,11 @@
 ``ambiguous``
     as identified, but a selected effect has rivals (named) the data cannot reject.
 ``partially explained``
-    effects selected, but what is left is still above the floor or not white: the effects
-    named take a part off, and may only stand in for an effect outside the library.
+    effects selected, but what is left is still above the floor or not white, or the effects
+    cannot be shown to close at least half of the gap above the floor (the lower end of the
+    share closed, with the floor at the low end of its 95 % interval, below
+    :data:`MIN_CLOSED`): the effects named take a part off, and may only stand in for an
+    effect outside the library.
 ``unexplained``
     a residual above the floor (or structured, or one the floor cannot account for) and no
     candidate with a significant, plausible held-out gain.
@@ -34,7 +37,12 @@ from typing import Any
 from thermrs.diagnose.null import format_p, quantile_above
 from thermrs.diagnose.selection import Step
 
-__all__ = ["decide", "english_list", "format_params", "summary"]
+__all__ = ["MIN_CLOSED", "decide", "english_list", "format_params", "summary"]
+
+#: An effect is said to explain the gap (``identified``, ``ambiguous``) only if it closes at
+#: least this share of the gap above the floor at 95 %: one that leaves more than half of it is
+#: a stand-in, not the cause.
+MIN_CLOSED = 0.5
 
 
 def english_list(items: Sequence[str], *, conj: str = "and") -> str:
@@ -63,7 +71,13 @@ def format_params(p: dict[str, Any]) -> str:
 
 
 def decide(
-    steps: list[Step], *, level: float, base_rms: float, floor_um: float, margin_um: float = 0.0
+    steps: list[Step],
+    *,
+    level: float,
+    base_rms: float,
+    floor_um: float,
+    margin_um: float = 0.0,
+    floor_se_um: float | None = None,
 ) -> tuple[str, str, list[str]]:
     """(status, reason, rivals) from the selection's steps (module docs)."""
     lvl = level / 4.0
@@ -88,22 +102,22 @@ def decide(
                 f"no effect above {first.detectable_um:.2f} µm at {1 - level:.0%}: the held-out "
                 f"residual ({base_rms:.2f} µm) is within what noise (floor {floor_um:.2f} µm) "
                 "and the rig's stated tolerances leave "
-                f"(p = {fp(first.p_at_floor)}), white at the thermal time scales "
-                f"(p = {fp(first.p_low)}), and no effect of the library takes more than "
+                f"(p {fp(first.p_at_floor)}), white at the thermal time scales "
+                f"(p {fp(first.p_low)}), and no effect of the library takes more than "
                 f"{first.detectable_um:.2f} µm off it (the most any took: "
-                f"{_best_removal(first):.2f} µm; p = {fp(first.p_gain)}; practical margin "
+                f"{_best_removal(first):.2f} µm; p {fp(first.p_gain)}; practical margin "
                 f"{margin_um:.2f} µm)",
                 [],
             )
         why = []
         if first.p_at_floor < lvl:
-            why.append(f"above the noise floor ({floor_um:.2f} µm; p = {fp(first.p_at_floor)})")
+            why.append(f"above the noise floor ({floor_um:.2f} µm; p {fp(first.p_at_floor)})")
         if first.p_low < lvl:
-            why.append(f"slow at the thermal time scales (p = {fp(first.p_low)})")
+            why.append(f"slow at the thermal time scales (p {fp(first.p_low)})")
         if contradicted:
             why.append(
                 "a candidate takes it further below the floor than noise would "
-                f"(p = {fp(first.p_floor_contradicted)}), so it is not noise"
+                f"(p {fp(first.p_floor_contradicted)}), so it is not noise"
             )
         return (
             "unexplained",
@@ -113,12 +127,25 @@ def decide(
         )
     rivals = sorted({r for s in steps for r in s.rivals})
     names = [c.label for c in chosen]
+    after = last.hold_ms**0.5
+    floor_low = floor_um - 1.96 * (floor_se_um or 0.0)
+    closed_low = (base_rms - after) / (base_rms - floor_low) if base_rms > floor_low else 1.0
+    if at_floor and white and closed_low < MIN_CLOSED:
+        return (
+            "partially explained",
+            f"{english_list(names)} take{'s' if len(names) == 1 else ''} "
+            f"{base_rms - after:.2f} µm off the held-out rms ({base_rms:.2f} → {after:.2f} µm), "
+            f"but may close as little as {max(closed_low, 0.0):.0%} of the gap above the floor "
+            f"({floor_um:.2f} ± {1.96 * (floor_se_um or 0.0):.2f} µm): "
+            f"{english_list(names)} may only stand in for an effect outside the library",
+            rivals,
+        )
     if not (at_floor and white):
         left = []
         if not at_floor:
-            left.append(f"above the floor (p = {fp(p_floor)})")
+            left.append(f"above the floor (p {fp(p_floor)})")
         if not white:
-            left.append(f"slow at the thermal time scales (p = {fp(p_low)})")
+            left.append(f"slow at the thermal time scales (p {fp(p_low)})")
         removed = base_rms - last.hold_ms**0.5
         return (
             "partially explained",
@@ -137,7 +164,8 @@ def decide(
         return (
             "ambiguous",
             f"{'; and '.join(groups)} explain the held-out runs about equally well "
-            "(the data cannot reject any of them as the truth)",
+            "(the data cannot reject any of them as the truth; nor an effect outside the "
+            "library with the same signature on these runs)",
             rivals,
         )
     tested = sorted({r for s in steps for r in s.rival_p})
@@ -151,7 +179,7 @@ def decide(
         "identified",
         f"{english_list(names)} take{'s' if len(names) == 1 else ''} {removed:.2f} µm off the "
         f"held-out rms ({base_rms:.2f} → {last.hold_ms**0.5:.2f} µm), to the noise floor "
-        f"(p = {fp(p_floor)}), white at the thermal time scales (p = {fp(p_low)}); "
+        f"(p {fp(p_floor)}), white at the thermal time scales (p {fp(p_low)}); "
         f"{rivals_said}",
         [],
     )
