@@ -3,6 +3,7 @@ as a terminal delivers it."""
 
 from __future__ import annotations
 
+import os
 import signal
 from collections.abc import Iterator
 from pathlib import Path
@@ -12,6 +13,12 @@ import thermrs
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
+
+# pytest-xdist's workers run with COLUMNS=80 and LINES=24 in their environment; the commands
+# the tests start would take that for a terminal's width. A test that wants a width sets it.
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    os.environ.pop("COLUMNS", None)
+    os.environ.pop("LINES", None)
 
 
 @pytest.fixture(scope="session")
