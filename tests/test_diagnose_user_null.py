@@ -104,3 +104,17 @@ def test_an_effect_that_cannot_clear_the_practical_margin_is_not_named() -> None
     ).to_json()
     assert strict["verdict"]["effects"] == []
     assert strict["tests"]["margin_um"] == pytest.approx(2.0 * removed)
+
+
+def test_implausible_parameters_are_said_in_words_and_search_bounds_named() -> None:
+    from thermrs.effects import TAU_GRID_MIN
+    from thermrs.numbers import implausible
+
+    # A laser tilted by 62° is beyond the effect's physical bound (SPEC: |tilt| ≤ 10°).
+    why = implausible("laser_tilt", {"tilt_deg": 61.767833656705726, "azimuth_deg": 130.5})
+    assert why is not None and why.startswith("its tilt_deg would be 61.77, beyond")
+    assert "effect laser_tilt:" not in why
+    # A time constant at the end of the grid searched is not a physical finding.
+    why = implausible("thermal_lag", {"tau_min": float(TAU_GRID_MIN[-1])})
+    assert why is not None and "search bound" in why and "slower" in why
+    assert implausible("thermal_lag", {"tau_min": 50.0}) is None

@@ -129,12 +129,40 @@ def gap_closed(share: float | None, rms_after_um: float | None, floor_um: float 
 
 
 def implausible(effect: str, params: Mapping[str, Any]) -> str | None:
-    """Why ``params`` are outside the effect's physical bounds (one line), or None."""
-    from thermrs.effects import effect_classes, from_dict
+    """Why ``params`` cannot be the physics of ``effect``, in words (one line), or None: a
+    parameter beyond the effect's physical bounds, or a time constant at the end of the range
+    the diagnoser searched (the data want a process faster or slower than any it tried)."""
+    import re
+
+    from thermrs.effects import TAU_GRID_MIN, effect_classes, from_dict
     from thermrs.errors import ThermrsError
 
     if effect not in effect_classes():
         return None
+    tau = params.get("tau_min")
+    if isinstance(tau, int | float) and tau in (TAU_GRID_MIN[0], TAU_GRID_MIN[-1]):
+        end = "longest" if tau == TAU_GRID_MIN[-1] else "shortest"
+        return (
+            f"its time constant is at the search bound ({tau:g} min, the {end} tried): the data "
+            f"want a {'slower' if end == 'longest' else 'faster'} process than any the library "
+            "searched, so this one stands in for it"
+        )
+    try:
+        from_dict({"name": effect, **params})
+    except ThermrsError as e:
+        text = str(e)
+        m = re.match(
+            r"effect \S+: (?P<key>[^:]+): is (?P<value>[^,]+), expected (?P<want>.*)", text
+        )
+        if m is None:
+            return text
+        want = m["want"].removeprefix("a finite value with ").strip()
+        try:
+            value = f"{float(m['value']):.4g}"
+        except ValueError:
+            value = m["value"]
+        return f"its {m['key']} would be {value}, beyond what the effect can physically be ({want})"
+    return None
     try:
         from_dict({"name": effect, **params})
     except ThermrsError as e:

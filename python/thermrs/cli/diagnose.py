@@ -146,11 +146,15 @@ def _say_which(doc: dict[str, Any]) -> None:
             "—" if e["gap_closed"] is None else f"{min(e['gap_closed'], 1.0):.0%}",
             _f(e["placebo_holdout_rms_um"]),
             _f(e["stability"]),
-            "implausible" if why is not None else "yes" if e["qualifies"] else "no",
+            ("at bound" if "search bound" in why else "implausible")
+            if why is not None
+            else "yes"
+            if e["qualifies"]
+            else "no",
         )
     out.print(t)
     for line in beyond:
-        out.print(f"Implausible, outside the effect's own bounds: {line}")
+        out.print(f"Implausible: {line}")
 
 
 def _say_verdict(doc: dict[str, Any]) -> None:
