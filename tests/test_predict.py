@@ -256,3 +256,25 @@ def test_cli_drift_curves_and_iso9283(runs: dict[str, Path], tmp_path: Path) -> 
     assert link3["phase"] == "warm-up" and 200 < link3["tau_min"] < 450
     cams = {row["camera"] for row in doc["iso9283"]["summary"]}
     assert cams == {"A", "B"}
+
+
+def test_a_start_end_alpha_is_judged_along_the_axis_it_was_taken_along() -> None:
+    # Issue 31: the start/end α names its chip axis, and Table 7 judges it on that axis.
+    from thermrs.diagnose.bench import make_runs
+    from thermrs.workflows import fit_document, training_axes
+
+    rig = thermrs.load_rig()
+    runs = make_runs(rig, None, seed=3, hours=4.0, perturb=False)
+    doc = fit_document(runs[:1], rig)
+    axes = training_axes(doc)
+    per_camera = next(iter(doc.to_json()["start_end"].values()))["per_camera"]
+    assert axes and {c: v["axis"] for c, v in per_camera.items()} == axes
+    for cam, ax in axes.items():
+        # The axis is the one along which the camera's first-to-last drift is larger.
+        g = runs[0].filter(pl.col("camera") == cam).sort("t_ns")
+        du = abs(g["u_um"][-1] - g["u_um"][0])
+        dv = abs(g["v_um"][-1] - g["v_um"][0])
+        assert ax == ("u" if du >= dv else "v") or abs(du - dv) < 5.0
+    forced = {c: ("v" if a == "u" else "u") for c, a in axes.items()}
+    t = prediction_table(runs[1:2], rig, alphas={"A": 2.3e-5}, camera_axes=forced)
+    assert dict(zip(t["camera"], t["axis"], strict=True)) == forced

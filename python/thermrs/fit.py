@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -372,6 +372,8 @@ class StartEndFit:
     per_camera: dict[str, tuple[float, tuple[float, float]]]
     mean: tuple[float, tuple[float, float]]
     visit_noise_um: float
+    #: The chip axis each camera's α was taken along.
+    axes: dict[str, str] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, object]:
         """``{"per_camera": {camera: {"value", "ci95"}}, "mean": {…}, "visit_noise_um"}``."""
@@ -380,7 +382,9 @@ class StartEndFit:
             return {"value": v[0], "ci95": list(v[1])}
 
         return {
-            "per_camera": {c: one(v) for c, v in self.per_camera.items()},
+            "per_camera": {
+                c: {**one(v), "axis": self.axes.get(c)} for c, v in self.per_camera.items()
+            },
             "mean": one(self.mean),
             "visit_noise_um": self.visit_noise_um,
         }
@@ -491,7 +495,12 @@ def fit_alpha_start_end(
     )
     half_m = 1.96 * float(np.sqrt(var_m))
     noise = float(np.sqrt(np.mean(np.square([one.noise for one in cams.values()]))))
-    return StartEndFit(per_camera=per, mean=(m, (m - half_m, m + half_m)), visit_noise_um=noise)
+    return StartEndFit(
+        per_camera=per,
+        mean=(m, (m - half_m, m + half_m)),
+        visit_noise_um=noise,
+        axes={cam: one.axis for cam, one in cams.items()},
+    )
 
 
 @dataclass(frozen=True)
@@ -503,6 +512,7 @@ class _CameraStartEnd:
     spot_var: float
     noise: float
     dtemp: dict[tuple[int, str], float]
+    axis: str = "u"
 
 
 def _camera_start_end(
@@ -542,4 +552,6 @@ def _camera_start_end(
         for j, g in enumerate(grads)
         for end, i, sign in (("first", first, 1.0), ("last", last, -1.0))
     }
-    return _CameraStartEnd(alpha=a, spot_var=2.0 * noise**2 / ds**2, noise=noise, dtemp=dtemp)
+    return _CameraStartEnd(
+        alpha=a, spot_var=2.0 * noise**2 / ds**2, noise=noise, dtemp=dtemp, axis=ax
+    )

@@ -232,6 +232,7 @@ def prediction_table(
     alphas: Mapping[str, float],
     axis: str = "auto",
     end_visits: int = 1,
+    camera_axes: Mapping[str, str] | None = None,
 ) -> pl.DataFrame:
     """A Table 7-style table for any runs and cameras: per α (label → value), camera and run,
     the predicted and measured drift at the end of the run and the % error, with the whole
@@ -252,6 +253,9 @@ def prediction_table(
     end_visits
         The end of the run is the mean of the last ``end_visits`` visits (default 1: the last
         visit, as the paper).
+    camera_axes
+        With ``axis="auto"``: the axis to use per camera where one is given (the axis its
+        start/end α was taken along, :func:`thermrs.workflows.training_axes`).
 
     Returns
     -------
@@ -293,6 +297,8 @@ def prediction_table(
             pred = {a: g[f"predicted_{a}_um"].to_numpy() for a in "uv"}
             meas = {a: g[f"measured_{a}_um"].to_numpy() for a in "uv"}
             ax = axis
+            if ax == "auto" and camera_axes and str(cam) in camera_axes:
+                ax = camera_axes[str(cam)]
             if ax == "auto":
                 ax = "u" if abs(pred["u"][-1]) >= abs(pred["v"][-1]) else "v"
             k = min(end_visits, g.height)

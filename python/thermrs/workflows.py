@@ -18,7 +18,7 @@ import polars as pl
 
 from thermrs.fit import AlphaFit, RigLike, StartEndFit, fit_alpha, fit_alpha_start_end
 
-__all__ = ["FitResult", "fit_document", "training_alphas"]
+__all__ = ["FitResult", "fit_document", "training_alphas", "training_axes"]
 
 
 @dataclass(frozen=True)
@@ -56,3 +56,11 @@ def training_alphas(result: FitResult) -> dict[str, float]:
             alphas[cam] = a
         alphas["mean"] = se.mean[0]
     return alphas
+
+
+def training_axes(result: FitResult) -> dict[str, str]:
+    """The chip axis each camera's start/end α was taken along (the paper's protocol: one
+    training run), by camera: its Table 7 rows are judged along that axis."""
+    if len(result.start_end) != 1:
+        return {}
+    return dict(next(iter(result.start_end.values())).axes)

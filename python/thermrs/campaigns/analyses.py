@@ -108,13 +108,20 @@ class Prediction:
     series: pl.DataFrame
 
     def rms_um(self, label: str = "series") -> float:
-        """RMS (µm, over the held-out visits, the norm of u and v) of measured minus predicted
-        drift with the α labelled ``label``."""
+        """The held-out rms (µm) with the α labelled ``label``: measured − predicted drift
+        over every held-out visit and both chip axes, each (run, camera, axis) series' mean
+        removed — the definition of the per-run ``rms_centred_um``, pooled."""
         import numpy as np
 
         s = self.series.filter(pl.col("alpha") == label)
-        r = np.hypot(s["residual_u_um"].to_numpy(), s["residual_v_um"].to_numpy())
-        return float(np.sqrt(np.nanmean(r**2)))
+        parts = []
+        for _, g in s.group_by(["run", "camera"], maintain_order=True):
+            for a in "uv":
+                r = g[f"residual_{a}_um"].to_numpy()
+                r = r[np.isfinite(r)]
+                if len(r):
+                    parts.append(r - r.mean())
+        return float(np.sqrt(np.mean(np.concatenate(parts) ** 2))) if parts else float("nan")
 
     def to_json(self) -> dict[str, Any]:
         """The ``thermrs predict --json`` document of this split (with its fold and runs)."""
@@ -139,12 +146,16 @@ def predict_splits(
     on its training runs (:func:`thermrs.workflows.training_alphas`)."""
     from thermrs.predict import predict as run_predict
     from thermrs.predict import prediction_table
-    from thermrs.workflows import fit_document, training_alphas
+    from thermrs.workflows import fit_document, training_alphas, training_axes
 
     res = []
     for s in sets:
-        a = dict(alphas) if alphas else training_alphas(fit_document(s.train, rig))
-        table = prediction_table(s.holdout, rig, alphas=a, axis=axis, end_visits=end_visits)
+        doc = None if alphas else fit_document(s.train, rig)
+        a = dict(alphas) if alphas else training_alphas(doc)  # type: ignore[arg-type]
+        axes = {} if doc is None else training_axes(doc)
+        table = prediction_table(
+            s.holdout, rig, alphas=a, axis=axis, end_visits=end_visits, camera_axes=axes
+        )
         joined = pl.concat(s.holdout, how="diagonal_relaxed")
         series = pl.concat(
             [

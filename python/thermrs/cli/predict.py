@@ -257,8 +257,9 @@ def _render_folds(preds: list[Prediction], rule: str) -> None:
             ("α series (×10⁻⁶/K)", "right"),
             ("held-out rms µm", "right"),
         ],
-        caption="held-out rms: measured − predicted drift over every held-out visit, the norm of "
-        "u and v, with the time-series α",
+        caption="held-out rms: measured − predicted drift over every held-out visit and both "
+        "chip axes, each series' mean offset removed (the per-run rms above, pooled), with the "
+        "time-series α",
     )
     for p in preds:
         t.add_row(

@@ -457,7 +457,7 @@ def _fit_and_predict(
 ) -> _Fitted:
     """α on the training runs; the held-out runs (else the training runs) predicted with it."""
     from thermrs.predict import predict, prediction_table
-    from thermrs.workflows import fit_document, training_alphas
+    from thermrs.workflows import fit_document, training_alphas, training_axes
 
     out = _Fitted()
     try:
@@ -469,7 +469,9 @@ def _fit_and_predict(
         targets = ho if ho else tr
         # The paper compares drift along its cameras' y axis (v): so does its demo.
         axis = "v" if paper_reference else "auto"
-        out.prediction = prediction_table(targets, rig, alphas=out.alphas, axis=axis)
+        out.prediction = prediction_table(
+            targets, rig, alphas=out.alphas, axis=axis, camera_axes=training_axes(result)
+        )
         out.series = predict(
             pl.concat(targets, how="diagonal_relaxed"), rig, alpha_per_k=f.alpha_per_k
         )
