@@ -475,7 +475,7 @@ def render_bench(doc: dict[str, Any]) -> None:
     """Print a bench document (:func:`thermrs.diagnose.bench.run_bench`) as tables."""
     sections = (
         ("single", "One effect", ("right", "false none", "false attribution", "unexplained")),
-        ("withheld", "True effect excluded", ("honest", "none", "false attribution")),
+        ("withheld", "True effect excluded", ("honest", "stand-in", "none", "false attribution")),
         ("pair", "Two effects", ("right", "false none", "wrong")),
     )
     for key, title, cols in sections:
@@ -499,6 +499,12 @@ def render_bench(doc: dict[str, Any]) -> None:
                 counts = [m["cases"], m.get("right", 0), m.get("false attribution", 0)]
                 t.add_row(world, label, *map(str, counts), str(m.get("false gap", 0)))
     out.print(t)
+    for world, m in (doc.get("must_reach") or {}).items():
+        r = m.get("not_none_on_none") or {}
+        if r.get("n"):
+            out.print(
+                f"{world}: a verdict other than `none` on {r['k']} of {r['n']} effect-free cases"
+            )
     for s in doc["skipped"]:
         out.print(f"not run: {s}")
     out.print(f"{doc['cases']} cases in {doc['seconds']:.0f} s")

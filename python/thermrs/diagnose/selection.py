@@ -197,16 +197,28 @@ def run_step(
     low = batch.low(cur.hold_resid)
     sc = _Scores.of(batch, model, grids, ys, cur)
     gains, hold = sc.gains, sc.hold
+    # Each family's gain studentized by its own null spread before the maximum: a family that
+    # is unstable once the model so far is in (a wide null) cannot set the bar for the others.
+    centre: dict[str, float] = {}
+    spread: dict[str, float] = {}
+    for k, v in gains.items():
+        null = v[1:][np.isfinite(v[1:])]
+        centre[k] = float(np.median(null)) if len(null) else 0.0
+        mad = float(np.median(np.abs(null - centre[k]))) * 1.4826 if len(null) else 0.0
+        spread[k] = max(mad, float(np.std(null)) * 0.1, 1e-12)
+    z = {k: (v - centre[k]) / spread[k] for k, v in gains.items()}
     if gains:
-        g = np.vstack(list(gains.values()))
-        max_null = np.nanmax(g[:, 1:], axis=0)
+        max_null = np.nanmax(np.vstack(list(z.values()))[:, 1:], axis=0)
         min_hold_null = np.nanmin(np.vstack(list(hold.values()))[:, 1:], axis=0)
         obs_min_hold = float(np.nanmin([h[0] for h in hold.values()]))
     else:
         max_null = np.zeros(draws)
         min_hold_null = cur.hold_ms[1:]
         obs_min_hold = float(cur.hold_ms[0])
-    threshold = float(np.quantile(max_null, 1.0 - level))
+    z_cut = float(np.quantile(max_null, 1.0 - level))
+    # Each family's bar in µm² (its gain at the studentized cut).
+    bars = {k: centre[k] + z_cut * spread[k] for k in gains}
+    threshold = max(bars.values(), default=0.0)
     h0 = float(cur.hold_ms[0])
     detectable = float(np.sqrt(h0) - np.sqrt(max(h0 - threshold, 0.0)))
     step = Step(
@@ -214,13 +226,13 @@ def run_step(
         hold_ms=float(cur.hold_ms[0]),
         p_at_floor=quantile_above(cur.hold_ms[1:], float(cur.hold_ms[0])),
         p_low=quantile_above(low[1:], float(low[0])),
-        p_gain=quantile_above(max_null, max((float(v[0]) for v in gains.values()), default=0.0)),
+        p_gain=quantile_above(max_null, max((float(v[0]) for v in z.values()), default=0.0)),
         # How often the null's best candidate leaves as little as the data's best does.
         p_floor_contradicted=float(
             (1 + np.sum(min_hold_null <= obs_min_hold)) / (len(min_hold_null) + 1)
         ),
         gain={k: float(v[0]) for k, v in gains.items()},
-        gain_p={k: quantile_above(max_null, float(v[0])) for k, v in gains.items()},
+        gain_p={k: quantile_above(max_null, float(v[0])) for k, v in z.items()},
         best_index=sc.best_idx,
         threshold=threshold,
         null_hold_ms=cur.hold_ms[1:],
@@ -235,7 +247,7 @@ def run_step(
         again = _profile(batch, model[:-1], model[-1].grid, ys)
         if again is not None:
             step.null_hold_ms_profiled = again[0][1:]
-    ok = sc.significant(threshold, model, plausible, removes=np.sqrt(h0) - margin_um)
+    ok = sc.significant(bars, model, plausible, removes=np.sqrt(h0) - margin_um)
     step.significant = [c.label for c in ok]
     if not ok:
         return step
@@ -308,18 +320,19 @@ class _Scores:
 
     def significant(
         self,
-        threshold: float,
+        bars: dict[str, float],
         model: list[Choice],
         plausible: Callable[[list[Choice], Choice], bool],
         *,
         removes: float = np.inf,
     ) -> list[Choice]:
-        """The families whose gain on the data beats ``threshold``, that leave a held-out rms
-        of at most ``removes`` and that are plausible, the one leaving least first."""
+        """The families whose gain on the data beats their ``bars`` (µm²), that leave a
+        held-out rms of at most ``removes`` and that are plausible, the one leaving least
+        first."""
         sig = [
             k
             for k, v in self.gains.items()
-            if v[0] > threshold and np.sqrt(max(float(self.hold[k][0]), 0.0)) <= removes
+            if v[0] > bars[k] and np.sqrt(max(float(self.hold[k][0]), 0.0)) <= removes
         ]
         sig.sort(key=lambda k: float(self.hold[k][0]))
         ok = []
