@@ -3,9 +3,9 @@ independent replicate lies in the range the diagnosis promised (`how_far.holdout
 in at least 19 of 20 cases (issue #31).
 
 Each case: the independent bench world (:mod:`thermrs.diagnose.bench_world`) renders its
-default campaign (three 12-h runs, 600 s cycles) with one effect at SNR 2; the runs are diagnosed, the
-law exported (``identified`` verdicts only: an ambiguous one is refused), then applied to a
-replicate of the same rig and effect with new pose errors and noise.
+default campaign (three 12-h runs, 600 s cycles) with one effect at SNR 2; the runs are
+diagnosed, the law exported (``identified`` verdicts only: an ambiguous one is refused), then
+applied to a replicate of the same rig and effect with new pose errors and noise.
 
     python benchmarks/bench_compensation_promise.py --effect thermal_lag --effect sensor_drift \
         --seeds 10 --jobs 2
