@@ -21,6 +21,26 @@ if os.environ.get("PYTEST_XDIST_WORKER"):
     os.environ.pop("LINES", None)
 
 
+#: Test files that take minutes (a simulated demo, a designed experiment, long scenarios), run
+#: first: with every core busy, the suite then ends on the many short files, not one long one.
+LONG_FILES = (
+    "test_report.py",
+    "test_design.py",
+    "test_second_hour.py",
+    "test_readme.py",
+    "test_effect_residuals.py",
+    "test_fit.py",
+    "test_simulate.py",
+    "test_campaign.py",
+    "test_campaign_commands.py",
+)
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    rank = {name: i for i, name in enumerate(LONG_FILES)}
+    items.sort(key=lambda it: rank.get(it.path.name, len(LONG_FILES)))
+
+
 @pytest.fixture(scope="session")
 def paper_rig() -> thermrs.Rig:
     return thermrs.load_rig()
