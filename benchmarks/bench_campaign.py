@@ -209,7 +209,7 @@ def main() -> None:
     # without a journal (this machine's), an inode is not reused within 60 s of its deletion
     # (300 s while its inode-table block is dirty) and the allocator moves past each such one
     # (`recently_deleted`, fs/ext4/ialloc.c). Measured here, 20 campaigns in a row, each
-    # deleted after it ran, went from 1.81 s to 2.1–2.3 s (BENCHMARKS.md, campaigns, Session 7).
+    # deleted after it ran, went from 1.81 s to 2.1–2.3 s (BENCHMARKS.md, Campaigns part 7).
     # So wait until this script's last deletion is 5 minutes old.
     cleaned = args.dir / ".cleaned-at"
     if cleaned.exists():

@@ -388,7 +388,7 @@ WORKER_ENV = {"RAYON_NUM_THREADS": "1", "POLARS_MAX_THREADS": "1", "OMP_NUM_THRE
 #: off, and the system monitor (the dashboard's CPU and memory plots) at 2 s instead of
 #: 0.5 s. The memory monitor, which keeps a worker within its memory limit, is left as it is.
 #: Measured on 2 cores (``benchmarks/bench_campaign_tasks.py``; BENCHMARKS.md, campaigns,
-#: Session 7): a campaign of 24 short recordings ran 6 % faster, its client process using
+#: Campaigns part 7): a campaign of 24 short recordings ran 6 % faster, its client process using
 #: 0.167 s of CPU instead of 0.208 s.
 QUIET_CLUSTER = {
     "distributed.admin.tick.interval": "1s",
