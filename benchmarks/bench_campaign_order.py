@@ -1,4 +1,6 @@
-"""A campaign whose one long recording is listed last: largest first (what thermrs does)
+"""Backs the BENCHMARKS.md claim "campaign: largest recording first".
+
+A campaign whose one long recording is listed last: largest first (what thermrs does)
 against the listing's order, on a 2-worker LocalCluster.
 
 Recordings: the first ``--small`` recordings of ``bench_campaign.py``'s short set

@@ -1,4 +1,6 @@
-"""What the campaign engine's two ways of cutting Dask's share each give, on 2 workers.
+"""Backs the BENCHMARKS.md claim "campaign: tasks of several recordings on a quiet cluster".
+
+What the campaign engine's two ways of cutting Dask's share each give, on 2 workers.
 
 A campaign on a ``LocalCluster`` shares the machine's cores between the workers and the
 client process (scheduler, nannies, client, commits). Two things cut what Dask takes:

@@ -1,4 +1,6 @@
-"""Reading a campaign's catalog of many fragments: ``Dataset.catalog`` (one polars scan over
+"""Backs the BENCHMARKS.md claim "campaign catalog read in one scan".
+
+Reading a campaign's catalog of many fragments: ``Dataset.catalog`` (one polars scan over
 every ``_catalog/*.parquet``) against a Python loop of ``pl.read_parquet`` and a concat (what
 ``Dataset.catalog`` did before, and what a script would write).
 

@@ -1,4 +1,6 @@
-"""Start-up of the CLI and how fast Ctrl-C stops it (issue #13).
+"""Backs BENCHMARKS.md "CLI start-up < 0.2 s" and "Ctrl-C stops within a fraction of a second".
+
+Start-up of the CLI and how fast Ctrl-C stops it (issue #13).
 
 - ``thermrs --help``: wall time of the whole process, repeated (hyperfine-style: warm-up runs,
   then min / median / max of N runs), and the modules that cost most to import

@@ -1,4 +1,6 @@
-"""Claim: a compensation law keeps its promise on runs it never saw — the rms it leaves on an
+"""Backs the BENCHMARKS.md claim "compensation promise kept in ≥ 19 of 20".
+
+Claim: a compensation law keeps its promise on runs it never saw — the rms it leaves on an
 independent replicate lies in the range the diagnosis promised (`how_far.holdout_rms_after_ci95`)
 in at least 19 of 20 cases (issue #31).
 

@@ -1,4 +1,6 @@
-"""Time `thermrs design` on the demo's three 15-hour runs (issue #18: under 5 minutes).
+"""Backs the BENCHMARKS.md claim "thermrs design < 5 minutes".
+
+Time `thermrs design` on the demo's three 15-hour runs (issue #18: under 5 minutes).
 
 Simulates the demo scenario (the paper's 30 %, 75 % and 10 % runs with a joint offset, 300 s
 cycles), extracts it, cuts it into its runs, then runs `thermrs.design.design` (training on

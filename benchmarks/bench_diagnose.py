@@ -1,4 +1,6 @@
-"""Time a diagnosis of three 15-hour runs once they are extracted (issue #10: under a minute).
+"""Backs the BENCHMARKS.md claim "diagnose three 15-h runs < 30 s".
+
+Time a diagnosis of three 15-hour runs once they are extracted (issue #10: under a minute).
 
 The runs are the diagnose-bench generator's (training at 30 %, held out at 75 % and a 10 %
 cool-down; 60 s cycles, two cameras: 5,400 visits), with a thermal lag injected. Prints the

@@ -1,4 +1,6 @@
-"""The diagnoser on the kinds of case issue 16 saw it fail on, made by the independent bench
+"""Backs the BENCHMARKS.md claim "issue 16's failing kinds: named blind, never none withheld".
+
+The diagnoser on the kinds of case issue 16 saw it fail on, made by the independent bench
 world (:mod:`thermrs.diagnose.bench_world`): three 15-h runs (30 %; next day 75 %, then 10 %
 straight after), 600 s cycles, independent 2 µm visit errors, one effect at the issue's size,
 blind and with the effect excluded from the library.

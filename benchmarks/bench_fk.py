@@ -1,4 +1,6 @@
-"""Batch forward-kinematics throughput: thermrs vs the Robotics Toolbox, in one run.
+"""Backs the BENCHMARKS.md claim "batch forward kinematics against the Robotics Toolbox".
+
+Batch forward-kinematics throughput: thermrs vs the Robotics Toolbox, in one run.
 
 Both compute the flange transform of the paper rig's KR 15/2 DH chain for random joint
 vectors; thermrs also applies per-sample thermal expansion (two temperature columns), which

@@ -1,4 +1,6 @@
-"""Peak memory of extraction against recording length: thermrs vs the Python route.
+"""Backs the BENCHMARKS.md claim "memory constant in the recording's length".
+
+Peak memory of extraction against recording length: thermrs vs the Python route.
 
 Writes uncompressed recordings of about 1 GB and 5 GB (752×582 mono8 frames, 10 % with a
 spot, streamed to disk by the reference writer), then runs each route in a fresh process and

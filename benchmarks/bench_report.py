@@ -1,4 +1,6 @@
-"""Benchmark of `thermrs report` (issue #11).
+"""Backs BENCHMARKS.md "report of three 15-h runs < 30 s" and "thermrs report --demo < 60 s".
+
+Benchmark of `thermrs report` (issue #11).
 
 1. The report of three 15-hour runs once they are extracted (must reach: under 30 s): the
    paper's three runs are simulated from the packaged demo scenario and extracted (not timed),

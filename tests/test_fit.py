@@ -173,7 +173,7 @@ def test_interval_is_honest_on_three_geometries(geometry: str) -> None:
     95 % interval covers the true α at close to its nominal rate and its half-width is
     0.7–2× the true spread (1.96 × std of α̂ − α over trials). Before the fix (pinv of the
     normal matrix at the default cutoff, iid residuals) coverage was 50–70 % and the width
-    0.35–0.46× (BENCHMARKS.md). The full table is benchmarks/bench_coverage.py."""
+    0.35–0.46× (git history of BENCHMARKS.md). The full table is benchmarks/bench_coverage.py."""
     from tests.support.coverage import UR5, random_rig, visit_tables
 
     rng = np.random.default_rng({"paper": 11, "ur5": 12, "random": 13}[geometry])

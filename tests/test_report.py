@@ -280,6 +280,48 @@ def test_numbers_are_the_json_outputs(campaign: dict[str, Any], paper_rig: therm
             assert f"{rank['holdout_rms_um']:.3f}" in got
 
 
+def test_report_shows_the_diagnosis_file_it_is_given(
+    campaign: dict[str, Any], paper_rig: thermrs.Rig
+) -> None:
+    """`report --diagnosis D.json` shows that diagnosis (its numbers, its figure), not one made
+    again; a diagnosis of other runs is refused in one line."""
+    d: Path = campaign["dir"]
+    warm, fast = (str(campaign["paths"][k]["tables"]) for k in ("warm", "fast"))
+    rig = paper_rig.source
+    p = d / "given.json"
+    r = run_cli("diagnose", "--rig", rig, "--train", warm, "--holdout", fast, "--json", str(p))
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(p.read_text())
+    res = doc["residuals"]
+    assert {"run", "role", "camera", "axis", "t_h", "baseline_um", "after_um"} <= set(res)
+    assert set(res["run"]) == {r["run"] for r in doc["baseline"]["per_run"]}
+    # Marked so that a diagnosis made again could not show the same.
+    doc["summary"] = "A sentence only the given file carries."
+    doc["noise_floor_um"] = 1.2346
+    p.write_text(json.dumps(doc))
+    out = d / "given.html"
+    r = run_cli("report", "--rig", rig, "--run", warm, fast, "--diagnosis", str(p), "-o", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "diagnosing" not in r.stderr
+    html = out.read_text()
+    text = visible_text(html)
+    assert "A sentence only the given file carries." in text
+    assert "1.235" in cells(html)
+    assert f"{doc['baseline']['holdout_rms_um']:.3f}" in cells(html)
+    sec = html[html.index('<section id="diagnosis">') : html.index('<section id="extraction">')]
+    assert 'data-figure="diagnosis"' in sec
+    # The same file with the runs' roles swapped: not this diagnosis.
+    swapped = ("--run", fast, warm, "--diagnosis", str(p), "-o", str(out), "--quiet")
+    r = run_cli("report", "--rig", rig, *swapped)
+    assert r.returncode == 2
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip() and "1 run:" not in ln]
+    assert len(lines) == 1 and "the diagnosis was made with train runs" in lines[0], r.stderr
+    bad = d / "not-a-diagnosis.json"
+    bad.write_text('{"alpha": 1}')
+    r = run_cli("report", "--rig", rig, "--run", warm, fast, "--diagnosis", str(bad))
+    assert r.returncode == 2 and "not a `thermrs diagnose --json` document" in r.stderr
+
+
 def test_recording_input_shows_extraction(campaign: dict[str, Any], paper_rig: thermrs.Rig) -> None:
     """From the recording itself the extraction's report is shown; from tables it is said to be
     unavailable. One run only: prediction in-sample and no diagnosis, both stated."""

@@ -378,7 +378,7 @@ def _engine(
 #: thread, since each worker is one process on one core (the Rust core's rayon pool, polars'
 #: own pool, BLAS/OpenMP). A worker left with a pool per core runs as many threads as the
 #: machine has cores beside the other workers'; measured on 2 cores, polars' second thread
-#: made a 1-worker campaign slower and cost it 7 % more CPU (BENCHMARKS.md, campaigns).
+#: made a 1-worker campaign slower and cost it 7 % more CPU (benchmarks/bench_campaign_tasks.py).
 WORKER_ENV = {"RAYON_NUM_THREADS": "1", "POLARS_MAX_THREADS": "1", "OMP_NUM_THREADS": "1"}
 
 #: The Dask settings of a :func:`local_cluster`: its processes' background work turned down,
@@ -387,8 +387,8 @@ WORKER_ENV = {"RAYON_NUM_THREADS": "1", "POLARS_MAX_THREADS": "1", "OMP_NUM_THRE
 #: profiler (the dashboard's "Profile" page, sampling the running task 100 times a second)
 #: off, and the system monitor (the dashboard's CPU and memory plots) at 2 s instead of
 #: 0.5 s. The memory monitor, which keeps a worker within its memory limit, is left as it is.
-#: Measured on 2 cores (``benchmarks/bench_campaign_tasks.py``; BENCHMARKS.md, campaigns,
-#: Campaigns part 7): a campaign of 24 short recordings ran 6 % faster, its client process using
+#: Measured on 2 cores (``benchmarks/bench_campaign_tasks.py``):
+#: a campaign of 24 short recordings ran 6 % faster, its client process using
 #: 0.167 s of CPU instead of 0.208 s.
 QUIET_CLUSTER = {
     "distributed.admin.tick.interval": "1s",

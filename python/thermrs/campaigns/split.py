@@ -2,8 +2,8 @@
 
 A task costs the same whatever it holds: the scheduler's transitions, the messages between
 client, scheduler and worker, the result's gather, and the client's share of the commit
-loop. Measured on this project's 2-core machine (``benchmarks/bench_campaign_tasks.py``;
-BENCHMARKS.md, Campaigns part 7), a campaign of 24 short recordings (0.13 s of work each)
+loop. Measured on this project's 2-core machine (``benchmarks/bench_campaign_tasks.py``),
+a campaign of 24 short recordings (0.13 s of work each)
 on 2 workers ran 7 % faster in 8 tasks of 3 recordings than in 24 tasks of one, its client
 process using 0.135 s of CPU instead of 0.208 s.
 Fewer, larger tasks cost less; but a task is also what a worker loses when it dies, what the

@@ -88,6 +88,14 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
     type=click.FloatRange(1.0, 1000.0),
     help="Most recording hours to ask for.",
 )
+@click.option(
+    "--diagnosis",
+    "diagnosis_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="A `thermrs diagnose --json` file of the same runs: designed from as it is, instead "
+    "of diagnosing the runs again (not with --rule).",
+)
 @seed_option("Seed of the proof's simulations.")
 @click.option(
     "--no-proof",
@@ -112,6 +120,7 @@ def design(
     exclude: tuple[str, ...],
     between: tuple[str, ...],
     budget_h: float,
+    diagnosis_path: Path | None,
     seed: int,
     no_proof: bool,
     out_dir: Path,
@@ -136,12 +145,20 @@ def design(
         raise InputError(f"-o {out_dir}: exists and is not a folder")
     if not out_dir.parent.exists():
         raise InputError(f"-o {out_dir}: its parent folder {out_dir.parent} does not exist")
+    if diagnosis_path is not None and rule is not None:
+        raise InputError("--diagnosis is one split's diagnosis: it cannot go with --rule")
+    given = None
+    if diagnosis_path is not None:
+        from thermrs.diagnose.result import Diagnosis
+
+        given = Diagnosis.read(diagnosis_path)
     r = load_rig(rig_path)
     sets = chosen_splits(campaign_path, query, rule, train, holdout, r)
     dirs = [out_dir] if rule is None else [out_dir / f"fold-{i + 1}" for i in range(len(sets))]
     with out.status("designing…") as status:
         res = design_splits(sets, r, exclude=list(exclude), between=list(between) or None,
                             budget_h=budget_h, seed=seed, prove_it=not no_proof,
+                            diagnosis=given,
                             progress=lambda m: status.update(f"designing: {m}…"))  # fmt: skip
         for d, f in zip(dirs, res, strict=True):
             d.mkdir(parents=True, exist_ok=True)

@@ -83,6 +83,14 @@ class _Stage(Protocol):
     default=None,
     help="--demo: keep the simulated recording and its truth here (default: a temporary folder).",
 )
+@click.option(
+    "--diagnosis",
+    "diagnosis_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="A `thermrs diagnose --json` file of the same runs: the report shows it (and designs "
+    "from it) instead of diagnosing the runs again, so its numbers are the file's.",
+)
 @click.option("--quiet", is_flag=True, help="No progress.")
 @campaign_options()
 def report(
@@ -95,6 +103,7 @@ def report(
     no_markdown: bool,
     title: str | None,
     workdir: Path | None,
+    diagnosis_path: Path | None,
     quiet: bool,
     campaign_path: Path | None,
     query: str | None,
@@ -112,6 +121,13 @@ def report(
     """
     err = Console(stderr=True, highlight=False)
     _check_options(demo, rig_path, runs, train, campaign_path, query)
+    if demo and diagnosis_path is not None:
+        raise click.UsageError("--demo takes no --diagnosis (it diagnoses the runs it simulates)")
+    given = None
+    if diagnosis_path is not None:
+        from thermrs.diagnose.result import Diagnosis
+
+        given = Diagnosis.read(diagnosis_path)
     out = out_path or Path("thermrs-demo-report.html" if demo else "thermrs-report.html")
     writable(out, "-o")
     t_start = time.perf_counter()
@@ -139,6 +155,7 @@ def report(
                 runs=loaded,
                 rig=rig,
                 train=train_names or None,
+                diagnosis=given,
                 title=title,
                 markdown=not no_markdown,
                 pdf=pdf,

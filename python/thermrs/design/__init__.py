@@ -180,6 +180,7 @@ def design(
     prove_it: bool = True,
     seed: int = 0,
     workdir: str | Path | None = None,
+    diagnosis: Any | None = None,
     progress: Callable[[str], object] | None = None,
 ) -> DesignResult:
     """Find and prove the measurement that separates the confounded effects.
@@ -206,6 +207,10 @@ def design(
         Seed of the proof's simulations.
     workdir
         Where the forecasts and proofs are simulated (default: a temporary folder).
+    diagnosis
+        The diagnosis of these runs already made (a :class:`thermrs.diagnose.Diagnosis` or
+        its JSON document): used as it is, so the design and the diagnosis agree to the last
+        digit (default: the runs are diagnosed here).
     progress
         Called with a short message at each stage.
 
@@ -236,8 +241,24 @@ def design(
     lim = tuple(limits_deg) if limits_deg is not None else DEFAULT_LIMITS_DEG
     if len(lim) != len(rig.joint_names):
         raise InputError(f"joint limits: {len(lim)} ranges given, the robot has 6 joints")
-    say("diagnosing the given runs")
-    doc = run_diagnosis(train, holdout, rig, exclude=list(exclude)).to_json()
+    if diagnosis is None:
+        say("diagnosing the given runs")
+        doc = run_diagnosis(train, holdout, rig, exclude=list(exclude)).to_json()
+    else:
+        from thermrs.diagnose import Diagnosis
+
+        given = diagnosis if isinstance(diagnosis, Diagnosis) else Diagnosis.from_json(diagnosis)
+        given.check_runs(
+            [str(n) for t in train for n in t["run"].unique().to_list()],
+            [str(n) for t in holdout for n in t["run"].unique().to_list()],
+        )
+        if exclude and sorted(exclude) != sorted(given.excluded):
+            raise InputError(
+                f"--exclude {' '.join(exclude)}: the diagnosis was made excluding "
+                f"{', '.join(given.excluded) or 'nothing'}"
+            )
+        exclude = list(given.excluded)
+        doc = given.to_json()
     names = _confounded(doc, between)
     result = DesignResult(
         diagnosis=doc,

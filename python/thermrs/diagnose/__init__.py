@@ -104,8 +104,11 @@ def diagnose(
     rig
         The rig (nominal model).
     exclude
-        SPEC §6 effect names removed from the library (a withheld-effect check: the
-        diagnoser can neither name them nor hold them up as rivals).
+        SPEC §6 effect names removed from the library: the diagnoser never names them. An
+        excluded effect that explains the gap as well as the one selected, and that the data
+        cannot reject as the truth, stops that one from being called the cause: the verdict
+        is then ``partially explained``, the selected effect a stand-in (a withheld-effect
+        check cannot be passed by a look-alike).
     library
         Effect classes to consider (default: every registered one,
         :func:`thermrs.effects.effect_classes`).
@@ -233,8 +236,17 @@ def _diagnose(
     where = _where(b, rig)
     say("candidates")
     margin = MARGIN_SHARE * b.floor.holdout_um if margin_um is None else float(margin_um)
+    outside = _outside(exclude, library)
     grids, steps = _select(
-        b, classes, rig, level=level, null_draws=null_draws, margin_um=margin, rng=rng, say=say
+        b,
+        classes,
+        rig,
+        outside=outside,
+        level=level,
+        null_draws=null_draws,
+        margin_um=margin,
+        rng=rng,
+        say=say,
     )
     say("evidence")
     cands, n_eff_train = _evidence(b, grids, steps, rig, bootstrap=bootstrap, rng=rng)
@@ -294,11 +306,22 @@ def _agree(confounded: list[dict[str, Any]], steps: list[Step]) -> None:
                 )
 
 
+def _outside(
+    exclude: Sequence[str], library: Sequence[type[Effect]] | None
+) -> dict[str, type[Effect]]:
+    """The excluded effects the diagnoser knows the physics of: rivals it may not name."""
+    from thermrs.effects import effect_classes
+
+    known = dict(effect_classes()) if library is None else {c.name: c for c in library}
+    return {e: known[e] for e in exclude if e in known}
+
+
 def _select(
     b: _Base,
     classes: dict[str, type[Effect]],
     rig: Rig,
     *,
+    outside: dict[str, type[Effect]],
     level: float,
     null_draws: int,
     margin_um: float,
@@ -311,6 +334,10 @@ def _select(
     for cls in classes.values():
         fams.extend(cls.families(rig, b.vs))
     grids = build_grids(fams, b.vs, b.design)
+    others: list[Family] = []
+    for cls in outside.values():
+        others.extend(cls.families(rig, b.vs))
+    grids += build_grids(others, b.vs, b.design, nameable=False)
     batch = Batch(b.design, window_s=3.0 * b.floor.tau_c_max_s)
     steps = forward_selection(
         batch,
@@ -324,7 +351,7 @@ def _select(
         plausible=plausibility(b.design, rig),
         say=say,
     )
-    return grids, steps
+    return [g for g in grids if g.nameable], steps
 
 
 def _evidence(

@@ -3,7 +3,9 @@ steps' results (ranking rows, tests, verdict, how far, the residual table)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -73,7 +75,98 @@ class Diagnosis:
             "library": self.library,
             "excluded": self.excluded,
             "summary": self.summary,
+            # Every visit's held-out and training residual, nominal and with the model, by
+            # column: what `thermrs report --diagnosis` draws without diagnosing again.
+            "residuals": {c: self.residuals[c].to_list() for c in self.residuals.columns},
         }
+
+    @classmethod
+    def from_json(cls, doc: Mapping[str, Any], *, source: str = "the diagnosis") -> Diagnosis:
+        """The diagnosis from its :meth:`to_json` document (a ``thermrs diagnose --json``
+        file), to pass on to the report, ``design`` and ``compensate`` instead of diagnosing
+        the same runs again.
+
+        Raises
+        ------
+        InputError
+            ``doc`` is not a diagnosis document (``source`` names it in the message).
+        """
+        from thermrs.errors import InputError
+
+        need = ("noise_floor_um", "baseline", "location", "ranking", "verdict", "how_far")
+        missing = [k for k in need if k not in doc] if isinstance(doc, Mapping) else list(need)
+        if missing:
+            raise InputError(
+                f"{source}: not a `thermrs diagnose --json` document (no {', '.join(missing)})"
+            )
+        res = doc.get("residuals") or {}
+        try:
+            residuals = pl.DataFrame(res) if res else pl.DataFrame()
+        except (TypeError, ValueError, pl.exceptions.PolarsError) as e:
+            raise InputError(f"{source}: its residuals are not a table ({e})") from None
+        return cls(
+            noise_floor_um=float(doc["noise_floor_um"]),
+            baseline=dict(doc["baseline"]),
+            location=list(doc["location"]),
+            drivers=list(doc.get("drivers", [])),
+            whiteness=dict(doc.get("whiteness", {})),
+            ranking=list(doc["ranking"]),
+            confounded=list(doc.get("confounded", [])),
+            verdict=dict(doc["verdict"]),
+            how_far=dict(doc["how_far"]),
+            selected=list(doc.get("selected", [])),
+            library=list(doc.get("library", [])),
+            excluded=list(doc.get("excluded", [])),
+            summary=str(doc.get("summary", "")),
+            residuals=residuals,
+            noise_floor=dict(doc.get("noise_floor", {})),
+            tests=dict(doc.get("tests", {})),
+        )
+
+    @classmethod
+    def read(cls, path: str | Path) -> Diagnosis:
+        """:meth:`from_json` of a ``thermrs diagnose --json`` file.
+
+        Raises
+        ------
+        InputError
+            The file is missing, not JSON, or not a diagnosis.
+        """
+        import json
+
+        from thermrs.errors import InputError
+
+        p = Path(path)
+        try:
+            doc = json.loads(p.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise InputError(f"{p}: no such file") from None
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+            raise InputError(f"{p}: not a JSON file ({e})") from None
+        return cls.from_json(doc, source=str(p))
+
+    def runs(self) -> dict[str, list[str]]:
+        """The runs it was made on: ``{"train": […], "holdout": […]}`` in their order."""
+        out: dict[str, list[str]] = {"train": [], "holdout": []}
+        for r in self.baseline.get("per_run", []):
+            role = "train" if r.get("role") == "train" else "holdout"
+            if r["run"] not in out[role]:
+                out[role].append(str(r["run"]))
+        return out
+
+    def check_runs(self, train: Sequence[str], holdout: Sequence[str]) -> None:
+        """Raise :class:`~thermrs.errors.InputError` unless it was made on exactly these
+        training and held-out runs (a diagnosis of other runs cannot be passed on)."""
+        from thermrs.errors import InputError
+
+        mine = self.runs()
+        for role, given in (("train", train), ("holdout", holdout)):
+            if sorted(mine[role]) != sorted(str(g) for g in given):
+                raise InputError(
+                    f"the diagnosis was made with {role} runs {', '.join(mine[role]) or 'none'}, "
+                    f"not {', '.join(map(str, given)) or 'none'}: diagnose these runs, or give "
+                    "the runs it was made on"
+                )
 
 
 def _ranking_row(c: Candidate, base_rms: float, n_eff_train: float) -> dict[str, Any]:
@@ -140,6 +233,7 @@ def _tests(steps: list[Step], level: float) -> dict[str, Any]:
                 "detectable_um": s.detectable_um,
                 "rivals": s.rivals,
                 "rival_p": s.rival_p,
+                "outside_rivals": s.outside,
             }
             for s in steps
         ],
@@ -261,6 +355,9 @@ def assemble(
         if first is None or status == "partially explained"
         else first["params_ci95"],
         "confounded_with": rivals if status == "ambiguous" else [],
+        # Excluded effects (never named) that explain the gap as well as the effects
+        # selected and that the data cannot reject: those effects may only stand in for them.
+        "stand_in_for": sorted({e for s in steps for e in s.outside}),
         "holdout_rms_um": after.holdout_rms_um,
         "reason": reason,
     }

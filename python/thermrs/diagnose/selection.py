@@ -45,6 +45,9 @@ class FamilyGrid:
     family: Family
     etas: list[dict[str, float]]
     cols: list[FloatArray]
+    #: False for an effect outside the library (excluded): never named, scored only as a
+    #: rival the data may fail to reject.
+    nameable: bool = True
 
 
 @dataclass
@@ -90,6 +93,9 @@ class Step:
     chosen: Choice | None = None
     rivals: list[str] = field(default_factory=list)
     rival_p: dict[str, float] = field(default_factory=dict)
+    #: Rivals (in :attr:`rivals`) from outside the library: excluded effects that explain the
+    #: gap as well as the chosen one and that the data cannot reject.
+    outside: list[str] = field(default_factory=list)
     null_hold_ms: FloatArray = field(default_factory=lambda: np.zeros(0))
     low: float = 0.0
     null_low: FloatArray = field(default_factory=lambda: np.zeros(0))
@@ -103,7 +109,9 @@ class Step:
     null_hold_ms_profiled: FloatArray = field(default_factory=lambda: np.zeros(0))
 
 
-def build_grids(families: list[Family], visits: VisitSet, design: Design) -> list[FamilyGrid]:
+def build_grids(
+    families: list[Family], visits: VisitSet, design: Design, *, nameable: bool = True
+) -> list[FamilyGrid]:
     """Every family's columns at every grid point that can act on these runs."""
     out = []
     for fam in families:
@@ -118,7 +126,7 @@ def build_grids(families: list[Family], visits: VisitSet, design: Design) -> lis
         except Exception:  # an effect that cannot act on these runs
             continue
         if etas:
-            out.append(FamilyGrid(fam, etas, cols))
+            out.append(FamilyGrid(fam, etas, cols, nameable))
     return out
 
 
@@ -187,10 +195,12 @@ def run_step(
     rng: np.random.Generator,
     plausible: Callable[[list[Choice], Choice], bool],
     margin_um: float = 0.0,
+    prefer: str | None = None,
 ) -> Step:
     """Test the model against its null world and score every family added to it. A family
     is significant when its held-out gain beats the null's threshold *and* it takes at least
-    ``margin_um`` off the held-out rms (practical significance)."""
+    ``margin_um`` off the held-out rms (practical significance). The family chosen is the
+    significant one that leaves least, or ``prefer`` (a label) where it is significant."""
     ys_raw, cur = _world(batch, design, floor, model, draws, rng)
     ys = batch.prepare(ys_raw)
     assert cur.hold_resid is not None
@@ -207,10 +217,13 @@ def run_step(
         mad = float(np.median(np.abs(null - centre[k]))) * 1.4826 if len(null) else 0.0
         spread[k] = max(mad, float(np.std(null)) * 0.1, 1e-12)
     z = {k: (v - centre[k]) / spread[k] for k, v in gains.items()}
-    if gains:
-        max_null = np.nanmax(np.vstack(list(z.values()))[:, 1:], axis=0)
-        min_hold_null = np.nanmin(np.vstack(list(hold.values()))[:, 1:], axis=0)
-        obs_min_hold = float(np.nanmin([h[0] for h in hold.values()]))
+    # The bar and the tests of the model so far are the library's: an effect outside it
+    # (excluded) is only ever a rival.
+    named = [k for k in gains if sc.by_label[k].nameable]
+    if named:
+        max_null = np.nanmax(np.vstack([z[k] for k in named])[:, 1:], axis=0)
+        min_hold_null = np.nanmin(np.vstack([hold[k] for k in named])[:, 1:], axis=0)
+        obs_min_hold = float(np.nanmin([hold[k][0] for k in named]))
     else:
         max_null = np.zeros(draws)
         min_hold_null = cur.hold_ms[1:]
@@ -218,7 +231,7 @@ def run_step(
     z_cut = float(np.quantile(max_null, 1.0 - level))
     # Each family's bar in µm² (its gain at the studentized cut).
     bars = {k: centre[k] + z_cut * spread[k] for k in gains}
-    threshold = max(bars.values(), default=0.0)
+    threshold = max((bars[k] for k in named), default=0.0)
     h0 = float(cur.hold_ms[0])
     detectable = float(np.sqrt(h0) - np.sqrt(max(h0 - threshold, 0.0)))
     step = Step(
@@ -226,13 +239,13 @@ def run_step(
         hold_ms=float(cur.hold_ms[0]),
         p_at_floor=quantile_above(cur.hold_ms[1:], float(cur.hold_ms[0])),
         p_low=quantile_above(low[1:], float(low[0])),
-        p_gain=quantile_above(max_null, max((float(v[0]) for v in z.values()), default=0.0)),
+        p_gain=quantile_above(max_null, max((float(z[k][0]) for k in named), default=0.0)),
         # How often the null's best candidate leaves as little as the data's best does.
         p_floor_contradicted=float(
             (1 + np.sum(min_hold_null <= obs_min_hold)) / (len(min_hold_null) + 1)
         ),
-        gain={k: float(v[0]) for k, v in gains.items()},
-        gain_p={k: quantile_above(max_null, float(v[0])) for k, v in z.items()},
+        gain={k: float(gains[k][0]) for k in named},
+        gain_p={k: quantile_above(max_null, float(z[k][0])) for k in named},
         best_index=sc.best_idx,
         threshold=threshold,
         null_hold_ms=cur.hold_ms[1:],
@@ -247,12 +260,15 @@ def run_step(
         again = _profile(batch, model[:-1], model[-1].grid, ys)
         if again is not None:
             step.null_hold_ms_profiled = again[0][1:]
-    ok = sc.significant(bars, model, plausible, removes=np.sqrt(h0) - margin_um)
+    sig = sc.significant(bars, model, plausible, removes=np.sqrt(h0) - margin_um)
+    ok = [c for c in sig if c.grid.nameable]
     step.significant = [c.label for c in ok]
     if not ok:
         return step
+    ok.sort(key=lambda c: c.label != prefer)  # stable: the preferred one first, if there
     step.chosen = ok[0]
-    _test_rivals(step, ok, batch, design, floor, model, level=level, draws=draws, rng=rng)
+    outside = [c for c in sig if not c.grid.nameable]
+    _test_rivals(step, ok, outside, batch, design, floor, model, level=level, draws=draws, rng=rng)
     return step
 
 
@@ -346,6 +362,7 @@ class _Scores:
 def _test_rivals(
     step: Step,
     ok: list[Choice],
+    outside: list[Choice],
     batch: Batch,
     design: Design,
     floor: NoiseFloor,
@@ -357,11 +374,14 @@ def _test_rivals(
 ) -> None:
     """One candidate per other effect name: can the data reject it as the truth? Every rival
     is tested, the family by Holm's step-down at the level: an `identified` claims that all
-    of them are rejected together. Fills ``step.rival_p`` and ``step.rivals``."""
+    of them are rejected together. Rivals come from the library (``ok``, the chosen first)
+    and from outside it (``outside``: significant, plausible families of excluded effects,
+    which can never be named but, kept, stop the chosen one from being called the cause).
+    Fills ``step.rival_p``, ``step.rivals`` and ``step.outside``."""
     best = ok[0]
     seen = {best.effect}
     rivals = []
-    for ch in ok[1:]:
+    for ch in [*ok[1:], *outside]:
         if ch.effect not in seen:
             seen.add(ch.effect)
             rivals.append(ch)
@@ -382,6 +402,8 @@ def _test_rivals(
         if step.rival_p[e] >= level / (k - i):
             step.rivals = order[i:]
             break
+    out = {ch.effect for ch in outside}
+    step.outside = [e for e in step.rivals if e in out]
 
 
 def _rival_p(
@@ -406,6 +428,52 @@ def _rival_p(
     return quantile_above(d[1:], float(d[0]))
 
 
+#: At most this many of a step's significant families are tried as its revised choice.
+REVISION_POOL = 30
+
+
+def _revision(
+    batch: Batch, design: Design, grids: list[FamilyGrid], prev: Step, model: list[Choice]
+) -> str | None:
+    """A better last choice: among the families significant at the previous step (each at
+    its best grid point there), the pair (A, B) of two effects, A in place of the last
+    choice, that leaves the least held-out mean square on the data; A's label if that pair
+    leaves less than the last choice with any of them. Forward selection's known failure:
+    two effects at once, the first step takes a family that mimics a part of both, and
+    with it neither is left to find."""
+    by_label = {g.family.label: g for g in grids if g.nameable}
+    pool = [
+        Choice(by_label[k], prev.best_index[k])
+        for k in prev.significant[:REVISION_POOL]
+        if k in by_label and k in prev.best_index
+    ]
+    if len(pool) < 2:
+        return None
+    base = model[:-1]
+    ys = batch.prepare(design.y[:, None])
+
+    def leaves(a: Choice, b: Choice) -> float:
+        f = batch.fit(_stack([*base, a, b]), ys)
+        return float(f.hold_ms[0]) if f is not None else np.inf
+
+    last = model[-1]
+    now = min(
+        (leaves(last, b) for b in pool if b.effect != last.effect),
+        default=np.inf,
+    )
+    best, best_ms = None, now
+    for i, a in enumerate(pool):
+        if a.label == last.label:
+            continue
+        for b in pool[i + 1 :] + pool[:i]:
+            if b.effect == a.effect or b.label == last.label:
+                continue
+            ms = leaves(a, b)
+            if ms < best_ms:
+                best, best_ms = a.label, ms
+    return best
+
+
 def forward_selection(
     batch: Batch,
     design: Design,
@@ -423,6 +491,8 @@ def forward_selection(
     """The selection's steps (module docs); the last step tests the final model."""
     steps: list[Step] = []
     model: list[Choice] = []
+    revised: set[int] = set()
+    prefer: str | None = None
     while True:
         say(f"step {len(steps) + 1}: testing {len(model)} effect(s) against the null")
         st = run_step(
@@ -436,8 +506,25 @@ def forward_selection(
             rng=rng,
             plausible=plausible,
             margin_um=margin_um,
+            prefer=prefer,
         )
+        prefer = None
         steps.append(st)
+        if st.chosen is None and model and len(model) - 1 not in revised:
+            gap = quantile_above(steps[0].null_hold_ms, st.hold_ms) < level or (
+                quantile_above(steps[0].null_low, st.low) < level
+            )
+            alt = _revision(batch, design, grids, steps[-2], model) if gap else None
+            if alt is not None:
+                # The last choice was one of several significant families, and with it no
+                # second effect is significant while a gap is left; another of them leaves
+                # room for one: take the step again with that choice.
+                revised.add(len(model) - 1)
+                say(f"step {len(steps) - 1} again with {alt} instead of {model[-1].label}")
+                steps = steps[:-2]
+                model = model[:-1]
+                prefer = alt
+                continue
         # After the first step an effect is added only while what is left is still a gap:
         # above the floor or slow at the thermal time scales, judged against the gap-free
         # world of the first step (past that, a significant gain is the nuisances' own).
@@ -449,6 +536,7 @@ def forward_selection(
             if st.chosen is not None:
                 st.chosen = None  # stop here; the step still tests the model
                 st.rivals = []
+                st.outside = []
             break
         model = [*model, st.chosen]
     return steps

@@ -18,8 +18,9 @@
     effects selected, but what is left is still above the floor or not white, or the effects
     cannot be shown to close at least half of the gap above the floor (the lower end of the
     share closed, with the floor at the low end of its 95 % interval, below
-    :data:`MIN_CLOSED`): the effects named take a part off, and may only stand in for an
-    effect outside the library.
+    :data:`MIN_CLOSED`), or an effect outside the library (an excluded one) explains the gap
+    as well and the data cannot reject it: the effects named take a part off, and may only
+    stand in for an effect outside the library.
 ``unexplained``
     a residual above the floor (or structured, or one the floor cannot account for) and no
     candidate with a significant, plausible held-out gain.
@@ -126,8 +127,21 @@ def decide(
             [],
         )
     rivals = sorted({r for s in steps for r in s.rivals})
+    outside = sorted({r for s in steps for r in s.outside})
     names = [c.label for c in chosen]
     after = last.hold_ms**0.5
+    if outside:
+        ps = {e: fp(s.rival_p[e]) for s in steps for e in s.outside}
+        said = english_list([f"{e} (rival test p {ps[e]})" for e in outside], conj="or")
+        return (
+            "partially explained",
+            f"{english_list(names)} take{'s' if len(names) == 1 else ''} "
+            f"{base_rms - after:.2f} µm off the held-out rms ({base_rms:.2f} → {after:.2f} µm), "
+            f"but an effect outside the library explains the gap about as well and the data "
+            f"cannot reject it as the truth: {said}, excluded from the library: "
+            f"{english_list(names)} may only stand in for it",
+            rivals,
+        )
     floor_low = floor_um - 1.96 * (floor_se_um or 0.0)
     closed_low = (base_rms - after) / (base_rms - floor_low) if base_rms > floor_low else 1.0
     if at_floor and white and closed_low < MIN_CLOSED:

@@ -377,6 +377,9 @@ def gather(
     by = {r.name: r for r in runs}
     tr = [by[n].table for n in train_names]
     ho = [by[n].table for n in holdout_names]
+    if diagnosis is not None and hasattr(diagnosis, "check_runs"):
+        # A diagnosis of other runs cannot be passed on (one line, InputError).
+        diagnosis.check_runs(train_names, holdout_names)
 
     say("checking the rig")
     rig_view = rig.check()
@@ -545,4 +548,4 @@ def diagnosis_json(diag: Any) -> dict[str, Any]:
 def diagnosis_residuals(diag: Any) -> pl.DataFrame | None:
     """The diagnosis' per-visit residuals, or None."""
     res = getattr(diag, "residuals", None)
-    return res if isinstance(res, pl.DataFrame) else None
+    return res if isinstance(res, pl.DataFrame) and res.height else None

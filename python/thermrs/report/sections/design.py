@@ -151,14 +151,22 @@ def section_for(
     experiment (:func:`thermrs.design.design`, about 100 s for three 15-hour runs: the search
     and the proof's simulations), forecasts the rivals' drift on it and builds the section.
 
-    ``diagnosis`` (a ``Diagnosis.to_json()`` document the caller already has) only decides
-    whether to design: the design diagnoses the runs itself.
+    ``diagnosis`` (a ``Diagnosis.to_json()`` document the caller already has) decides
+    whether to design and is the design's diagnosis (the runs are not diagnosed again, so the
+    section's numbers are the diagnosis section's).
     """
     from thermrs.design import design, rival_drift
 
     if diagnosis is not None and diagnosis.get("verdict", {}).get("status") != "ambiguous":
         return None
-    res = design(train, holdout, rig, budget_h=budget_h, exclude=exclude)
+    res = design(
+        train,
+        holdout,
+        rig,
+        budget_h=budget_h,
+        exclude=exclude if diagnosis is None else (),
+        diagnosis=diagnosis,
+    )
     if not res.confounded:
         return None
     return design_section(res.to_json(), rival_drift(res))

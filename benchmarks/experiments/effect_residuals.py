@@ -2,7 +2,7 @@
 simulated recording against the RMS the effect's parameters imply (the functions of
 ``tests/test_effect_residuals.py``).
 
-Run:  python benchmarks/effect_residuals.py
+Run:  python benchmarks/experiments/effect_residuals.py
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE.parents[1]))
 
 
 def main() -> None:

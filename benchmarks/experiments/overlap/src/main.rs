@@ -21,7 +21,7 @@
 //!    piece is interpreted (row scan, then the load), from the load alone or from the scan too,
 //!    against the same work one piece after the other.
 //!
-//! Run: `cargo run --release --manifest-path benchmarks/overlap/Cargo.toml -- FILE
+//! Run: `cargo run --release --manifest-path benchmarks/experiments/overlap/Cargo.toml -- FILE
 //! [--load-us 3.5] [--repeats 7]` (x86-64 with AVX-512 and VPCLMULQDQ for parts 3 and 5).
 
 mod fold;

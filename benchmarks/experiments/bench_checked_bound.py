@@ -24,7 +24,7 @@ uncompressed, 4 MiB chunks). The big one is written first (``--frames``, default
 891 MB, fresh in the page cache, where mapping is cheapest) unless ``--big`` names one.
 Each round measures everything once (medians of repeats inside), ``--rounds`` rounds.
 
-Run:  RAYON_NUM_THREADS=1 OMP_NUM_THREADS=1 python benchmarks/bench_checked_bound.py
+Run:  RAYON_NUM_THREADS=1 OMP_NUM_THREADS=1 python benchmarks/experiments/bench_checked_bound.py
       [--big REC.mcap] [--small 20] [--rounds 5] [--dir bench-out/bound]
 """
 
@@ -37,7 +37,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1])]
+sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parents[2])]
 
 
 def _median(g: Callable[[], object], reps: int) -> float:
