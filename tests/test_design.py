@@ -283,3 +283,22 @@ def test_cli_bad_between_is_one_line_exit_2(
     assert p.returncode == 2, p.stderr
     err = [ln for ln in p.stderr.splitlines() if "error" in ln]
     assert len(err) == 1 and "no_such_effect" in err[0] and "Traceback" not in p.stderr
+
+
+def test_design_uses_the_diagnosis_it_is_given(
+    paper_rig: thermrs.Rig, short_runs: dict[str, pl.DataFrame]
+) -> None:
+    """Given a diagnosis (its JSON document, as `thermrs design --diagnosis` reads it), the
+    design takes it as it is instead of diagnosing the runs again; one of other runs is
+    refused."""
+    from thermrs.diagnose import diagnose
+    from thermrs.errors import InputError
+
+    r1, r2 = short_runs["r1"], short_runs["r2"]
+    doc = diagnose([r1], [r2], paper_rig, bootstrap=0, null_draws=49).to_json()
+    doc["summary"] = "a sentence only the given diagnosis has"
+    res = design([r1], [r2], paper_rig, diagnosis=doc, prove_it=False)
+    assert res.diagnosis["summary"] == doc["summary"]
+    assert res.diagnosis["baseline"] == doc["baseline"]
+    with pytest.raises(InputError, match="the diagnosis was made with train runs r1"):
+        design([r2], [r1], paper_rig, diagnosis=doc, prove_it=False)

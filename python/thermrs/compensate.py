@@ -156,6 +156,13 @@ def diagnosed_model(
     if status == "ambiguous":
         rivals = ", ".join(verdict.get("confounded_with", []))
         note = f"ambiguous: {rivals} explain the held-out runs about as well as {name}"
+    alts = [str(a) for a in verdict.get("params_alternatives") or []]
+    if alts:
+        note = (
+            f"{note + '; ' if note else ''}the data cannot tell its parameters from "
+            f"{' or '.join(alts)}: the law is as sure as the diagnosis only for temperature "
+            "patterns like those of the diagnosis' runs"
+        )
     ci_after = how.get("holdout_rms_after_ci95")
     return replace(
         model,

@@ -262,6 +262,9 @@ def _diagnose(
         floor_se_um=b.floor.holdout_se_um,
     )
     final, selected = _final_model(b.design, steps, rig)
+    alternatives = {s.chosen.label: s.alternatives for s in steps if s.chosen is not None}
+    for sel in selected:
+        sel["alternatives"] = alternatives.get(sel["family"], [])
     _agree(confounded, steps)
     return assemble(
         vs=b.vs,

@@ -234,6 +234,8 @@ def _tests(steps: list[Step], level: float) -> dict[str, Any]:
                 "rivals": s.rivals,
                 "rival_p": s.rival_p,
                 "outside_rivals": s.outside,
+                "alternatives_p": s.alt_p,
+                "alternatives": s.alternatives,
             }
             for s in steps
         ],
@@ -354,6 +356,11 @@ def assemble(
         "params_ci95": {}
         if first is None or status == "partially explained"
         else first["params_ci95"],
+        # The effect's other discrete choices (joint, temperature, length, camera) the data
+        # cannot reject as the truth: its family labels.
+        "params_alternatives": []
+        if first is None or status == "partially explained"
+        else first.get("alternatives", []),
         "confounded_with": rivals if status == "ambiguous" else [],
         # Excluded effects (never named) that explain the gap as well as the effects
         # selected and that the data cannot reject: those effects may only stand in for them.
@@ -382,7 +389,10 @@ def assemble(
         confounded=where["confounded"],
         verdict=verdict_doc,
         how_far=how_far,
-        selected=[{k: s[k] for k in ("effect", "family", "params")} for s in selected],
+        selected=[
+            {k: s[k] for k in ("effect", "family", "params", "alternatives") if k in s}
+            for s in selected
+        ],
         library=classes,
         excluded=exclude,
         summary="",

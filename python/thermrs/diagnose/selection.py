@@ -96,6 +96,10 @@ class Step:
     #: Rivals (in :attr:`rivals`) from outside the library: excluded effects that explain the
     #: gap as well as the chosen one and that the data cannot reject.
     outside: list[str] = field(default_factory=list)
+    #: The chosen effect's other discrete choices (family labels: another joint, temperature,
+    #: length or camera) tested as the truth, and those the data cannot reject.
+    alt_p: dict[str, float] = field(default_factory=dict)
+    alternatives: list[str] = field(default_factory=list)
     null_hold_ms: FloatArray = field(default_factory=lambda: np.zeros(0))
     low: float = 0.0
     null_low: FloatArray = field(default_factory=lambda: np.zeros(0))
@@ -406,6 +410,65 @@ def _test_rivals(
     step.outside = [e for e in step.rivals if e in out]
 
 
+#: The chosen effect's other discrete choices are tested as the truth this many at a time (the
+#: best fitting first), at most :data:`ALTERNATIVES_CAP` of them.
+MAX_ALTERNATIVES = 3
+ALTERNATIVES_CAP = 12
+
+
+def _test_alternatives(
+    steps: list[Step],
+    batch: Batch,
+    design: Design,
+    floor: NoiseFloor,
+    grids: list[FamilyGrid],
+    *,
+    level: float,
+    draws: int,
+    rng: np.random.Generator,
+) -> None:
+    """Each selected effect's other discrete choices (its other families: another joint,
+    temperature, length or camera), with the other selected effects in the model: the
+    :data:`MAX_ALTERNATIVES` that leave least on the data, each tested as the truth like a
+    rival, by Holm's step-down at the level; the ones kept are the choices the data cannot
+    tell from the one named. Fills ``alt_p`` and ``alternatives`` of the step that chose it."""
+    chosen = [s.chosen for s in steps if s.chosen is not None]
+    ys = batch.prepare(design.y[:, None])
+    for st in steps:
+        best = st.chosen
+        if best is None:
+            continue
+        others = [c for c in chosen if c is not best]
+        screened = []
+        for fg in grids:
+            if not fg.nameable or fg.family.effect != best.effect or fg is best.grid:
+                continue
+            got = _profile(batch, others, fg, ys)
+            if got is not None and np.isfinite(got[0][0]):
+                screened.append((float(got[0][0]), Choice(fg, int(got[1][0]))))
+        screened.sort(key=lambda t: t[0])
+        # The choices that fit best first, :data:`MAX_ALTERNATIVES` at a time, on while every
+        # one tested is kept (one the data cannot reject may lie further down).
+        pool = [c for _, c in screened[:ALTERNATIVES_CAP]]
+        tested = 0
+        while tested < len(pool):
+            block = pool[tested : tested + MAX_ALTERNATIVES]
+            tested += len(block)
+            n = max(draws, int(np.ceil(2.0 * tested / level)) - 1)
+            for ch in block:
+                st.alt_p[ch.label] = _rival_p(
+                    batch, design, floor, others, best, ch, draws=n, rng=rng
+                )
+            if any(st.alt_p[c.label] < level / tested for c in block):
+                break
+        k = len(st.alt_p)
+        order = sorted(st.alt_p, key=lambda e: st.alt_p[e])
+        for i, e in enumerate(order):
+            if st.alt_p[e] >= level / (k - i):
+                st.alternatives = order[i:]
+                break
+
+
 def _rival_p(
     batch: Batch,
     design: Design,
@@ -539,4 +602,6 @@ def forward_selection(
                 st.outside = []
             break
         model = [*model, st.chosen]
+    say("testing the selected effects' other choices")
+    _test_alternatives(steps, batch, design, floor, grids, level=level, draws=draws, rng=rng)
     return steps

@@ -247,4 +247,13 @@ def summary(d: Any) -> str:
         )
     else:
         what = f" Verdict: {st} — {v['reason']}."
-    return head + where + what
+    alts = ""
+    if st in ("identified", "ambiguous"):
+        for sel in d.selected:
+            if sel.get("alternatives"):
+                alts += (
+                    f" The data cannot tell {sel['family']} from "
+                    f"{english_list(sel['alternatives'], conj='or')} (rival tests of the other "
+                    "choices of that effect): the choice among them is not established."
+                )
+    return head + where + what + alts
