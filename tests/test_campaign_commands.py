@@ -7,9 +7,11 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
+from urllib.parse import unquote
 
 import polars as pl
 import pytest
@@ -310,10 +312,16 @@ def test_report_from_the_catalog_is_the_report_of_the_files(
 
     def body(md: Path, name: str) -> str:
         text = md.read_text().replace(name, "RUN").replace(f"{md.stem}_files", "FIG")
+        text = text.replace(re.sub(r"[^A-Za-z0-9._-]+", "-", name), "RUN")  # figure files
         text = text.replace("Extraction lost nothing and skipped no message.\n\n", "")
         return text.split("## What extraction")[0]
 
     assert body(tmp_path / "a.md", got[1].name) == body(tmp_path / "b.md", "r1#run1")
+    # Every figure link opens in a Markdown viewer: no "#" cuts it, the file is there.
+    links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", (tmp_path / "a.md").read_text())
+    assert links
+    for link in links:
+        assert "#" not in link and (tmp_path / unquote(link)).read_text().startswith("<svg")
 
     # The extraction's own report, kept in the catalog, is the recording's: the same lines
     # but for the section's title (where the run came from).
@@ -367,3 +375,39 @@ def test_bad_campaign_input_is_one_line_exit_2(
     assert says.format(**fill) in p.stderr
     errors = [line for line in p.stderr.splitlines() if "error" in line]
     assert "Traceback" not in p.stderr and len(errors) == 1
+
+
+def test_a_dataset_refuses_a_rig_it_was_not_extracted_with(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    """A rig whose chip pitch differs changes every number: refused in one line (exit 2).
+    The same rig with a comment added is the same rig."""
+    text = Path(RIG).read_text()
+    commented = tmp_path / "commented.toml"
+    commented.write_text("# the same rig, annotated\n" + text)
+    head, sep, tail = text.partition("pixel_pitch_um = [")
+    assert sep
+    other = tmp_path / "other-pitch.toml"
+    other.write_text(head + sep + tail.replace("8.3", "8.6", 2))
+    assert other.read_text() != text
+    args = ["--campaign", str(camp["ds"]), "--where", "run=run1"]
+    ok = subprocess.run(
+        [sys.executable, "-m", "thermrs", "fit", "--rig", str(commented), *args],
+        capture_output=True,
+        text=True,
+    )
+    assert ok.returncode == 0, ok.stderr
+    bad = subprocess.run(
+        [sys.executable, "-m", "thermrs", "fit", "--rig", str(other), *args],
+        capture_output=True,
+        text=True,
+    )
+    assert bad.returncode == 2, bad.stderr
+    errors = [ln for ln in bad.stderr.splitlines() if "error" in ln]
+    assert len(errors) == 1 and "extracted with another rig" in errors[0], bad.stderr
+    # Reading never creates: a dataset folder that is not there stays not there.
+    from thermrs.errors import InputError
+
+    with pytest.raises(InputError, match="no such folder"):
+        thermrs.campaigns.Dataset(tmp_path / "typo")
+    assert not (tmp_path / "typo").exists()

@@ -22,6 +22,7 @@ import sys
 from html.parser import HTMLParser
 from pathlib import Path
 from typing import Any
+from urllib.parse import unquote
 
 import polars as pl
 import pytest
@@ -191,7 +192,7 @@ def test_demo_content(demo: dict[str, Any]) -> None:
     figs = re.findall(r"!\[[^\]]*\]\(([^)]+\.svg)\)", md)
     assert len(figs) >= 8
     for f in figs:
-        assert (demo["html"].parent / f).read_text().startswith("<svg")
+        assert "#" not in f and (demo["html"].parent / unquote(f)).read_text().startswith("<svg")
     # Progress on the terminal: every stage named.
     for stage in ("simulating", "extracting", "fitting α", "predicting", "writing the report"):
         assert stage in demo["stderr"], stage

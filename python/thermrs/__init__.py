@@ -98,6 +98,7 @@ _SUBMODULES = (
     "simulate",
     "stats",
     "visits",
+    "workflows",
 )
 
 #: Names re-exported at the top level: name → module that defines it.
@@ -155,6 +156,8 @@ __all__ = [
     "signatures",
     "simulate",
     "stats",
+    "visits",
+    "workflows",
 ]
 
 

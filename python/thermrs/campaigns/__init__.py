@@ -24,6 +24,7 @@ Example
 
 from __future__ import annotations
 
+from thermrs.campaigns import summary
 from thermrs.campaigns.analyses import (
     DesignFold,
     DiagnosisFold,
@@ -60,4 +61,5 @@ __all__ = [
     "select_runs",
     "selected",
     "splits",
+    "summary",
 ]

@@ -21,11 +21,15 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import polars as pl
 
 from thermrs.campaigns.inputs import DatasetLike, Split, selected, splits
+
+if TYPE_CHECKING:
+    from thermrs.report import Written
+    from thermrs.workflows import FitResult
 
 __all__ = [
     "DesignFold",
@@ -49,7 +53,7 @@ Progress = Callable[[str], object]
 
 def fit(
     dataset: DatasetLike, rig: Any, *, where: str | None = None, train: Sequence[str] = ()
-) -> Any:
+) -> FitResult:
     """α over the runs ``where`` selects (or the ``train`` runs named among them), as
     ``thermrs fit --campaign`` reports it.
 
@@ -484,7 +488,7 @@ def report(
     runs: Sequence[str] = (),
     train: Sequence[str] = (),
     **options: Any,
-) -> Any:
+) -> Written:
     """The report a person reads, of a campaign's runs, as ``thermrs report --campaign``
     writes it.
 

@@ -74,23 +74,37 @@ def _first_unreadable(parts: list[Path], err: Exception) -> tuple[str, str]:
 
 
 class Dataset:
-    """A campaign dataset folder (created if missing; its parent must exist).
+    """A campaign dataset folder.
 
     Parameters
     ----------
     root
-        The dataset folder.
+        The dataset folder: one ``thermrs extract REC… -o DATASET`` wrote.
+    create
+        Create it (and its catalog) if missing, to write into; its parent must exist. Without
+        it nothing is created: reading a folder that does not exist is an error.
 
     Raises
     ------
     InputError
-        The parent folder does not exist, or ``root`` is a file.
+        ``root`` is a file; without ``create``: it does not exist or holds no catalog; with
+        ``create``: its parent folder does not exist.
     """
 
-    def __init__(self, root: str | Path) -> None:
+    def __init__(self, root: str | Path, *, create: bool = False) -> None:
         root = Path(root)
         if root.exists() and not root.is_dir():
             raise InputError(f"dataset {root}: is a file, expected a folder")
+        if not create:
+            if not root.exists():
+                raise InputError(f"dataset {root}: no such folder")
+            if not (root / "_catalog").is_dir():
+                raise InputError(
+                    f"dataset {root}: not a campaign dataset (no _catalog/; write one with "
+                    "`thermrs extract REC… -o DATASET`)"
+                )
+            self.root = root
+            return
         if not root.parent.is_dir():
             raise InputError(
                 f"dataset {root}: folder {root.parent} does not exist (create it first)"
@@ -103,23 +117,14 @@ class Dataset:
 
     @classmethod
     def open(cls, root: str | Path) -> Dataset:
-        """A dataset that ``thermrs extract`` wrote, for reading (nothing is created).
+        """A dataset that ``thermrs extract`` wrote, for reading (nothing is created): the
+        same as ``Dataset(root)``.
 
         Raises
         ------
         InputError
             ``root`` does not exist, is not a folder, or holds no catalog.
         """
-        root = Path(root)
-        if not root.exists():
-            raise InputError(f"dataset {root}: no such folder")
-        if not root.is_dir():
-            raise InputError(f"dataset {root}: is a file, expected a folder")
-        if not (root / "_catalog").is_dir():
-            raise InputError(
-                f"dataset {root}: not a campaign dataset (no _catalog/; write one with "
-                "`thermrs extract REC… -o DATASET`)"
-            )
         return cls(root)
 
     # --- reading ----------------------------------------------------------------------------

@@ -226,7 +226,7 @@ def campaign(
     sources = expand([str(r) for r in recordings])
     r, text, rig_hash = rig_identity(rig)
     version = _version()
-    ds = Dataset(Path(out))
+    ds = Dataset(Path(out), create=True)
     ds.clean()
     cat = ds.catalog()
     options = json.dumps(

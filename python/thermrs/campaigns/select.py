@@ -94,7 +94,9 @@ def campaign_runs(dataset: Dataset, query: str | None = None) -> pl.DataFrame:
     InputError
         A bad query; or no run matches it (the message says how many runs there are).
     """
-    cat = dataset.catalog().select("recording", "robot", "rig", "losses", "content_hash")
+    cat = dataset.catalog().select(
+        "recording", "robot", "rig", "rig_hash", "losses", "content_hash"
+    )
     runs = dataset.scan("runs").collect()
     if runs.height == 0:
         raise InputError(f"dataset {dataset.root}: holds no run")
@@ -111,9 +113,18 @@ def run_tables(
     dataset: Dataset, runs: pl.DataFrame, rig: Any, *, temperature: str = "peak"
 ) -> list[pl.DataFrame]:
     """The run tables (:func:`thermrs.fit.run_table_from`) of the given runs, named
-    ``<recording>#<run>``, drift anchored per run (SPEC §1), in the order of ``runs``."""
+    ``<recording>#<run>``, drift anchored per run (SPEC §1), in the order of ``runs``.
+
+    Raises
+    ------
+    InputError
+        A run was extracted with a rig that differs from ``rig`` in anything that changes
+        numbers (the catalog's ``rig_hash``; comments and tolerances do not count).
+    """
     from thermrs.fit import run_table_from
     from thermrs.visits import anchor_drift
+
+    check_rig(dataset, runs, rig)
 
     keys = runs.select("recording", "run")
     visits = dataset.scan("visits").join(keys.lazy(), on=["recording", "run"]).collect()
@@ -136,6 +147,28 @@ def run_tables(
             )
         )
     return out
+
+
+def check_rig(dataset: Dataset, runs: pl.DataFrame, rig: Any) -> None:
+    """Raise :class:`InputError` unless every run of ``runs`` (with the catalog's
+    ``rig_hash``) was extracted with ``rig`` (the same validated rig: a comment or a
+    tolerance does not count)."""
+    from thermrs.campaigns.engine import rig_identity
+
+    if "rig_hash" not in runs.columns:
+        return
+    try:
+        r, _, digest = rig_identity(rig)
+    except InputError:  # a rig not read from a file: nothing to compare with
+        return
+    other = runs.filter(pl.col("rig_hash") != digest)["recording"].unique().sort().to_list()
+    if other:
+        shown = ", ".join(other[:4]) + (f", … ({len(other)} recordings)" if len(other) > 4 else "")
+        raise InputError(
+            f"dataset {dataset.root}: {shown} extracted with another rig than {r.source} (it "
+            "would change the numbers): give the rig they were extracted with, or extract "
+            "them again with this one (`thermrs extract REC… --rig RIG -o DATASET`)"
+        )
 
 
 @dataclass(frozen=True)

@@ -206,6 +206,20 @@ def _write(
             write_parquet_atomic(series, series_path)
 
 
+def _alpha_caption(p: Prediction, training: bool) -> str:
+    """The α values of the table's rows, and where each comes from (this rig's cameras)."""
+    used = set(p.table["alpha"].to_list()) if "alpha" in p.table.columns else set(p.alphas)
+    shown = {k: v for k, v in p.alphas.items() if k in used} or dict(p.alphas)
+    text = "α (×10⁻⁶/K): " + ", ".join(f"{k} {v * 1e6:.3f}" for k, v in shown.items())
+    if not training:
+        return text
+    start_end = [k for k in shown if k != "series"]
+    said = ["series: time-series fit"] if "series" in shown else []
+    if start_end:
+        said.append(f"{', '.join(start_end)}: start/end")
+    return text + (f" ({'; '.join(said)})" if said else "")
+
+
 def _render(p: Prediction, training: bool) -> None:
     """One split's Table 7-style table."""
     from thermrs.numbers import end_error
@@ -227,9 +241,7 @@ def _render(p: Prediction, training: bool) -> None:
                 "noise µm",
             )
         ],
-        caption="α (×10⁻⁶/K): "
-        + ", ".join(f"{k} {v * 1e6:.3f}" for k, v in p.alphas.items())
-        + (" (series: time-series fit; A, B, mean: start/end)" if training else ""),
+        caption=_alpha_caption(p, training),
     )
     for row in p.table.iter_rows(named=True):
         t.add_row(

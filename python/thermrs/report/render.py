@@ -11,6 +11,7 @@ import html
 import re
 from collections.abc import Sequence
 from pathlib import Path
+from urllib.parse import quote
 
 from thermrs.report.blocks import Figure, Missing, Paragraph, Section, Table
 
@@ -121,13 +122,16 @@ def _md_block(b: object, fig_dir: Path, rel: str, written: dict[str, Path]) -> s
         lines += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in b.rows]
         return "\n".join(lines)
     if isinstance(b, Figure):
-        path = fig_dir / f"{b.name}.svg"
+        # A file name any Markdown viewer links to: a run's "#" or a space would cut the link.
+        stem = re.sub(r"[^A-Za-z0-9._-]+", "-", b.name)
+        path = fig_dir / f"{stem}.svg"
         written[b.name] = path
         svg = b.svg
         if "xmlns=" not in svg[:300]:
             svg = svg.replace("<svg", '<svg xmlns="http://www.w3.org/2000/svg"', 1)
         path.write_text(svg, encoding="utf-8")
-        return f"![{b.caption}]({rel}/{b.name}.svg)\n\n*{b.caption}*"
+        link = quote(f"{rel}/{stem}.svg")
+        return f"![{b.caption}]({link})\n\n*{b.caption}*"
     raise TypeError(f"unknown block {type(b).__name__}")
 
 
