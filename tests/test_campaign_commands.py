@@ -411,3 +411,41 @@ def test_a_dataset_refuses_a_rig_it_was_not_extracted_with(
     with pytest.raises(InputError, match="no such folder"):
         thermrs.campaigns.Dataset(tmp_path / "typo")
     assert not (tmp_path / "typo").exists()
+
+
+def test_where_takes_what_people_type(camp: dict[str, Path], tmp_path: Path) -> None:
+    """Stems, rig files, the date formats people type (one that could be read two ways is
+    refused with how to write it), quoted values; a miss lists the values there are, and
+    `campaign --list` lists them all."""
+    from thermrs.campaigns import select_runs
+    from thermrs.campaigns.select import parse_date
+    from thermrs.errors import InputError
+
+    every = select_runs(camp["ds"])
+    r1 = every.filter(pl.col("recording").str.starts_with("r1-"))
+    assert select_runs(camp["ds"], where="recording=r1").height == r1.height == 2
+    assert select_runs(camp["ds"], where="recording!=r1").height == 2
+    assert select_runs(camp["ds"], where=f"rig={RIG}").height == 4
+    day = every["date"][0]
+    for typed in (day.isoformat(), day.strftime("%d.%m.%Y"), day.strftime("%Y/%m/%d")):
+        assert parse_date(typed) == day
+        assert select_runs(camp["ds"], where=f"date={typed}").height >= 1
+    assert parse_date("16/06/2025").isoformat() == "2025-06-16"
+    with pytest.raises(ValueError, match="could be day/month or month/day"):
+        parse_date("03/04/2025")
+    with pytest.raises(InputError, match="is not a date"):
+        select_runs(camp["ds"], where="date=16.06.25x")
+    robot = every["robot"][0]
+    assert select_runs(camp["ds"], where=f'robot="{robot}", run=run1').height == 2
+    with pytest.raises(InputError, match=r"no run matches .*run: run1, run2"):
+        select_runs(camp["ds"], where="run=run9")
+    p = subprocess.run(
+        [sys.executable, "-m", "thermrs", "campaign", str(camp["ds"]), "--list"],
+        capture_output=True,
+        text=True,
+    )
+    assert p.returncode == 0, p.stderr
+    lines = dict(ln.split(": ", 1) for ln in p.stdout.splitlines())
+    assert lines["run"] == "run1, run2"
+    assert "r1" in lines["recording"].split(", ") and "r2" in lines["recording"].split(", ")
+    assert day.isoformat() in lines["date"]

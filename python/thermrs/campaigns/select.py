@@ -2,10 +2,12 @@
 tables that fit, predict, drift and diagnose take.
 
 A query is a comma-separated list of terms ``KEY OP VALUE`` (all must hold), ``OP`` one of
-``= != < <= > >=``; keys: ``robot``, ``rig``, ``recording``, ``run`` (text), ``date``
-(``YYYY-MM-DD``, the UTC day the run started), ``speed`` (°/s, the run's 95th-percentile
-joint speed, see :func:`thermrs.campaigns.task.run_stats`), ``duration`` (s). Example:
-``robot=KR 15/2, date>=2026-11-02, speed>20``.
+``= != < <= > >=``; keys: ``robot``, ``rig`` (the rig's title, or a rig file: the runs
+extracted with that rig), ``recording`` (its catalog id or its file's stem), ``run`` (text),
+``date`` (the UTC day the run started: ``YYYY-MM-DD``, ``YYYY/MM/DD``, ``DD.MM.YYYY``, or
+``DD/MM/YYYY`` where the day is above 12), ``speed`` (°/s, the run's 95th-percentile joint
+speed, see :func:`thermrs.campaigns.task.run_stats`), ``duration`` (s). A value with a comma
+is quoted: ``rig="cell 2, KR 15"``. Example: ``robot=KR 15/2, date>=2026-11-02, speed>20``.
 
 Rules (:func:`folds`): ``leave-one-run-out`` (each run held out once, trained on all the
 others), ``by-day`` (train on one day's runs, hold out the next day's, for each pair of
@@ -25,14 +27,58 @@ import polars as pl
 from thermrs.campaigns.dataset import Dataset
 from thermrs.errors import InputError
 
-__all__ = ["RULES", "Fold", "campaign_runs", "folds", "parse_query", "run_tables"]
+__all__ = [
+    "RULES",
+    "Fold",
+    "campaign_runs",
+    "check_rig",
+    "folds",
+    "parse_date",
+    "parse_query",
+    "queryable_values",
+    "run_tables",
+]
+
+
+def parse_date(text: str) -> date:
+    """A day as people type it: ``2026-11-03``, ``2026/11/03``, ``03.11.2026`` (day first),
+    ``03/11/2026`` only where it cannot be read the other way round.
+
+    Raises
+    ------
+    ValueError
+        Not a date, or a slashed date whose day and month could be swapped (the message says
+        how to write it).
+    """
+    t = text.strip()
+    m = re.fullmatch(r"(\d{4})[-/](\d{1,2})[-/](\d{1,2})", t)
+    if m:
+        y, mo, d = (int(x) for x in m.groups())
+        return date(y, mo, d)
+    m = re.fullmatch(r"(\d{1,2})\.(\d{1,2})\.(\d{4})", t)
+    if m:
+        d, mo, y = (int(x) for x in m.groups())
+        return date(y, mo, d)
+    m = re.fullmatch(r"(\d{1,2})/(\d{1,2})/(\d{4})", t)
+    if m:
+        a, b, y = (int(x) for x in m.groups())
+        if a > 12 >= b:
+            return date(y, b, a)
+        if b > 12 >= a:
+            return date(y, a, b)
+        raise ValueError(
+            f"{t!r} could be day/month or month/day: write it as "
+            f"{y:04d}-{b:02d}-{a:02d} or {y:04d}-{a:02d}-{b:02d}"
+        )
+    raise ValueError(f"{t!r} is not a date (write YYYY-MM-DD, e.g. 2026-11-03)")
+
 
 _KEYS: dict[str, tuple[str, Any]] = {
     "robot": ("robot", str),
     "rig": ("rig", str),
     "recording": ("recording", str),
     "run": ("run", str),
-    "date": ("date", date.fromisoformat),
+    "date": ("date", parse_date),
     "speed": ("speed_deg_s", float),
     "duration": ("duration_s", float),
 }
@@ -50,7 +96,8 @@ def parse_query(query: str | None) -> pl.Expr:
         names the term.
     """
     expr = pl.lit(True)
-    for term in (query or "").split(","):
+    # Terms split at commas outside double quotes.
+    for term in re.split(r',(?=(?:[^"]*"[^"]*")*[^"]*$)', query or ""):
         if not term.strip():
             continue
         m = _TERM.match(term)
@@ -62,13 +109,25 @@ def parse_query(query: str | None) -> pl.Expr:
                 f"run query term {term.strip()!r}: unknown key {key!r} (keys: {', '.join(_KEYS)})"
             )
         col, kind = _KEYS[key]
+        if len(raw) >= 2 and raw[0] == raw[-1] == '"':
+            raw = raw[1:-1]
         try:
             value = kind(raw)
-        except ValueError:
-            raise InputError(
-                f"run query term {term.strip()!r}: {raw!r} is not a {kind.__name__}"
-            ) from None
+        except ValueError as e:
+            why = str(e) if kind is parse_date else f"{raw!r} is not a {kind.__name__}"
+            raise InputError(f"run query term {term.strip()!r}: {why}") from None
         c = pl.col(col)
+        if key == "recording" and op in ("=", "!="):
+            # A recording by its catalog id or by its file's stem (the id without its hash).
+            c = (
+                pl.when(pl.col(col) == value)
+                .then(pl.col(col))
+                .otherwise(pl.col(col).str.replace(r"-[0-9a-f]{12}$", ""))
+            )
+        if key == "rig" and op in ("=", "!=") and str(value).endswith(".toml"):
+            from thermrs.campaigns.engine import rig_identity
+
+            c, value = pl.col("rig_hash"), rig_identity(str(value))[2]
         expr = (
             expr
             & {
@@ -104,9 +163,45 @@ def campaign_runs(dataset: Dataset, query: str | None = None) -> pl.DataFrame:
     picked = table.filter(parse_query(query))
     if picked.height == 0:
         raise InputError(
-            f"dataset {dataset.root}: no run matches {query!r} (of {table.height} runs)"
+            f"dataset {dataset.root}: no run matches {query!r} (of {table.height} runs; "
+            f"{describe_values(table, query)}; `thermrs campaign DATASET --list` lists them all)"
         )
     return picked
+
+
+def queryable_values(table: pl.DataFrame) -> dict[str, list[str]]:
+    """Every value each query key takes over ``table`` (runs joined with the catalog): text
+    keys as their distinct values, numbers as their range."""
+    out: dict[str, list[str]] = {}
+    for key, (col, kind) in _KEYS.items():
+        if col not in table.columns:
+            continue
+        vals = table[col].drop_nulls()
+        if kind is float:
+            if len(vals):
+                lo, hi = float(vals.min()), float(vals.max())  # type: ignore[arg-type]
+                out[key] = [f"{lo:.4g}–{hi:.4g}"]
+            else:
+                out[key] = []
+        else:
+            out[key] = sorted({str(v) for v in vals.to_list()})
+            if key == "recording":
+                out[key] = sorted(
+                    {*out[key], *(re.sub(r"-[0-9a-f]{12}$", "", v) for v in out[key])}
+                )
+    return out
+
+
+def describe_values(table: pl.DataFrame, query: str | None) -> str:
+    """The values the query's keys take (for a query that matched nothing)."""
+    keys = [m.group(1) for t in (query or "").split(",") if (m := _TERM.match(t))]
+    vals = queryable_values(table)
+    parts = []
+    for k in dict.fromkeys(keys):
+        v = vals.get(k, [])
+        shown = ", ".join(v[:8]) + (f", … ({len(v)})" if len(v) > 8 else "")
+        parts.append(f"{k}: {shown or 'none'}")
+    return "; ".join(parts) or "no key given"
 
 
 def run_tables(

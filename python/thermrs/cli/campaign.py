@@ -6,11 +6,11 @@ from __future__ import annotations
 import glob
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
-from thermrs.cli.common import out_option, rig_option, rule_option, where_option
+from thermrs.cli.common import input_file, out_option, rule_option, where_option
 
 if TYPE_CHECKING:
     import polars as pl
@@ -119,6 +119,15 @@ def extract_campaign(
         sys.exit(EXIT_DATA_LOSS)
 
 
+def _list_values(ds: Any, query: str | None) -> None:
+    """Every value each ``--where`` key takes over the runs ``query`` selects."""
+    from thermrs.campaigns.select import campaign_runs, queryable_values
+
+    vals = queryable_values(campaign_runs(ds, query))
+    for key, v in vals.items():
+        click.echo(f"{key}: {', '.join(v) if v else '(none)'}")
+
+
 #: Catalog rows the summary of ``thermrs extract`` prints at most (a campaign may hold
 #: thousands of recordings; the catalog file has them all).
 SHOWN = 20
@@ -140,12 +149,30 @@ def rows_to_show(cat: pl.DataFrame, now: set[str], *, limit: int = SHOWN) -> pl.
 
 @click.command("campaign")
 @click.argument("dataset", type=click.Path(exists=True, file_okay=False, path_type=Path))
-@rig_option
+@click.option(
+    "--rig",
+    "rig_path",
+    type=input_file,
+    default=None,
+    help="Rig file (TOML, SPEC §3); required but with --list.",
+)
 @where_option
 @rule_option("Also fit on training runs and check on held-out runs by this rule.")
 @out_option("Write the campaign page (OUT.md or OUT.html).", required=False)
+@click.option(
+    "--list",
+    "list_values",
+    is_flag=True,
+    help="List every value each --where key takes in the dataset (the runs' recordings, "
+    "names, dates, robots, rigs; speed and duration ranges), and stop.",
+)
 def campaign_command(
-    dataset: Path, rig_path: Path, query: str | None, rule: str | None, out_path: Path | None
+    dataset: Path,
+    rig_path: Path | None,
+    query: str | None,
+    rule: str | None,
+    out_path: Path | None,
+    list_values: bool,
 ) -> None:
     """α and drift per run across a campaign dataset (written by `thermrs extract` on many
     recordings), runs chosen by query, with the held-out check of a rule."""
@@ -155,9 +182,14 @@ def campaign_command(
     from thermrs.cli.common import console, table, writable
     from thermrs.rig import load_rig
 
+    ds = Dataset(dataset)
+    if list_values:
+        _list_values(ds, query)
+        return
+    if rig_path is None:
+        raise click.UsageError("give --rig RIG (or --list)")
     writable(out_path, "-o", suffixes=(".md", ".html"))
     rig = load_rig(rig_path)
-    ds = Dataset(dataset)
     per_run = alpha_by_run(ds, rig, query=query)
     folds = holdout_by_rule(ds, rig, rule=rule, query=query) if rule else None
     out = console()

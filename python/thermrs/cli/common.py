@@ -350,8 +350,10 @@ where_option = click.option(
     "query",
     default=None,
     metavar="QUERY",
-    help="Runs to use: KEY OP VALUE terms, comma-separated (keys robot, rig, "
-    "recording, run, date, speed, duration), e.g. 'date>=2026-11-02, speed>20'.",
+    help="Runs to use: KEY OP VALUE terms, comma-separated (keys robot, rig (title or rig "
+    "file), recording (id or stem), run, date (2026-11-02, 02.11.2026, …), speed (°/s), "
+    "duration (s)), e.g. 'date>=2026-11-02, speed>20'; quote a value with a comma. "
+    "`thermrs campaign DATASET --list` lists the values there are.",
 )
 
 
