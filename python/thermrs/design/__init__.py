@@ -43,7 +43,7 @@ import polars as pl
 
 from thermrs.design.candidates import DEFAULT_LIMITS_DEG, Candidate
 from thermrs.design.files import rig_toml, scenario_toml, write_text_atomic
-from thermrs.design.search import NOT_SEARCHED, search
+from thermrs.design.search import NOT_SEARCHED, Z_TARGET, search
 from thermrs.design.separation import Rival, rivals_from
 from thermrs.errors import InputError
 from thermrs.rig import Rig
@@ -93,6 +93,30 @@ class DesignResult:
                 return p
         return self.proofs[0] if self.proofs else None
 
+    def proofs_tried(self) -> list[dict[str, Any]]:
+        """Each proof that ran, in the order tried: the candidate, its rank (1 = best
+        least z), hours, least z, and the proof's outcome with the verdicts it got wrong."""
+        rank = {c["label"]: c for c in self.ranked}
+        out = []
+        for i, p in enumerate(self.proofs):
+            c = rank.get(p["candidate"], {})
+            out.append(
+                {
+                    "tried": i + 1,
+                    "candidate": p["candidate"],
+                    "rank": c["rank"] + 1 if "rank" in c else None,
+                    "hours": c.get("hours"),
+                    "min_z": c.get("min_z"),
+                    "all_right": p["all_right"],
+                    "wrong": [
+                        f"{r['truth']} → {r['status']} {r['effect'] or ''}".strip()
+                        for r in p["matrix"]
+                        if not r["right"]
+                    ],
+                }
+            )
+        return out
+
     def roles(self) -> dict[str, str]:
         """For each run of the scenario: ``train`` or ``holdout``."""
         if self.best is None:
@@ -124,9 +148,9 @@ class DesignResult:
             "why_not": self.why_not,
             "roles": self.roles(),
             "proof": self.proof,
-            "proofs_tried": [
-                {"candidate": p["candidate"], "all_right": p["all_right"]} for p in self.proofs
-            ],
+            # Every candidate whose proof ran, in the order tried (the recommendation, if
+            # any, is the one that passed).
+            "proofs_tried": self.proofs_tried(),
             "noise": self.noise,
             "files": {"rig": "rig.toml", "scenario": "scenario.toml"}
             if self.best is not None
@@ -364,14 +388,15 @@ def _prove(
                 "min_z": result.ranked[rank]["min_z"] if rank is not None else None,
             }
             return
-    wrong = [
-        f"{r['truth']} → {r['status']} {r['effect'] or ''}".strip()
-        for r in result.proofs[0]["matrix"]
-        if not r["right"]
-    ]
+    tried = result.proofs_tried()
+    said = "; ".join(
+        f"{t['candidate']} (rank {t['rank']}): {', '.join(t['wrong']) or 'no verdict wrong'}"
+        for t in tried
+    )
     result.why_not = (
-        f"none of the {len(result.proofs)} best candidates within {result.budget_h:g} h passed "
-        f"its proof (the best: {'; '.join(wrong)})"
+        f"none of the {len(tried)} candidates proved (tried in that order: first those whose "
+        f"least z reaches {Z_TARGET:g}, the least overlapping signatures first) passed its "
+        f"proof within {result.budget_h:g} h: {said}"
     )
 
 
