@@ -167,3 +167,13 @@ def test_two_effects_at_once_are_both_named_or_the_rest_called_unexplained(
     assert row["status"] != "none"
     if row["status"] == "identified":
         assert {"thermal_lag", "fixture_drift"} <= named, row
+
+
+def test_a_rig_file_path_is_a_rig(rig: thermrs.Rig) -> None:
+    # As every other function takes it: the path of the rig file, str or Path.
+    runs = make_runs(rig, None, seed=21, hours=4.0)
+    by_path = diagnose(runs[:1], runs[1:], str(rig.source), bootstrap=0, null_draws=19)
+    by_rig = diagnose(runs[:1], runs[1:], rig, bootstrap=0, null_draws=19)
+    assert by_path.baseline["holdout_rms_um"] == by_rig.baseline["holdout_rms_um"]
+    with pytest.raises(thermrs.InputError, match="no-such-rig.toml"):
+        diagnose(runs[:1], runs[1:], "no-such-rig.toml", bootstrap=0)

@@ -38,6 +38,7 @@ Example
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -82,7 +83,7 @@ _fmt_params = format_params  # the CLI's formatter (kept under its old name)
 def diagnose(
     train: Sequence[pl.DataFrame],
     holdout: Sequence[pl.DataFrame],
-    rig: Rig,
+    rig: Rig | str | os.PathLike[str],
     *,
     exclude: Sequence[str] = (),
     library: Sequence[type[Effect]] | None = None,
@@ -102,7 +103,7 @@ def diagnose(
         ``run`` names. Fits use only ``train``; ``holdout`` runs contribute only their own
         offsets (unknown mountings).
     rig
-        The rig (nominal model).
+        The rig (nominal model), or the path of its file.
     exclude
         SPEC §6 effect names removed from the library: the diagnoser never names them. An
         excluded effect that explains the gap as well as the one selected, and that the data
@@ -139,6 +140,9 @@ def diagnose(
     """
     from threadpoolctl import threadpool_limits  # type: ignore[import-untyped]
 
+    from thermrs.rig import as_rig
+
+    rig = as_rig(rig)
     if not 0.0 < level < 1.0:
         raise ValueError(f"level must be between 0 and 1, got {level}")
     if margin_um is not None and not (np.isfinite(margin_um) and margin_um >= 0):
@@ -434,3 +438,13 @@ def _final_model(
         out.append({"effect": fam.effect, "family": fam.label, "params": params, "params_ci95": ci})
         first += k
     return f, out
+
+
+def __getattr__(name: str) -> Any:
+    """The bench and the paper's diagnosis (``thermrs.diagnose.bench``, ``.paper``, …),
+    imported on first use."""
+    import importlib
+
+    if name in ("bench", "bench_world", "paper", "tolerances", "floor", "selection"):
+        return importlib.import_module(f"thermrs.diagnose.{name}")
+    raise AttributeError(f"module 'thermrs.diagnose' has no attribute {name!r}")
