@@ -13,7 +13,13 @@ import polars as pl
 from thermrs.campaigns.dataset import Dataset
 from thermrs.campaigns.select import campaign_runs, folds, run_tables
 
-__all__ = ["ALPHA_BY_RUN_SCHEMA", "HOLDOUT_SCHEMA", "alpha_by_run", "holdout_by_rule"]
+__all__ = [
+    "ALPHA_BY_RUN_SCHEMA",
+    "HOLDOUT_SCHEMA",
+    "alpha_by_run",
+    "fold_synthesis",
+    "holdout_by_rule",
+]
 
 #: Columns of :func:`alpha_by_run`. Fixed, not inferred from the rows: a campaign's first
 #: hundred runs may all lack a speed (a robot that never moved) or a drift, and a type
@@ -103,3 +109,76 @@ def holdout_by_rule(
             }
         )
     return pl.DataFrame(rows, schema=HOLDOUT_SCHEMA)
+
+
+def fold_synthesis(docs: list[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
+    """What the folds of a rule conclude together, from each fold's ``thermrs diagnose
+    --json`` document (``(fold name, document)``).
+
+    Returns
+    -------
+    dict
+        ``tally`` (folds per verdict outcome), ``named`` (folds naming each effect: the
+        verdict's, the confounded ones or a partial explanation's), ``leading`` (the effect
+        named in most folds, or None), ``params`` (the leading effect's numeric parameters
+        across the folds that identify it: ``median``, ``min``, ``max``, ``folds``),
+        ``consistent`` (every fold the same outcome and, if any names one, the same leading
+        effect) and ``sentence`` (the conclusion in words, naming where the folds disagree).
+    """
+    from collections import Counter
+
+    outcomes = {f: str(d["verdict"].get("outcome", d["verdict"]["status"])) for f, d in docs}
+    tally = dict(Counter(outcomes.values()).most_common())
+    named: Counter[str] = Counter()
+    per_fold: dict[str, set[str]] = {}
+    for f, d in docs:
+        v = d["verdict"]
+        names = {e for e in [v.get("effect"), *v.get("confounded_with", [])] if e}
+        names |= set(v.get("effects", []))
+        per_fold[f] = names
+        named.update(names)
+    leading = named.most_common(1)[0][0] if named else None
+    values: dict[str, list[float]] = {}
+    for _, d in docs:
+        v = d["verdict"]
+        if v.get("effect") != leading:
+            continue
+        for k, x in (v.get("params") or {}).items():
+            if isinstance(x, int | float) and not isinstance(x, bool):
+                values.setdefault(k, []).append(float(x))
+    params = {
+        k: {"median": float(np.median(x)), "min": min(x), "max": max(x), "folds": len(x)}
+        for k, x in values.items()
+    }
+    n = len(docs)
+    same_outcome = len(tally) == 1
+    same_effect = leading is None or all(leading in s for s in per_fold.values())
+    consistent = same_outcome and same_effect
+    if consistent:
+        what = f"{leading} named in every fold" if leading else "no effect named in any fold"
+        sentence = f"consistent across folds: {next(iter(tally))} in all {n}; {what}"
+    else:
+        odd = [
+            f"{f}: {outcomes[f]}" + (f" ({', '.join(sorted(per_fold[f]))})" if per_fold[f] else "")
+            for f, _ in docs
+            if outcomes[f] != next(iter(tally)) or (leading and leading not in per_fold[f])
+        ]
+        lead = f"{leading} named in {named[leading]} of {n} folds" if leading else "none named"
+        sentence = (
+            f"the folds disagree: {', '.join(f'{k} ×{c}' for k, c in tally.items())}; "
+            f"{lead}; where: {'; '.join(odd)}"
+        )
+    if params:
+        spread = ", ".join(
+            f"{k} {p['median']:.4g} ({p['min']:.4g} – {p['max']:.4g} over {p['folds']} folds)"
+            for k, p in params.items()
+        )
+        sentence += f"; {leading}'s parameters: {spread}"
+    return {
+        "tally": tally,
+        "named": dict(named.most_common()),
+        "leading": leading,
+        "params": params,
+        "consistent": consistent,
+        "sentence": sentence,
+    }
