@@ -175,5 +175,5 @@ def test_a_rig_file_path_is_a_rig(rig: thermrs.Rig) -> None:
     by_path = diagnose(runs[:1], runs[1:], str(rig.source), bootstrap=0, null_draws=19)
     by_rig = diagnose(runs[:1], runs[1:], rig, bootstrap=0, null_draws=19)
     assert by_path.baseline["holdout_rms_um"] == by_rig.baseline["holdout_rms_um"]
-    with pytest.raises(thermrs.InputError, match="no-such-rig.toml"):
+    with pytest.raises(thermrs.InputError, match=r"no-such-rig\.toml"):
         diagnose(runs[:1], runs[1:], "no-such-rig.toml", bootstrap=0)

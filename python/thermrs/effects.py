@@ -37,17 +37,16 @@ import dataclasses
 import json
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
-from thermrs import _native
+import thermrs._native as _native
 from thermrs.errors import InputError
 
 if TYPE_CHECKING:
     from thermrs.rig import Rig
-    from thermrs.signatures import VisitSet
 
 __all__ = [
     "EFFECT_NAMES",
@@ -61,6 +60,7 @@ __all__ = [
     "SensorDrift",
     "ThermalLag",
     "UnmodelledLength",
+    "Visits",
     "effect_classes",
     "from_dict",
     "register",
@@ -73,6 +73,33 @@ EFFECT_NAMES: tuple[str, ...] = tuple(_native.effect_names())
 
 #: Time constants (min) the diagnoser profiles for first-order effects (then refines).
 TAU_GRID_MIN: tuple[float, ...] = (3, 6, 10, 15, 22, 33, 50, 75, 110, 160, 240, 360, 540)
+
+
+class Visits(Protocol):
+    """What an effect's families read of the runs' visits.
+
+    :class:`thermrs.signatures.VisitSet` is the one the diagnoser passes. Typing the families
+    with this protocol keeps this module free of the forward model (``signatures`` imports
+    ``model``, which imports this module).
+    """
+
+    @property
+    def alpha0(self) -> float:
+        """The rig's α (1/K), the model's nominal value."""
+        ...
+
+    def has(self, name: str) -> bool:
+        """Whether every visit has the temperature ``name`` (a ROI or ``ambient``)."""
+        ...
+
+    def positions(self, *, effects: Sequence[Effect] = ()) -> FloatArray:
+        """Every visit's spot (u then v, µm) at its camera's taught pose under ``effects``."""
+        ...
+
+    def alpha_column(self, *, only: str | None = None) -> FloatArray:
+        """The spot's displacement per unit α (u then v), from every mapped temperature or
+        from ``only`` that one."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -113,7 +140,7 @@ class Family:
     label: str
     choices: dict[str, Any]
     grid: list[dict[str, float]]
-    columns: Callable[[VisitSet, dict[str, float]], FloatArray]
+    columns: Callable[[Visits, dict[str, float]], FloatArray]
     params: Callable[
         [dict[str, float], float, FloatArray, FloatArray],
         tuple[dict[str, Any], dict[str, Any]],
@@ -151,7 +178,7 @@ class Effect:
         return self
 
     @classmethod
-    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+    def families(cls, rig: Rig, visits: Visits) -> list[Family]:
         """The diagnoser's families of this effect on these runs (none by default)."""
         return []
 
@@ -210,12 +237,6 @@ def to_json(effects: Iterable[Effect]) -> str:
 # --- signature helpers ---------------------------------------------------------------------------
 
 
-def _tau_params(
-    key: str = "tau_min",
-) -> Callable[[dict[str, float]], dict[str, Any]]:
-    return lambda eta: {key: float(eta[key])}
-
-
 def _ci(v: float, sd: float) -> list[float]:
     return [v - 1.96 * sd, v + 1.96 * sd]
 
@@ -245,13 +266,13 @@ class AlphaPerLink(Effect):
     alpha_per_k: Mapping[str, float] = field(default_factory=dict)
 
     @classmethod
-    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+    def families(cls, rig: Rig, visits: Visits) -> list[Family]:
         temps = list(dict.fromkeys(rig.mapped_temperatures))
         if len(temps) < 2:
             return []
         rest = temps[1:]
 
-        def columns(vs: VisitSet, eta: dict[str, float]) -> FloatArray:
+        def columns(vs: Visits, eta: dict[str, float]) -> FloatArray:
             return np.column_stack([vs.alpha_column(only=t) for t in rest])
 
         def params(
@@ -279,8 +300,8 @@ class ThermalLag(Effect):
     tau_min: float = 0.0
 
     @classmethod
-    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
-        def columns(vs: VisitSet, eta: dict[str, float]) -> FloatArray:
+    def families(cls, rig: Rig, visits: Visits) -> list[Family]:
+        def columns(vs: Visits, eta: dict[str, float]) -> FloatArray:
             lagged = vs.positions(effects=[ThermalLag(tau_min=eta["tau_min"])])
             return ((lagged - vs.positions()) / vs.alpha0)[:, None]
 
@@ -317,7 +338,7 @@ def _length_names(rig: Rig) -> list[str]:
     return out
 
 
-def _temperature_names(rig: Rig, visits: VisitSet) -> list[str]:
+def _temperature_names(rig: Rig, visits: Visits) -> list[str]:
     """Temperatures the runs carry: every ROI, and ambient where it was recorded."""
     names = [r.name for r in rig.rois]
     if visits.has("ambient"):
@@ -335,13 +356,13 @@ class UnmodelledLength(Effect):
     temperature: str = ""
 
     @classmethod
-    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+    def families(cls, rig: Rig, visits: Visits) -> list[Family]:
         fams = []
         for length in _length_names(rig):
             for temp in _temperature_names(rig, visits):
                 eff = UnmodelledLength(length=length, temperature=temp)
 
-                def columns(vs: VisitSet, eta: dict[str, float], eff: Effect = eff) -> FloatArray:
+                def columns(vs: Visits, eta: dict[str, float], eff: Effect = eff) -> FloatArray:
                     return ((vs.positions(effects=[eff]) - vs.positions()) / vs.alpha0)[:, None]
 
                 def params(
@@ -374,7 +395,7 @@ def _chip_family(
 ) -> Family:
     """A family whose signature is one camera's chip shift along u and along v."""
 
-    def columns(vs: VisitSet, eta: dict[str, float]) -> FloatArray:
+    def columns(vs: Visits, eta: dict[str, float]) -> FloatArray:
         cols = []
         for unit in ((1.0, 0.0), (0.0, 1.0)):
             if name == "fixture_drift":
@@ -414,7 +435,7 @@ class FixtureDrift(Effect):
     um_per_k: tuple[float, float] = (0.0, 0.0)
 
     @classmethod
-    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+    def families(cls, rig: Rig, visits: Visits) -> list[Family]:
         if not visits.has("ambient"):
             return []
         return [
@@ -433,10 +454,10 @@ class LaserTilt(Effect):
     azimuth_deg: float = 0.0
 
     @classmethod
-    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+    def families(cls, rig: Rig, visits: Visits) -> list[Family]:
         step = 0.05
 
-        def columns(vs: VisitSet, eta: dict[str, float]) -> FloatArray:
+        def columns(vs: Visits, eta: dict[str, float]) -> FloatArray:
             cols = []
             for az in (0.0, 90.0):
                 tilted = vs.positions(effects=[LaserTilt(tilt_deg=step, azimuth_deg=az)])
@@ -466,13 +487,13 @@ class JointOffset(Effect):
     urad_per_k: float = 0.0
 
     @classmethod
-    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+    def families(cls, rig: Rig, visits: Visits) -> list[Family]:
         fams = []
         for joint in rig.joint_names:
             for temp in _temperature_names(rig, visits):
                 unit = JointOffset(joint=joint, temperature=temp, urad_per_k=1.0)
 
-                def columns(vs: VisitSet, eta: dict[str, float], unit: Effect = unit) -> FloatArray:
+                def columns(vs: Visits, eta: dict[str, float], unit: Effect = unit) -> FloatArray:
                     return (vs.positions(effects=[unit]) - vs.positions())[:, None]
 
                 def params(
@@ -512,10 +533,10 @@ class NonlinearAlpha(Effect):
     kappa_per_k: float = 0.0
 
     @classmethod
-    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+    def families(cls, rig: Rig, visits: Visits) -> list[Family]:
         step = 1e-3
 
-        def columns(vs: VisitSet, eta: dict[str, float]) -> FloatArray:
+        def columns(vs: Visits, eta: dict[str, float]) -> FloatArray:
             curved = vs.positions(effects=[NonlinearAlpha(kappa_per_k=step)])
             return ((curved - vs.positions()) / (step * vs.alpha0))[:, None]
 
@@ -549,7 +570,7 @@ class SensorDrift(Effect):
     um: tuple[float, float] = (0.0, 0.0)
 
     @classmethod
-    def families(cls, rig: Rig, visits: VisitSet) -> list[Family]:
+    def families(cls, rig: Rig, visits: Visits) -> list[Family]:
         grid = [{"tau_min": float(t)} for t in TAU_GRID_MIN]
         return [_chip_family(cls.name, rig, c.name, grid, "um", "time") for c in rig.cameras]
 

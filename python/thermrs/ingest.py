@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import polars as pl
 
-from thermrs import _native
+import thermrs._native as _native
 from thermrs.atomic import atomic_tmp as atomic_tmp  # atomic writes, importable from here too
 from thermrs.atomic import check_writable, write_all, write_parquet_atomic
 from thermrs.atomic import publish as publish

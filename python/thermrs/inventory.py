@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 import polars as pl
 
-from thermrs import _native
+import thermrs._native as _native
 from thermrs.errors import InputError
 from thermrs.rig import Rig, as_rig
 from thermrs.runs import (

@@ -23,18 +23,25 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import polars as pl
 
-from thermrs import _native
+import thermrs._native as _native
+from thermrs.effects import (
+    AlphaPerLink,
+    Effect,
+    JointOffset,
+    LaserTilt,
+    NonlinearAlpha,
+    UnmodelledLength,
+    effects_from,
+    to_json,
+)
 from thermrs.errors import InputError
 from thermrs.rig import Rig, as_rig
-
-if TYPE_CHECKING:
-    from thermrs.effects import Effect
 
 __all__ = ["ForwardModel", "Spots"]
 
@@ -141,15 +148,6 @@ class ForwardModel:
         joint_offsets: Sequence[tuple[str | int, str, float]] | None = None,
         laser_tilt_deg: float | tuple[float, float] | None = None,
     ) -> None:
-        from thermrs.effects import (
-            AlphaPerLink,
-            JointOffset,
-            LaserTilt,
-            NonlinearAlpha,
-            UnmodelledLength,
-            effects_from,
-        )
-
         rig = as_rig(rig)
         self.rig = rig
         chosen = effects_from(effects, rig)
@@ -169,8 +167,6 @@ class ForwardModel:
             )
             chosen.append(LaserTilt(tilt_deg=float(tilt), azimuth_deg=float(az)))
         self.effects: tuple[Effect, ...] = tuple(chosen)
-        from thermrs.effects import to_json
-
         self._native = _native.ForwardModel(
             rig._native,
             alpha_per_k=alpha_per_k,

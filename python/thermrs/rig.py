@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from thermrs import _native
+import thermrs._native as _native
 from thermrs.errors import InputError, RigError
 
 __all__ = [

@@ -23,7 +23,7 @@ from typing import Any
 
 import polars as pl
 
-from thermrs import _native
+import thermrs._native as _native
 from thermrs.atomic import write_atomic, write_json, write_parquet_atomic
 from thermrs.errors import InputError
 from thermrs.rig import Rig, as_rig

@@ -134,7 +134,7 @@ def rig_identity(rig: Rig | str | os.PathLike[str] | None) -> tuple[Rig, str, st
     only the diagnoser's null uses, left out)."""
     from blake3 import blake3
 
-    from thermrs import _native
+    import thermrs._native as _native
 
     r = load_rig() if rig is None else as_rig(rig)
     path = Path(r.source)

@@ -99,7 +99,7 @@ def content_hash(path: str | os.PathLike[str]) -> str:
     InputError
         The file cannot be read.
     """
-    from thermrs import _native
+    import thermrs._native as _native
 
     return _native.content_hash(os.fspath(path))
 

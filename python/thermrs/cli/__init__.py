@@ -4,8 +4,12 @@ Exit codes (SPEC §7): 0 success; 2 bad input or usage (one line on stderr, no t
 3 finished with data loss; 1 internal error (set ``THERMRS_DEBUG=1`` for the traceback);
 130 interrupted (Ctrl-C).
 
-Start-up is kept short (``thermrs --help``): numpy, polars, scipy, rich and the Rust
-extension are imported inside the commands that need them, never at module level.
+Start-up is kept short (``thermrs --help``): numpy, polars, scipy and matplotlib are imported
+inside the commands that need them, never at module level. Two modules do load at start-up:
+rich (:mod:`thermrs.cli.design`, :mod:`~thermrs.cli.diagnose` and :mod:`~thermrs.cli.report`
+import its tables and consoles at module level) and the Rust extension ``thermrs._native``,
+which defines the exception classes of :mod:`thermrs.errors` that every command maps to an
+exit code.
 
 One command per module of this package (``thermrs.cli.<command>``), each only parsing and
 rendering; the library computes. :mod:`thermrs.cli.common` holds the shared options, output

@@ -43,7 +43,6 @@ __all__ = [
     "console",
     "distinct_runs",
     "exclude_option",
-    "fmt",
     "input_file",
     "json_option",
     "no_campaign",
@@ -209,12 +208,6 @@ class AlphaType(click.ParamType):  # type: ignore[type-arg]
             if "write" in msg:
                 msg += f" or {a:g}u"
             self.fail(msg, param, ctx)
-
-
-def fmt(x: float | None, digits: int = 2) -> str:
-    from thermrs.numbers import fmt
-
-    return fmt(x, digits)
 
 
 #: Files read by this process's command, by path: `predict --train rec#run1 --run rec#run2`

@@ -8,18 +8,16 @@ from pathlib import Path
 from typing import Any
 
 import click
-from rich.console import Console
 from rich.table import Table
 
 from thermrs.cli.common import (
     campaign_options,
     exclude_option,
     input_file,
+    out,
     runs_option,
     seed_option,
 )
-
-out = Console(highlight=False)
 
 
 def render_design(doc: dict[str, Any], out_dir: Path) -> None:

@@ -29,10 +29,6 @@ if TYPE_CHECKING:  # pragma: no cover
 MIN_VISITS = 3
 
 
-def _pct(x: float | None) -> str:
-    return "—" if x is None else f"{x:.0%}"
-
-
 def _f(x: Any, digits: int = 2) -> str:
     if x is None:
         return "—"
@@ -42,9 +38,9 @@ def _f(x: Any, digits: int = 2) -> str:
 
 
 def _params(p: dict[str, Any]) -> str:
-    from thermrs.diagnose import _fmt_params
+    from thermrs.diagnose.verdict import format_params
 
-    return _fmt_params(p)
+    return format_params(p)
 
 
 def render_diagnosis(doc: dict[str, Any]) -> None:

@@ -8,10 +8,10 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from thermrs.cli.common import (
-    fmt,
     out,
     table,
 )
+from thermrs.numbers import fmt
 
 if TYPE_CHECKING:  # pragma: no cover
     import polars as pl

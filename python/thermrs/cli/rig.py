@@ -8,13 +8,13 @@ from pathlib import Path
 import click
 
 from thermrs.cli.common import (
-    fmt,
     input_file,
     out,
     radians_hint,
     table,
 )
 from thermrs.errors import InputError, ThermrsError
+from thermrs.numbers import fmt
 
 
 @click.command()

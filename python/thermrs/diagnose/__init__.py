@@ -58,7 +58,7 @@ from thermrs.diagnose.resample import cycle_units
 from thermrs.diagnose.result import Diagnosis, assemble
 from thermrs.diagnose.selection import FamilyGrid, Step, build_grids, forward_selection
 from thermrs.diagnose.tolerances import nuisance_signatures
-from thermrs.diagnose.verdict import decide, format_params
+from thermrs.diagnose.verdict import decide
 from thermrs.effects import Effect, Family
 from thermrs.rig import Rig
 from thermrs.signatures import VisitSet
@@ -76,8 +76,6 @@ LEVEL = 0.05
 MARGIN_SHARE = 0.05
 #: Replicates of the parametric bootstrap (the null world) per selection step.
 NULL_DRAWS = 199
-
-_fmt_params = format_params  # the CLI's formatter (kept under its old name)
 
 
 def diagnose(

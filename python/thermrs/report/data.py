@@ -15,8 +15,6 @@ same defaults, so that a number in the report is the number those commands print
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -322,14 +320,10 @@ def table4(runs: Sequence[RunInput]) -> pl.DataFrame:
 def _diagnose(
     train: list[pl.DataFrame], holdout: list[pl.DataFrame], rig: Rig
 ) -> tuple[Any | None, str | None]:
-    if importlib.util.find_spec("thermrs.diagnose") is None:
-        return None, (
-            "The diagnoser (thermrs.diagnose) is not part of this installation, so no "
-            "diagnosis was made."
-        )
-    mod = importlib.import_module("thermrs.diagnose")
+    from thermrs.diagnose import diagnose
+
     try:
-        return mod.diagnose(train, holdout, rig), None
+        return diagnose(train, holdout, rig), None
     except ThermrsError as e:
         return None, f"The diagnosis could not be made: {e}"
 

@@ -27,6 +27,9 @@ __all__ = [
     "fig_prediction",
     "fig_rig",
     "fig_run",
+    "figure",
+    "legend",
+    "svg",
 ]
 
 #: Cameras take these in the rig's order (matplotlib's tab10, first five).
@@ -47,7 +50,8 @@ def temperature_colours(names: Sequence[str]) -> dict[str, str]:
     return {n: TEMPERATURE_PALETTE[i % len(TEMPERATURE_PALETTE)] for i, n in enumerate(names)}
 
 
-def _figure(height_in: float, width_in: float = 9.5) -> Figure:
+def figure(height_in: float, width_in: float = 9.5) -> Figure:
+    """A blank figure in the report's style (``height_in`` by ``width_in`` inches)."""
     import matplotlib
 
     matplotlib.rcParams.update(
@@ -68,7 +72,9 @@ def _figure(height_in: float, width_in: float = 9.5) -> Figure:
     return Figure(figsize=(width_in, height_in), layout="constrained")
 
 
-def _svg(fig: Figure) -> str:
+def svg(fig: Figure) -> str:
+    """``fig`` as SVG text for inline HTML: no prolog or metadata, the same bytes every time,
+    coordinates to 0.01 pt."""
     from matplotlib.backends.backend_svg import FigureCanvasSVG
 
     FigureCanvasSVG(fig)
@@ -84,7 +90,7 @@ def _svg(fig: Figure) -> str:
     return re.sub(r'\sd="[^"]*"', lambda m: _COORD.sub(r"\1", m.group(0)), text)
 
 
-def _legend(ax: Any) -> None:
+def legend(ax: Any) -> None:
     """The legend outside the plot, on the right: it never hides data (and matplotlib's
     "best" place, which searches every point, is slow)."""
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
@@ -137,7 +143,7 @@ def fig_run(
     t = table.sort("t_ns")
     t0 = int(t["t_ns"].min())  # type: ignore[arg-type]
     temp_names = sorted(c[: -len("_c")] for c in t.columns if c.endswith("_c"))
-    fig = _figure(6.4)
+    fig = figure(6.4)
     axes = fig.subplots(3, 1, sharex=True)
     cams = [c for c in colours if c in set(t["camera"].to_list())]
     for ax_i, axis in enumerate("uv"):
@@ -158,7 +164,7 @@ def fig_run(
                     ax.plot(xf, yf, "--", lw=1.2, color=colours[cam], label=f"camera {cam} (fit)")
         name = "x" if axis == "u" else "y"
         ax.set_ylabel(f"drift along chip {name} ({axis}), µm")
-        _legend(ax)
+        legend(ax)
     ax = axes[2]
     if not temp_names:
         ax.text(
@@ -186,8 +192,8 @@ def fig_run(
     ax.set_ylabel("temperature, °C")
     ax.set_xlabel("time since the run's first visit, h")
     if temp_names:
-        _legend(ax)
-    return _svg(fig)
+        legend(ax)
+    return svg(fig)
 
 
 def fig_overview(
@@ -205,7 +211,7 @@ def fig_overview(
     for _, t in runs:
         lo, hi = int(t["t_ns"].min()), int(t["t_ns"].max())  # type: ignore[arg-type]
         spans.append(max((hi - lo) / 3.6e12, 1e-3))
-    fig = _figure(4.2)
+    fig = figure(4.2)
     axes = fig.subplots(
         2, len(runs), sharey="row", squeeze=False, height_ratios=[3, 2], width_ratios=spans,
         gridspec_kw={"wspace": 0.06},
@@ -256,7 +262,7 @@ def fig_overview(
         if handles:
             row[-1].legend(handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0),
                            borderaxespad=0.0)  # fmt: skip
-    return _svg(fig)
+    return svg(fig)
 
 
 def fig_prediction(series: pl.DataFrame, colours: Mapping[str, str], run: str) -> str:
@@ -264,7 +270,7 @@ def fig_prediction(series: pl.DataFrame, colours: Mapping[str, str], run: str) -
     (measured − predicted)."""
     s = series.filter(pl.col("run") == run).sort("t_ns")
     t0 = int(s["t_ns"].min())  # type: ignore[arg-type]
-    fig = _figure(5.6)
+    fig = figure(5.6)
     axes = fig.subplots(3, 1, sharex=True)
     cams = [c for c in colours if c in set(s["camera"].to_list())]
     for ax_i, axis in enumerate("uv"):
@@ -281,7 +287,7 @@ def fig_prediction(series: pl.DataFrame, colours: Mapping[str, str], run: str) -
             ax.plot(xs, ps, "--", lw=1.4, color=colours[cam], label=f"camera {cam} predicted")
         name = "x" if axis == "u" else "y"
         ax.set_ylabel(f"drift along chip {name} ({axis}), µm")
-        _legend(ax)
+        legend(ax)
     ax = axes[2]
     for cam in cams:
         g = s.filter(pl.col("camera") == cam)
@@ -294,14 +300,14 @@ def fig_prediction(series: pl.DataFrame, colours: Mapping[str, str], run: str) -
     ax.axhline(0.0, color="black", lw=0.6)
     ax.set_ylabel("measured − predicted, µm")
     ax.set_xlabel("time since the run's first visit, h")
-    _legend(ax)
-    return _svg(fig)
+    legend(ax)
+    return svg(fig)
 
 
 def fig_iso(windows: pl.DataFrame, colours: Mapping[str, str]) -> str:
     """ISO 9283-style RP and dAP per window of visits against time, per camera (colour) and
     run (line style)."""
-    fig = _figure(4.4)
+    fig = figure(4.4)
     axes = fig.subplots(1, 2)
     styles = ("-", "--", ":", "-.")
     runs = list(dict.fromkeys(windows["run"].to_list())) if windows.height else []
@@ -323,15 +329,15 @@ def fig_iso(windows: pl.DataFrame, colours: Mapping[str, str]) -> str:
     for ax in axes:
         ax.set_xlabel("time since the run's first visit, h")
         if runs:
-            _legend(ax)
-    return _svg(fig)
+            legend(ax)
+    return svg(fig)
 
 
 def fig_diagnosis(residuals: pl.DataFrame, colours: Mapping[str, str]) -> str:
     """Residuals of the held-out runs before (nominal model) and after the chosen effect."""
     r = residuals.filter(pl.col("role") == "holdout") if "role" in residuals.columns else residuals
     runs = list(dict.fromkeys(r["run"].to_list()))
-    fig = _figure(2.4 * max(1, len(runs)) + 0.4)
+    fig = figure(2.4 * max(1, len(runs)) + 0.4)
     axes = np.atleast_1d(fig.subplots(max(1, len(runs)), 1, sharex=True))
     for ax, run in zip(axes, runs, strict=False):
         g = r.filter(pl.col("run") == run)
@@ -366,9 +372,9 @@ def fig_diagnosis(residuals: pl.DataFrame, colours: Mapping[str, str]) -> str:
         ax.axhline(0.0, color="black", lw=0.6)
         ax.set_title(f"held-out run {run}", fontsize=9)
         ax.set_ylabel("residual, µm")
-        _legend(ax)
+        legend(ax)
     axes[-1].set_xlabel("time since the run's first visit, h")
-    return _svg(fig)
+    return svg(fig)
 
 
 def fig_rig(
@@ -380,7 +386,7 @@ def fig_rig(
     """Where the laser meets each chip at the camera's own pose: the chip outline (pixels) and
     the spot."""
     cams = list(colours)
-    fig = _figure(3.0, 2.6 * max(1, len(cams)) + 0.4)
+    fig = figure(3.0, 2.6 * max(1, len(cams)) + 0.4)
     axes = np.atleast_1d(fig.subplots(1, max(1, len(cams))))
     for ax, cam in zip(axes, cams, strict=False):
         w, h = sizes[cam]
@@ -403,7 +409,7 @@ def fig_rig(
         ax.set_xlabel("x, px")
         ax.set_ylabel("y, px")
         ax.legend(loc="lower center", bbox_to_anchor=(0.5, -0.62))
-    return _svg(fig)
+    return svg(fig)
 
 
 def _rect(w: int, h: int) -> Any:

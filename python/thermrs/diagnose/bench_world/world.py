@@ -23,8 +23,7 @@ clock 10–60 s late; the room thermometer reads ±0.1 K off with 0.02 K noise.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -365,11 +364,6 @@ def _instruments(
     room = np.interp(t, dd.t_s, dd.room)
     out["ambient_c"] = room + (scene.room_offset + rng.normal(0, 0.02, n) if noise else 0.0)
     return out
-
-
-def with_campaign(scene: Scene, **changes: Any) -> Scene:
-    """``scene`` with its campaign changed (for tests)."""
-    return replace(scene, campaign=replace(scene.campaign, **changes))
 
 
 def nominal_prediction(scene: Scene, tables: list[pl.DataFrame]) -> list[FloatArray]:

@@ -17,7 +17,7 @@ import numpy as np
 import polars as pl
 
 from thermrs.report.blocks import Figure, Missing, Paragraph, Section, Table
-from thermrs.report.figures import _figure, _legend, _svg
+from thermrs.report.figures import figure, legend, svg
 
 __all__ = ["design_section", "fig_rival_drift", "section_for"]
 
@@ -51,7 +51,7 @@ def _what(rec: Mapping[str, Any]) -> str:
 
 def fig_rival_drift(drift: pl.DataFrame, doc: Mapping[str, Any]) -> str:
     """The rivals' predicted drift (both chip axes) on the new measurement, per run."""
-    fig = _figure(3.2)
+    fig = figure(3.2)
     axes = fig.subplots(1, 2, sharex=True)
     palette = ("#1b6ca8", "#d1495b", "#2e933c", "#edae49", "#6c4f9e")
     for k, eff in enumerate(dict.fromkeys(drift["effect"].to_list())):
@@ -70,8 +70,8 @@ def fig_rival_drift(drift: pl.DataFrame, doc: Mapping[str, Any]) -> str:
     for ax, name in zip(axes, ("chip u", "chip v"), strict=True):
         ax.set_xlabel("hours since the designed runs begin")
         ax.set_ylabel(f"predicted drift along {name} (µm)")
-    _legend(axes[1])
-    return _svg(fig)
+    legend(axes[1])
+    return svg(fig)
 
 
 def design_section(doc: Mapping[str, Any], drift: pl.DataFrame | None = None) -> Section:
