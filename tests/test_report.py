@@ -284,8 +284,15 @@ def test_report_shows_the_diagnosis_file_it_is_given(
     warm, fast = (str(campaign["paths"][k]["tables"]) for k in ("warm", "fast"))
     rig = paper_rig.source
     p = d / "given.json"
-    r = run_cli("diagnose", "--rig", rig, "--train", warm, "--holdout", fast, "--json", str(p))
+    r = run_cli(
+        "diagnose", "--rig", rig, "--train", warm, "--holdout", fast, "--json", str(p), "--verbose"
+    )
     assert r.returncode == 0, r.stderr
+    # Piped: a line per stage with the seconds since the start; --verbose: each stage's time.
+    lines = r.stderr.splitlines()
+    for stage in ("baseline and floor", "candidates", "verdict"):
+        assert any(re.match(rf"thermrs diagnose: {stage} \(\d+\.\d s\)$", ln) for ln in lines)
+    assert re.search(r"thermrs diagnose: +\d+\.\d\d s  in all", r.stderr), r.stderr
     doc = json.loads(p.read_text())
     res = doc["residuals"]
     assert {"run", "role", "camera", "axis", "t_h", "baseline_um", "after_um"} <= set(res)

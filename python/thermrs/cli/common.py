@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Callable, Sequence
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -87,6 +89,58 @@ class _LazyConsole:
 
 
 out: Any = _LazyConsole()
+
+
+@contextmanager
+def stages(command: str, *, verbose: bool = False) -> Iterator[Callable[[str], None]]:
+    """Progress of a command that takes a while, on stderr; yields ``say(stage)``.
+
+    On a terminal, a spinner with the stage; piped, one line per new stage with the seconds
+    since the command began (``thermrs diagnose: step 2 … (4.1 s)``), so that a log shows
+    where the time goes. With ``verbose``, the seconds each stage took, at the end.
+    """
+    t0 = time.perf_counter()
+    spent: dict[str, float] = {}
+    cur: list[Any] = [None, t0]
+
+    def mark(stage: str | None) -> None:
+        now = time.perf_counter()
+        if cur[0] is not None:
+            spent[cur[0]] = spent.get(cur[0], 0.0) + now - cur[1]
+        cur[0], cur[1] = stage, now
+
+    if sys.stderr.isatty():
+        err = console(stderr=True)
+        with err.status(f"{command}…") as status:
+
+            def say(stage: str) -> None:
+                if stage != cur[0]:
+                    mark(stage)
+                status.update(f"{command}: {stage}…")
+
+            yield say
+    else:
+
+        def say(stage: str) -> None:
+            if stage != cur[0]:
+                mark(stage)
+                click.echo(
+                    f"thermrs {command}: {stage} ({time.perf_counter() - t0:.1f} s)", err=True
+                )
+
+        yield say
+    mark(None)
+    if verbose:
+        for stage, sec in spent.items():
+            click.echo(f"thermrs {command}: {sec:7.2f} s  {stage}", err=True)
+        click.echo(f"thermrs {command}: {time.perf_counter() - t0:7.2f} s  in all", err=True)
+
+
+def verbose_option(f: Callable[..., Any]) -> Callable[..., Any]:
+    """``--verbose``: the seconds each stage took, on stderr at the end."""
+    return click.option(
+        "--verbose", is_flag=True, help="Print the seconds each stage took (stderr)."
+    )(f)
 
 
 def table(title: str, columns: Sequence[tuple[str, str]], *, caption: str | None = None) -> Table:

@@ -17,6 +17,8 @@ from thermrs.cli.common import (
     out,
     runs_option,
     seed_option,
+    stages,
+    verbose_option,
 )
 
 
@@ -44,6 +46,19 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
             f"{now.get((worst['truth'], worst['rival']), float('nan')):.1f}",
         )
     out.print(t)
+    if doc.get("proofs_tried"):
+        t = Table(title="Proofs, in the order tried (each rival simulated as the truth, diagnosed)")
+        for c in ("tried", "measurement", "rank", "hours", "outcome"):
+            t.add_column(c, justify="left" if c in ("measurement", "outcome") else "right")
+        for pt in doc["proofs_tried"]:
+            t.add_row(
+                str(pt["tried"]),
+                pt["candidate"],
+                "—" if pt["rank"] is None else str(pt["rank"]),
+                "—" if pt["hours"] is None else f"{pt['hours']:g}",
+                "every truth identified" if pt["all_right"] else "wrong: " + "; ".join(pt["wrong"]),
+            )
+        out.print(t)
     p = doc["proof"]
     if p is not None:
         t = Table(title=f"Proof: {p['candidate']}")
@@ -111,6 +126,7 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
     "folder per fold inside it (fold-1, fold-2, …, listed in folds.json).",
 )
 @campaign_options(rule="With --campaign: a design per fold, each in its own folder under -o.")
+@verbose_option
 def design(
     rig_path: Path,
     train: tuple[Path, ...],
@@ -125,6 +141,7 @@ def design(
     campaign_path: Path | None,
     query: str | None,
     rule: str | None,
+    verbose: bool,
 ) -> None:
     """Design the measurement that separates confounded effects, and prove it by simulation.
 
@@ -153,11 +170,11 @@ def design(
     r = load_rig(rig_path)
     sets = chosen_splits(campaign_path, query, rule, train, holdout, r)
     dirs = [out_dir] if rule is None else [out_dir / f"fold-{i + 1}" for i in range(len(sets))]
-    with out.status("designing…") as status:
+    with stages("design", verbose=verbose) as say:
         res = design_splits(sets, r, exclude=list(exclude), between=list(between) or None,
                             budget_h=budget_h, seed=seed, prove_it=not no_proof,
                             diagnosis=given,
-                            progress=lambda m: status.update(f"designing: {m}…"))  # fmt: skip
+                            progress=say)  # fmt: skip
         for d, f in zip(dirs, res, strict=True):
             d.mkdir(parents=True, exist_ok=True)
             f.result.write(d)

@@ -19,6 +19,7 @@ from thermrs.cli.common import (
     out,
     runs_option,
     seed_option,
+    verbose_option,
 )
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -242,13 +243,15 @@ def render_paper(doc: dict[str, Any]) -> None:
 )
 @seed_option("Seed of the resampling.")
 @json_option(
-    "Write the SPEC §7 JSON here (atomically); with --rule, one document per fold "
-    '({"rule", "folds": [{"fold", "train", "holdout", "diagnosis"}]}).'
+    "Write the SPEC §7 JSON here (atomically); with --rule, one document per fold and what "
+    'they conclude together ({"rule", "folds": [{"fold", "train", "holdout", "diagnosis"}], '
+    '"synthesis"}).'
 )
 @campaign_options(
     rule="With --campaign: a diagnosis per fold (each rendered in turn, then the verdicts "
-    "side by side)."
+    "side by side and what the folds conclude together)."
 )
+@verbose_option
 def diagnose(
     rig_path: Path | None,
     train: tuple[Path, ...],
@@ -262,6 +265,7 @@ def diagnose(
     campaign_path: Path | None,
     query: str | None,
     rule: str | None,
+    verbose: bool,
 ) -> None:
     """Diagnose the sim-to-real gap: where the nominal model's residual lies, which SPEC §6
     effect causes it, and how far it shrinks — scored on held-out runs. The runs are files,
@@ -270,7 +274,8 @@ def diagnose(
     Exits 3 (after diagnosing) if part of a recording was lost.
     """
     from thermrs.campaigns.analyses import diagnose_splits
-    from thermrs.cli.common import EXIT_DATA_LOSS, chosen_splits, writable, write_json
+    from thermrs.campaigns.summary import fold_synthesis
+    from thermrs.cli.common import EXIT_DATA_LOSS, chosen_splits, stages, writable, write_json
     from thermrs.errors import InputError
     from thermrs.rig import load_rig
 
@@ -299,21 +304,30 @@ def diagnose(
     sets = chosen_splits(campaign_path, query, rule, train, holdout, r)
     for s in sets:
         check_visits(s)
-    with out.status("diagnosing…") as status:
+    with stages("diagnose", verbose=verbose) as say:
         folds = diagnose_splits(sets, r, exclude=exclude, bootstrap=bootstrap, seed=seed,
-                                margin_um=margin_um,
-                                progress=lambda m: status.update(f"diagnosing: {m}…"))  # fmt: skip
+                                margin_um=margin_um, progress=say)  # fmt: skip
+    synthesis = (
+        fold_synthesis([(f.split.name, f.diagnosis.to_json()) for f in folds])
+        if rule is not None
+        else None
+    )
     if json_path is not None:
         if rule is None:
             write_json(json_path, folds[0].diagnosis.to_json())
         else:
-            write_json(json_path, {"rule": rule, "folds": [f.to_json() for f in folds]})
+            write_json(
+                json_path,
+                {"rule": rule, "folds": [f.to_json() for f in folds], "synthesis": synthesis},
+            )
     for f in folds:
         if f.split.name:
             out.rule(f"[bold]{f.split.name}[/bold]")
         render_diagnosis(f.diagnosis.to_json())
     if rule is not None:
         render_folds(folds, rule)
+        assert synthesis is not None
+        out.print(f"Across the folds: {synthesis['sentence']}.")
     if any(s.data_loss for s in sets):
         sys.exit(EXIT_DATA_LOSS)
 
@@ -449,7 +463,9 @@ def diagnose_bench(
     if bad:
         raise InputError(f"--effect {bad}: not effects (known: none, {', '.join(EFFECT_NAMES)})")
     r = load_rig(rig_path)
-    with out.status("bench…") as status:
+    from thermrs.cli.common import stages
+
+    with stages("diagnose-bench") as say:
         doc = run_bench(
             r,
             seeds=seeds,
@@ -460,7 +476,7 @@ def diagnose_bench(
             snrs=tuple(snrs) or (0.25, 0.5, 1.0, 2.0, 4.0),
             nulls=nulls,
             jobs=jobs,
-            progress=lambda m: status.update(m),
+            progress=say,
         )
     if json_path is not None:
         write_json(json_path, doc)

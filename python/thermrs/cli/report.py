@@ -92,6 +92,7 @@ class _Stage(Protocol):
     "from it) instead of diagnosing the runs again, so its numbers are the file's.",
 )
 @click.option("--quiet", is_flag=True, help="No progress.")
+@click.option("--verbose", is_flag=True, help="Print the seconds each stage took (stderr).")
 @campaign_options()
 def report(
     demo: bool,
@@ -105,6 +106,7 @@ def report(
     workdir: Path | None,
     diagnosis_path: Path | None,
     quiet: bool,
+    verbose: bool,
     campaign_path: Path | None,
     query: str | None,
 ) -> None:
@@ -131,7 +133,7 @@ def report(
     out = out_path or Path("thermrs-demo-report.html" if demo else "thermrs-report.html")
     writable(out, "-o")
     t_start = time.perf_counter()
-    with _progress(err, quiet) as stage:
+    with _progress(err, quiet, verbose) as stage:
         loss = False
         if demo:
             from thermrs.report.demo import run_demo
@@ -194,9 +196,10 @@ def _check_options(
 
 
 @contextmanager
-def _progress(err: Console, quiet: bool) -> Iterator[_Stage]:
+def _progress(err: Console, quiet: bool, verbose: bool = False) -> Iterator[_Stage]:
     """A progress bar on stderr; yields ``stage(what, done=0, total=0)`` (bytes when
-    ``total``), which also prints each new stage once."""
+    ``total``), which also prints each new stage once; with ``verbose``, the seconds each
+    stage took, at the end."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     with Progress(
@@ -211,8 +214,15 @@ def _progress(err: Console, quiet: bool) -> Iterator[_Stage]:
         task = bar.add_task("", total=None, info="")
 
         last = [""]
+        spent: dict[str, float] = {}
+        began = [time.perf_counter()]
 
         def stage(what: str, done: int = 0, total: int = 0) -> None:
+            if what != last[0]:
+                now = time.perf_counter()
+                if last[0]:
+                    spent[last[0]] = spent.get(last[0], 0.0) + now - began[0]
+                began[0] = now
             if total:
                 bar.update(
                     task,
@@ -228,6 +238,11 @@ def _progress(err: Console, quiet: bool) -> Iterator[_Stage]:
             last[0] = what
 
         yield stage
+        if last[0]:
+            spent[last[0]] = spent.get(last[0], 0.0) + time.perf_counter() - began[0]
+    if verbose:
+        for what, sec in spent.items():
+            err.print(f"[dim]{sec:7.2f} s  {what}[/dim]")
 
 
 def _file_runs(
