@@ -1,6 +1,6 @@
 """Issue #4's effect table: per SPEC §6 effect, the residual RMS the nominal model leaves on a
 simulated recording against the RMS the effect's parameters imply (the functions of
-``tests/test_effect_residuals.py``).
+``tests/model/test_effect_residuals.py``).
 
 Run:  python benchmarks/experiments/effect_residuals.py
 """

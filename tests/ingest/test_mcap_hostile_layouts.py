@@ -37,6 +37,7 @@ from mcap.records import Message as McapMessage
 from mcap.stream_reader import StreamReader, breakup_chunk
 from polars.testing import assert_frame_equal
 
+from tests.ingest.test_extract import scenario
 from tests.support.mcap_conformance import (
     Channel,
     ChunkBreak,
@@ -47,7 +48,6 @@ from tests.support.mcap_conformance import (
     write_layout,
 )
 from tests.support.recordings import ENCODERS, MSGDEFS, png_bytes, write_messages
-from tests.test_extract import scenario
 
 #: Every summary feature, chunked (the richest layout a writer that finishes produces).
 FULL = frozenset({"ch", "mx", "chx", "st", "rch", "rsh", "sum"})

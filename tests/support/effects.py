@@ -1,5 +1,5 @@
 """The SPEC §6 effects one at a time, simulated, and the residual each implies (shared by
-``tests/test_effect_residuals.py`` and ``benchmarks/experiments/effect_residuals.py``).
+``tests/model/test_effect_residuals.py`` and ``benchmarks/experiments/effect_residuals.py``).
 
 "Implied" is computed independently of the simulator's output: the spot each visit should show,
 from the effect's parameters through :class:`thermrs.ForwardModel` (or the closed forms of the

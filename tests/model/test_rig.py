@@ -28,7 +28,7 @@ import thermrs
 # Paths and the good rig
 # --------------------------------------------------------------------------------------------
 
-SHARED = Path(__file__).resolve().parents[2] / "shared"
+SHARED = Path(__file__).resolve().parents[3] / "shared"
 SHARED_RIG = SHARED / "rigs" / "kr15-paper.toml"
 requires_shared = pytest.mark.skipif(
     not SHARED_RIG.is_file(),

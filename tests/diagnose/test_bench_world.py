@@ -23,7 +23,7 @@ from thermrs.diagnose.bench_world.geometry import laser_spots, length_index
 from thermrs.diagnose.bench_world.score import outcome, withheld_outcome
 from thermrs.diagnose.bench_world.world import RUNS
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 RIGS = [thermrs.rig.default_rig_path(), REPO / "fixtures" / "rigs" / "ur5-two-cameras.toml"]
 
 

@@ -18,7 +18,7 @@ from thermrs.simulate import simulate
 #: Simulations and campaigns of minutes: skipped by `pytest -m "not slow"`.
 pytestmark = pytest.mark.slow
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 SHORT = """
 format = "thermrs-scenario/1"
 seed = 7

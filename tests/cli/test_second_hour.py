@@ -24,7 +24,7 @@ import pytest
 import thermrs
 from mcap.reader import make_reader
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 UR5 = REPO / "fixtures" / "rigs" / "ur5-two-cameras.toml"
 
 SCENARIO = """format = "thermrs-scenario/1"

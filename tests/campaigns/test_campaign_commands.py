@@ -20,8 +20,8 @@ from polars.testing import assert_frame_equal
 from thermrs.runs import load_runs
 from thermrs.simulate import simulate
 
+from tests.campaigns.test_campaign import SCENARIO
 from tests.support.recordings import shift_days
-from tests.test_campaign import SCENARIO
 
 RIG = str(thermrs.default_rig_path())
 

@@ -166,7 +166,7 @@ def test_other_robot_with_chips_placed_by_the_toolbox() -> None:
     (fixtures/make_ur5_rig.py). thermrs must find each spot at the chip's centre pixel."""
     from pathlib import Path
 
-    rig = thermrs.load_rig(Path(__file__).parents[1] / "fixtures/rigs/ur5-two-cameras.toml")
+    rig = thermrs.load_rig(Path(__file__).parents[2] / "fixtures/rigs/ur5-two-cameras.toml")
     view = rig.check()
     for cam, pose, dist in (("near", "P1", 120.0), ("far", "P2", 95.0)):
         p = view["poses"][pose]

@@ -35,7 +35,7 @@ from tests.support.scenarios import FAST_NODES, WARM_UP_90_MIN
 #: Simulations and campaigns of minutes: skipped by `pytest -m "not slow"`.
 pytestmark = pytest.mark.slow
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 ARTEFACTS = REPO / "bench-out" / "report"
 
 

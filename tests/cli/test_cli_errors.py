@@ -22,7 +22,7 @@ import thermrs
 
 from tests.support.scenarios import FAST_NODES
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 UR5 = REPO / "fixtures" / "rigs" / "ur5-two-cameras.toml"
 PAPER_RUNS = REPO / "fixtures" / "scenarios" / "paper-runs.toml"
 

@@ -22,7 +22,7 @@ from tests.support.recordings import header
 from .test_extract import cli_extract, scenario
 
 W, H = 752, 582
-FIXTURES = Path(__file__).resolve().parent.parent / "fixtures" / "hostile"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "hostile"
 
 
 def chunks(data: bytes) -> list[tuple[int, int, Counter[str]]]:
