@@ -331,6 +331,20 @@ def assemble(
         if len(last) >= 19 and mid > 0
         else None
     )
+    # The gap above the floor, and the share of it closed, over the floor's 95 % interval
+    # (the floor is an estimate; the rms before and after are what these runs show).
+    fci = floor.holdout_ci95
+    before_rms = base.holdout_rms_um
+    how_far["gap_above_floor_um"] = before_rms - fl
+    how_far["gap_above_floor_ci95"] = [before_rms - fci[1], before_rms - fci[0]] if fci else None
+    if fci and final is not None and before_rms > fci[1]:
+        removed = before_rms - after.holdout_rms_um
+        how_far["gap_closed_ci95"] = [
+            max(min(removed / (before_rms - fci[0]), 1.0), 0.0),
+            max(min(removed / (before_rms - fci[1]), 1.0), 0.0),
+        ]
+    else:
+        how_far["gap_closed_ci95"] = None
     how_far["holdout_rms_after_ci95_note"] = (
         "95 % of sets of held-out runs like these keep an rms in this range once the model "
         "is applied: the rms it left here, spread as the held-out rms spreads in the model's "

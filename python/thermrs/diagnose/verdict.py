@@ -237,7 +237,9 @@ def summary(d: Any) -> str:
                 f"(± {1.96 * se:.2f} µm), so no share of it is stated"
             )
         elif closed is not None:
-            share = f", closing {closed:.0%} of the gap above the floor"
+            ci = hf.get("gap_closed_ci95")
+            within = f" ({ci[0]:.0%}–{ci[1]:.0%} over the floor's 95 % interval)" if ci else ""
+            share = f", closing {closed:.0%}{within} of the gap above the floor"
         else:
             share = ""
         what = (
