@@ -177,3 +177,13 @@ def test_a_rig_file_path_is_a_rig(rig: thermrs.Rig) -> None:
     assert by_path.baseline["holdout_rms_um"] == by_rig.baseline["holdout_rms_um"]
     with pytest.raises(thermrs.InputError, match=r"no-such-rig\.toml"):
         diagnose(runs[:1], runs[1:], "no-such-rig.toml", bootstrap=0)
+
+
+def test_holm_step_down() -> None:
+    from thermrs.diagnose.selection import holm_kept
+
+    # level 0.05, three p-values: 0.01 < 0.05/3 rejected; 0.03 ≥ 0.05/2 kept, and so is 0.04.
+    assert holm_kept({"a": 0.01, "b": 0.04, "c": 0.03}, 0.05) == ["c", "b"]
+    # 0.01 < 0.05/3, 0.02 < 0.05/2, 0.04 < 0.05/1: all rejected (Bonferroni would keep 0.02).
+    assert holm_kept({"a": 0.01, "b": 0.02, "c": 0.04}, 0.05) == []
+    assert holm_kept({}, 0.05) == []

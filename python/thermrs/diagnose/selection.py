@@ -401,11 +401,7 @@ def _test_rivals(
     # Holm's step-down: the smallest p against level / k, the next against level / (k − 1),
     # … until one is kept; it and every larger one are rivals the data cannot reject. The
     # rivals are rejected together at the level, as with Bonferroni, with more power.
-    order = sorted(step.rival_p, key=lambda e: step.rival_p[e])
-    for i, e in enumerate(order):
-        if step.rival_p[e] >= level / (k - i):
-            step.rivals = order[i:]
-            break
+    step.rivals = holm_kept(step.rival_p, level)
     out = {ch.effect for ch in outside}
     step.outside = [e for e in step.rivals if e in out]
 
@@ -461,12 +457,20 @@ def _test_alternatives(
                 )
             if any(st.alt_p[c.label] < level / tested for c in block):
                 break
-        k = len(st.alt_p)
-        order = sorted(st.alt_p, key=lambda e: st.alt_p[e])
-        for i, e in enumerate(order):
-            if st.alt_p[e] >= level / (k - i):
-                st.alternatives = order[i:]
-                break
+        st.alternatives = holm_kept(st.alt_p, level)
+
+
+def holm_kept(p: dict[str, float], level: float) -> list[str]:
+    """Holm's step-down over the hypotheses ``p`` (name → p-value): the smallest against
+    level / k, the next against level / (k − 1), … until one is kept; it and every larger one
+    are the hypotheses kept (not rejected), smallest p first. All are rejected together at
+    the level, as with Bonferroni, with more power."""
+    order = sorted(p, key=lambda e: p[e])
+    k = len(order)
+    for i, e in enumerate(order):
+        if p[e] >= level / (k - i):
+            return order[i:]
+    return []
 
 
 def _rival_p(
