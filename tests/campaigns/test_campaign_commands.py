@@ -449,3 +449,32 @@ def test_where_takes_what_people_type(camp: dict[str, Path], tmp_path: Path) -> 
     assert lines["run"] == "run1, run2"
     assert "r1" in lines["recording"].split(", ") and "r2" in lines["recording"].split(", ")
     assert day.isoformat() in lines["date"]
+
+
+def test_the_campaign_page_has_tables_figures_and_the_trend(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    """`thermrs campaign DATASET -o page.html|page.md`: the same content twice — the trend
+    sentence, α and drift against date and speed as figures, per-day and per-speed tables —
+    HTML tables as tables, the Markdown's figures beside it."""
+    from thermrs.campaigns.summary import alpha_by_run, alpha_trend
+
+    html_page, md_page = tmp_path / "page.html", tmp_path / "page.md"
+    for page in (html_page, md_page):
+        p = cli("campaign", str(camp["ds"]), "-o", str(page))
+        assert p.returncode == 0, p.stderr
+        assert "Over time:" in p.stdout
+    trend = alpha_trend(alpha_by_run(thermrs.campaigns.open_dataset(camp["ds"]), RIG))
+    html = html_page.read_text()
+    assert "<pre>" not in html and html.count("<table") == 3  # per day, per speed, every run
+    for fig in ("campaign-time", "campaign-speed"):
+        assert f'data-figure="{fig}"' in html
+    md = md_page.read_text()
+    for text in (html, md):
+        assert trend["sentence"].split(" (")[0] in text
+        assert "Per day" in text and "Per speed" in text
+    links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", md)
+    assert len(links) == 2
+    for link in links:
+        assert (tmp_path / unquote(link)).read_text().startswith("<svg")
+    assert md.count("\n| ") >= 8

@@ -17,8 +17,11 @@ __all__ = [
     "ALPHA_BY_RUN_SCHEMA",
     "HOLDOUT_SCHEMA",
     "alpha_by_run",
+    "alpha_trend",
+    "by_group",
     "fold_synthesis",
     "holdout_by_rule",
+    "standouts",
 ]
 
 #: Columns of :func:`alpha_by_run`. Fixed, not inferred from the rows: a campaign's first
@@ -35,6 +38,7 @@ ALPHA_BY_RUN_SCHEMA: dict[str, Any] = {
     "rms_um": pl.Float64,
     "visits": pl.Int64,
     "drift_um": pl.Float64,
+    "start_ns": pl.Int64,
 }
 
 #: Columns of :func:`holdout_by_rule`.
@@ -72,6 +76,7 @@ def alpha_by_run(dataset: Dataset, rig: Any, *, query: str | None = None) -> pl.
                 "rms_um": f.rms_um,
                 "visits": t.height,
                 "drift_um": float(np.nanmax(drift)) if drift.size else None,
+                "start_ns": r["start_ns"],
             }
         )
     return pl.DataFrame(rows, schema=ALPHA_BY_RUN_SCHEMA)
@@ -182,3 +187,177 @@ def fold_synthesis(docs: list[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
         "consistent": consistent,
         "sentence": sentence,
     }
+
+
+#: Seconds in a week: the trend's unit of time.
+WEEK_S = 7 * 86_400.0
+
+
+def alpha_trend(per_run: pl.DataFrame, *, level: float = 0.05) -> dict[str, Any]:
+    """Does α change over the campaign? A straight line of each run's α against its start
+    time, as a meta-regression: each run weighted by 1 / (its standard error² + τ²), its
+    standard error from its 95 % interval, τ² the run-to-run variance the intervals do not
+    carry (DerSimonian–Laird); the slope's variance with the modified Knapp–Hartung scale
+    (never below 1) and a Student-t test with n − 2 degrees of freedom.
+
+    Returns
+    -------
+    dict
+        ``slope_per_k_per_week`` with ``ci95``, ``p``, ``runs``, ``span_days``, ``scale``,
+        ``tau_per_k`` (√τ²) and ``sentence``: "α changed by x ± y ×10⁻⁶/K per week (p = …)"
+        where the slope is significant at ``level``, else "no change in α above z ×10⁻⁶/K per
+        week (95 %)"; ``None`` values and a sentence saying why where fewer than three runs
+        or less than half a day.
+    """
+    from scipy import stats as st
+
+    from thermrs.stats import lstsq_qr
+
+    ok = per_run.filter(
+        pl.col("alpha_per_k").is_not_null()
+        & pl.col("start_ns").is_not_null()
+        & (pl.col("ci95_high") > pl.col("ci95_low"))
+    )
+    n = ok.height
+    t_s = ok["start_ns"].to_numpy().astype(np.float64) / 1e9 if n else np.zeros(0)
+    span_days = float((t_s.max() - t_s.min()) / 86_400.0) if n else 0.0
+    empty = {
+        "slope_per_k_per_week": None,
+        "ci95": None,
+        "p": None,
+        "runs": n,
+        "span_days": span_days,
+        "scale": None,
+        "tau_per_k": None,
+    }
+    if n < 3 or span_days < 0.5:
+        return {
+            **empty,
+            "sentence": f"no trend can be told from {n} run(s) over {span_days:.1f} days "
+            "(at least three runs over half a day are needed)",
+        }
+    a = ok["alpha_per_k"].to_numpy()
+    se = (ok["ci95_high"].to_numpy() - ok["ci95_low"].to_numpy()) / (2.0 * 1.959964)
+    weeks = (t_s - t_s.mean()) / WEEK_S
+    x = np.column_stack([np.ones(n), weeks])
+    # Run-to-run differences the runs' own intervals do not carry: τ² by the method of
+    # moments of meta-regression (DerSimonian–Laird), then the fit weighted by 1/(se² + τ²)
+    # with the modified Knapp–Hartung scale (never below 1).
+    w = 1.0 / se**2
+    fixed = lstsq_qr(x, a, weights=w)
+    q_stat = float(np.sum(w * fixed.residuals**2))
+    xtwx_inv = np.linalg.inv(x.T @ (w[:, None] * x))
+    c = float(np.sum(w) - np.trace(xtwx_inv @ (x.T @ ((w**2)[:, None] * x))))
+    tau2 = max(0.0, (q_stat - (n - 2)) / c) if c > 0 else 0.0
+    fit = lstsq_qr(x, a, weights=1.0 / (se**2 + tau2))
+    scale = max(float(fit.sigma2), 1.0)
+    # lstsq_qr's iid covariance is s²·(XᵀWX)⁻¹: the known-variance one times the scale used.
+    var = float(fit.cov[1, 1]) / float(fit.sigma2) * scale
+    slope, sd = float(fit.coef[1]), float(np.sqrt(var))
+    dof = n - 2
+    q = float(st.t.ppf(0.975, dof))
+    ci = [slope - q * sd, slope + q * sd]
+    p = float(2.0 * st.t.sf(abs(slope) / sd, dof)) if sd > 0 else 0.0
+    if p < level:
+        sentence = (
+            f"α changed by {slope * 1e6:+.3f} ± {q * sd * 1e6:.3f} ×10⁻⁶/K per week "
+            f"(95 %; p = {p:.2g}; {n} runs over {span_days:.1f} days)"
+        )
+    else:
+        bound = max(abs(ci[0]), abs(ci[1]))
+        sentence = (
+            f"no change in α above {bound * 1e6:.3f} ×10⁻⁶/K per week (95 %; slope "
+            f"{slope * 1e6:+.3f} ×10⁻⁶/K per week, p = {p:.2g}; {n} runs over "
+            f"{span_days:.1f} days)"
+        )
+    return {
+        "slope_per_k_per_week": slope,
+        "ci95": ci,
+        "p": p,
+        "runs": n,
+        "span_days": span_days,
+        "scale": scale,
+        "tau_per_k": float(np.sqrt(tau2)),
+        "sentence": sentence,
+    }
+
+
+def by_group(per_run: pl.DataFrame, key: str) -> pl.DataFrame:
+    """Per day (``key="date"``) or per speed (``key="speed"``: the runs' 95th-percentile joint
+    speed in bins of 10 °/s): runs, α's mean and range, and the drift envelope (the largest
+    and the mean of the runs' largest drifts)."""
+    if key == "speed":
+        grouped = per_run.with_columns(
+            group=pl.when(pl.col("speed_deg_s").is_null())
+            .then(pl.lit("unknown"))
+            .otherwise(
+                ((pl.col("speed_deg_s") // 10) * 10).cast(pl.Int64).cast(pl.String)
+                + "–"
+                + ((pl.col("speed_deg_s") // 10) * 10 + 10).cast(pl.Int64).cast(pl.String)
+                + " °/s"
+            ),
+            order=pl.col("speed_deg_s").fill_null(1e9),
+        )
+    elif key == "date":
+        grouped = per_run.with_columns(
+            group=pl.col("date").cast(pl.String), order=pl.col("date").cast(pl.Int64)
+        )
+    else:
+        raise ValueError(f"group by 'date' or 'speed', not {key!r}")
+    return (
+        grouped.group_by("group")
+        .agg(
+            runs=pl.len(),
+            alpha_mean=pl.col("alpha_per_k").mean(),
+            alpha_min=pl.col("alpha_per_k").min(),
+            alpha_max=pl.col("alpha_per_k").max(),
+            drift_max_um=pl.col("drift_um").max(),
+            drift_mean_um=pl.col("drift_um").mean(),
+            order=pl.col("order").min(),
+        )
+        .sort("order")
+        .drop("order")
+    )
+
+
+#: A run stands out when its α lies this many standard errors (its own and the campaign's
+#: scatter combined) from the campaign's weighted mean.
+STANDOUT_Z = 3.0
+
+
+def standouts(per_run: pl.DataFrame) -> list[dict[str, Any]]:
+    """The runs that stand out, each with why: an α more than :data:`STANDOUT_Z` standard
+    errors from the others' weighted mean (its own interval and the others' scatter), or a
+    largest drift beyond the others' upper quartile plus three interquartile ranges."""
+    out: list[dict[str, Any]] = []
+    rows = list(per_run.iter_rows(named=True))
+    if len(rows) < 4:
+        return out
+    a = np.array([r["alpha_per_k"] for r in rows], dtype=np.float64)
+    se = np.array(
+        [(r["ci95_high"] - r["ci95_low"]) / (2 * 1.959964) for r in rows], dtype=np.float64
+    )
+    d = np.array([np.nan if r["drift_um"] is None else r["drift_um"] for r in rows])
+    for i, r in enumerate(rows):
+        others = np.arange(len(rows)) != i
+        w = 1.0 / se[others] ** 2
+        mean = float(np.sum(w * a[others]) / np.sum(w))
+        spread = float(np.std(a[others], ddof=1))
+        z = (a[i] - mean) / np.hypot(se[i], spread)
+        why = []
+        if abs(z) > STANDOUT_Z:
+            why.append(
+                f"α {a[i] * 1e6:.2f} ×10⁻⁶/K is {abs(z):.1f} standard errors "
+                f"{'above' if z > 0 else 'below'} the other runs' {mean * 1e6:.2f}"
+            )
+        od = d[others][np.isfinite(d[others])]
+        if np.isfinite(d[i]) and len(od) >= 3:
+            q1, q3 = np.percentile(od, [25, 75])
+            if d[i] > q3 + 3.0 * (q3 - q1):
+                why.append(
+                    f"its largest drift {d[i]:.1f} µm is beyond the other runs' "
+                    f"{q3:.1f} µm upper quartile by more than three interquartile ranges"
+                )
+        if why:
+            out.append({"recording": r["recording"], "run": r["run"], "why": "; ".join(why)})
+    return out

@@ -199,6 +199,7 @@ def campaign_command(
             ("recording", "left"),
             ("run", "left"),
             ("date", "left"),
+            ("speed (°/s)", "right"),
             ("α (10⁻⁶/K)", "right"),
             ("95 %", "left"),
             ("largest drift (µm)", "right"),
@@ -209,11 +210,17 @@ def campaign_command(
             r["recording"],
             r["run"],
             str(r["date"]),
+            "—" if r["speed_deg_s"] is None else f"{r['speed_deg_s']:.0f}",
             f"{r['alpha_per_k'] * 1e6:.2f}",
             f"{r['ci95_low'] * 1e6:.2f} … {r['ci95_high'] * 1e6:.2f}",
             f"{r['drift_um']:.2f}",
         )
     out.print(t)
+    from thermrs.campaigns.summary import alpha_trend, standouts
+
+    out.print(f"Over time: {alpha_trend(per_run)['sentence']}.")
+    for o in standouts(per_run):
+        out.print(f"Stands out: {o['recording']}#{o['run']}: {o['why']}.")
     if folds is not None:
         f = table(
             f"Held out ({rule})",
