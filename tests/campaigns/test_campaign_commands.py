@@ -478,3 +478,46 @@ def test_the_campaign_page_has_tables_figures_and_the_trend(
     for link in links:
         assert (tmp_path / unquote(link)).read_text().startswith("<svg")
     assert md.count("\n| ") >= 8
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("per_week", [0.0, 4e-6])
+def test_the_page_finds_a_trend_injected_into_a_simulated_campaign(
+    tmp_path: Path, per_week: float
+) -> None:
+    """Twenty recordings over six days, each simulated with the rig's α moved by
+    ``per_week`` × its day / 7 (the robot's expansion drifting over the weeks) and extracted
+    with the nominal rig: the page's trend interval holds the injected slope, the page says
+    what its test found, and a campaign without a trend says "no change". (Two 15-minute runs
+    per recording resolve α to a few 10⁻⁶/K each: the slope's interval is about ±7×10⁻⁶/K per
+    week, so the 4×10⁻⁶/K per week injected is held but not told from zero.)"""
+    import tomllib
+
+    from thermrs.campaigns.summary import alpha_by_run, alpha_trend
+
+    rig = thermrs.load_rig()
+    text = Path(RIG).read_text()
+    base = tomllib.loads(text)["expansion"]["alpha_per_k"]
+    (tmp_path / "s.toml").write_text(SCENARIO)
+    recs = []
+    for i in range(20):
+        day = (6 * i) // 20
+        alpha = base + per_week * day / 7.0
+        rig_i = tmp_path / f"rig{i}.toml"
+        rig_i.write_text(text.replace(f"alpha_per_k = {base!r}", f"alpha_per_k = {alpha!r}"))
+        assert thermrs.load_rig(rig_i).alpha_per_k == pytest.approx(alpha)
+        rec = simulate(rig_i, tmp_path / "s.toml", tmp_path / f"raw{i}.mcap", seed=100 + i)
+        recs.append(shift_days(rec.recording, tmp_path / f"d{day}-{i}.mcap", day))
+    thermrs.campaign(recs, tmp_path / "ds", rig=rig)
+    per_run = alpha_by_run(thermrs.campaigns.open_dataset(tmp_path / "ds"), rig)
+    assert per_run.height == 40 and per_run["date"].n_unique() == 6
+    trend = alpha_trend(per_run)
+    lo, hi = trend["ci95"]
+    assert lo <= per_week <= hi, trend
+    page = tmp_path / "page.html"
+    p = cli("campaign", str(tmp_path / "ds"), "-o", str(page))
+    assert p.returncode == 0, p.stderr
+    said = "α changed by" if trend["p"] < 0.05 else "no change in α above"
+    assert said in page.read_text() and said in p.stdout, trend["sentence"]
+    if per_week == 0.0:
+        assert said == "no change in α above"
