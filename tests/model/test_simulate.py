@@ -271,3 +271,37 @@ def test_truth_holds_every_expanding_length(tmp_path: Path, paper_rig: thermrs.R
         want = nominal * (1 + alpha * dt * (1 + 0.01 * dt))
         assert np.allclose(s[col].to_numpy(), want, rtol=0, atol=1e-9), col
     assert (s["a2_mm"] > 650.0).all()  # warmer than the reference throughout
+
+
+def test_start_times_date_the_recording_and_the_idle_day_between_runs(tmp_path: Path) -> None:
+    """`start_time` (the scenario's, a run's): the recording's stamps start then, a run given
+    its own start waits (idle, cooling) until it, and extraction and the campaign's catalog
+    see those days."""
+    from datetime import UTC, datetime
+
+    rig = thermrs.load_rig()
+    t0 = datetime(2026, 11, 2, 7, 30, tzinfo=UTC)
+    t1 = datetime(2026, 11, 3, 7, 30, tzinfo=UTC)
+    sc = tmp_path / "s.toml"
+    sc.write_text(
+        SHORT.format(compression="zstd")
+        .replace("seed = 7", f"seed = 7\nstart_time = {t0.isoformat().replace('+00:00', 'Z')}")
+        .replace('name = "cool"', f'name = "cool"\nstart_time = "{t1.isoformat()}"')
+    )
+    sim = simulate(rig, sc, tmp_path / "r.mcap")
+    first = sim.frames.group_by("run").agg(pl.col("t_ns").min()).sort("t_ns")
+    t0_ns, t1_ns = int(t0.timestamp()) * 10**9, int(t1.timestamp()) * 10**9
+    warm, cool = first["t_ns"].to_list()
+    # The first visit of a cycle lies within that cycle (300 s) of its start.
+    assert t0_ns <= warm < t0_ns + 300 * 10**9
+    assert t1_ns <= cool < t1_ns + 300 * 10**9
+    # The idle day cooled the robot: the second run starts near ambient, not warm.
+    temps = sim.samples.sort("t_ns")
+    amb = temps["ambient_c"]
+    assert (
+        abs(float(temps.filter(pl.col("run") == "cool")["link3_structure_c"][0]) - float(amb[0]))
+        < 0.3
+    )
+    res = thermrs.campaign([sim.recording], tmp_path / "ds", rig=rig)
+    runs = thermrs.campaigns.select_runs(res.dataset)
+    assert runs.sort("start_ns")["date"].cast(pl.String).to_list() == ["2026-11-02", "2026-11-03"]

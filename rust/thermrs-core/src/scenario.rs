@@ -8,6 +8,7 @@
 //! ```toml
 //! format = "thermrs-scenario/1"
 //! seed = 1
+//! start_time = 2026-11-02T07:30:00Z  # when the first run starts (default 2025-06-15T15:06:40Z)
 //!
 //! [[run]]
 //! name = "run1"
@@ -16,6 +17,7 @@
 //! cycle_s = 60
 //! start = "ambient"            # or "continue": no cool-down after the previous run
 //! idle_before_min = 0          # robot idle (cooling) before this run starts
+//! # start_time = 2026-11-03T07:30:00Z  # or: when this run starts (idle until then)
 //!
 //! [ambient]
 //! start_c = 23.38
@@ -60,6 +62,10 @@ pub struct Scenario {
     /// Seed of every random draw: the same seed gives byte-identical recordings.
     #[serde(default)]
     pub seed: u64,
+    /// When the first run starts, ns since the Unix epoch (a TOML offset date-time or an RFC
+    /// 3339 string; default [`crate::simulate::T0_NS`]).
+    #[serde(default, with = "start_time")]
+    pub start_time: Option<i64>,
     pub run: Vec<Run>,
     #[serde(default)]
     pub ambient: AmbientProfile,
@@ -104,6 +110,52 @@ pub struct Run {
     /// Minutes of idling (cooling) before the run.
     #[serde(default)]
     pub idle_before_min: f64,
+    /// When the run starts, ns since the Unix epoch: the robot idles (cools, the room
+    /// drifting) from the previous run's end until then. Not with `idle_before_min`.
+    #[serde(default, with = "start_time")]
+    pub start_time: Option<i64>,
+}
+
+/// `start_time` keys: a TOML offset date-time (`2026-11-02T07:30:00Z`) or the same as an RFC
+/// 3339 string, held as ns since the Unix epoch; written back as an RFC 3339 string.
+mod start_time {
+    use serde::{de::Error as _, Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &Option<i64>, s: S) -> Result<S::Ok, S::Error> {
+        match v {
+            None => s.serialize_none(),
+            Some(ns) => match jiff::Timestamp::from_nanosecond(i128::from(*ns)) {
+                Ok(t) => s.serialize_some(&t.to_string()),
+                Err(e) => Err(serde::ser::Error::custom(e)),
+            },
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<i64>, D::Error> {
+        let v = toml::Value::deserialize(d)?;
+        let text = match &v {
+            toml::Value::String(s) => s.clone(),
+            toml::Value::Datetime(t) if t.offset.is_some() && t.time.is_some() => t.to_string(),
+            toml::Value::Datetime(t) => {
+                return Err(D::Error::custom(format!(
+                    "{t} has no time zone: give one, e.g. {t}T07:30:00Z or with +01:00"
+                )))
+            }
+            other => {
+                return Err(D::Error::custom(format!(
+                    "expected a date-time such as 2026-11-02T07:30:00Z, got {other}"
+                )))
+            }
+        };
+        let t: jiff::Timestamp = text.parse().map_err(|e| {
+            D::Error::custom(format!(
+                "{text:?} is not a date-time with a time zone such as 2026-11-02T07:30:00Z ({e})"
+            ))
+        })?;
+        i64::try_from(t.as_nanosecond())
+            .map(Some)
+            .map_err(|_| D::Error::custom(format!("{text} is out of range")))
+    }
 }
 
 fn default_start() -> Start {
@@ -346,8 +398,50 @@ impl Scenario {
                     format!("is {}, expected ≥ 0", r.idle_before_min),
                 );
             }
+            if r.start_time.is_some() && r.idle_before_min > 0.0 {
+                return fail(
+                    &k("start_time"),
+                    "and idle_before_min both given: the start time sets the idle time".into(),
+                );
+            }
         }
-        Ok(())
+        self.validate_start_times()
+    }
+
+    /// Each run's idle time before it (s): `idle_before_min`, or up to its `start_time`.
+    /// Errors where a run's start time is before the previous run's end.
+    pub fn idle_before_s(&self) -> Result<Vec<f64>, KeyError> {
+        let t0 = self.start_time.unwrap_or(crate::simulate::T0_NS);
+        let mut t_s = 0.0_f64;
+        let mut out = Vec::with_capacity(self.run.len());
+        for (i, r) in self.run.iter().enumerate() {
+            let idle = match r.start_time {
+                None => r.idle_before_min * 60.0,
+                Some(ns) => {
+                    let at = (ns - t0) as f64 / 1e9;
+                    if at < t_s {
+                        let prev = if i == 0 {
+                            "the scenario's start_time".to_string()
+                        } else {
+                            format!("run {:?} ends", self.run[i - 1].name)
+                        };
+                        return Err(KeyError::new(
+                            format!("run[{i}].start_time"),
+                            format!("is {:.0} s before {prev}", t_s - at),
+                        ));
+                    }
+                    at - t_s
+                }
+            };
+            out.push(idle);
+            let cycles = (r.duration_min * 60.0 / r.cycle_s).floor();
+            t_s += idle + cycles * r.cycle_s;
+        }
+        Ok(out)
+    }
+
+    fn validate_start_times(&self) -> Result<(), KeyError> {
+        self.idle_before_s().map(|_| ())
     }
 
     /// The sensor and motion models: `[ambient]`, `[camera]`, `[ir]`, `[motion]`, `[output]`,
@@ -505,6 +599,54 @@ mod tests {
         assert_eq!(s.run[0].start, Start::Continue);
         assert_eq!(s.camera.mode, "visits");
         assert_eq!(s.output.compression, "zstd");
+    }
+
+    #[test]
+    fn start_times_set_the_clock_and_the_idle_time_between_runs() {
+        // 2026-11-02T07:30:00Z is 1,793,604,600 s after the epoch (`date -d … +%s`).
+        let t0: i64 = 1_793_604_600 * 1_000_000_000;
+        let two = format!(
+            "start_time = 2026-11-02T07:30:00Z\n{MIN}[[run]]\nname = \"next\"\nspeed_pct = 75\n\
+             duration_min = 60\ncycle_s = 60\nstart_time = \"2026-11-03T08:30:00+01:00\"\n"
+        );
+        let s = Scenario::from_toml(&two, "s.toml").unwrap();
+        assert_eq!(s.start_time, Some(t0));
+        // The next day at 07:30 UTC: a day after the first started, 23 h after it ended.
+        assert_eq!(s.run[1].start_time, Some(t0 + 86_400 * 1_000_000_000));
+        assert_eq!(s.idle_before_s().unwrap(), vec![0.0, 86_400.0 - 3600.0]);
+        // Written back as RFC 3339 text.
+        let json = serde_json::to_value(&s).unwrap();
+        assert_eq!(json["start_time"], "2026-11-02T07:30:00Z");
+        assert!(Scenario::from_toml(MIN, "s.toml")
+            .unwrap()
+            .start_time
+            .is_none());
+        let cases = [
+            (format!("start_time = 2026-11-02\n{MIN}"), "no time zone"),
+            (
+                format!("start_time = 2026-11-02T07:30:00\n{MIN}"),
+                "no time zone",
+            ),
+            (
+                format!("start_time = \"yesterday\"\n{MIN}"),
+                "not a date-time",
+            ),
+            (
+                two.replace("2026-11-03T08:30:00+01:00", "2026-11-02T08:00:00Z"),
+                "before run \"r\" ends",
+            ),
+            (
+                two.replace(
+                    "start_time = \"2026",
+                    "idle_before_min = 5\nstart_time = \"2026",
+                ),
+                "both given",
+            ),
+        ];
+        for (text, says) in cases {
+            let e = Scenario::from_toml(&text, "s.toml").unwrap_err();
+            assert!(e.to_string().contains(says), "{e}");
+        }
     }
 
     #[test]

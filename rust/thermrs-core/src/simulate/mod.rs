@@ -38,7 +38,8 @@ use state::State;
 
 /// Transport delay between a message's stamp and its log time.
 const LOG_DELAY_NS: i64 = 2_000_000;
-/// The epoch the first run starts at (2025-06-15T15:06:40Z), like the sample recording.
+/// When the first run starts unless the scenario says (`start_time`): 2025-06-15T15:06:40Z,
+/// like the sample recording.
 pub const T0_NS: i64 = 1_750_000_000_000_000_000;
 
 /// Most sub-exposure samples of a spot that moves during a frame (its smear).
@@ -122,7 +123,7 @@ pub fn simulate_cancellable<W: Write + Seek>(
             st.step_nodes(&setup, a_mid, Some(speed), run.cycle_s);
             st.t_s = cycle_t + run.cycle_s;
         }
-        let stamp = |t: f64| T0_NS + (t * 1e9).round() as i64;
+        let stamp = |t: f64| setup.t0_ns + (t * 1e9).round() as i64;
         wr.write_run_marker(&run.name, stamp(run_start_s), stamp(st.t_s))
             .map_err(write_error)?;
     }

@@ -10,7 +10,7 @@ use super::render::{render_ccd, render_ir};
 use super::setup::{write_error, Setup};
 use super::state::{ambient_at, State};
 use super::trajectory::{self, Segment};
-use super::{LOG_DELAY_NS, MAX_SMEAR_SAMPLES, T0_NS};
+use super::{LOG_DELAY_NS, MAX_SMEAR_SAMPLES};
 use crate::error::{Error, Result};
 use crate::record::{ImageFields, RecordingWriter};
 use crate::rig::{LengthRef, Thermal};
@@ -23,10 +23,10 @@ pub(super) struct Cycle<'s> {
     pub(super) run: &'s Run,
     /// Speed, fraction of maximum.
     pub(super) speed: f64,
-    /// When the run and this cycle started (s since `T0_NS`).
+    /// When the run and this cycle started (s since the scenario's start).
     pub(super) run_start_s: f64,
     pub(super) cycle_t: f64,
-    /// When the thermal camera closes the cycle (s since `T0_NS`).
+    /// When the thermal camera closes the cycle (s since the scenario's start).
     pub(super) t_ir: f64,
     pub(super) segs: Vec<Segment>,
 }
@@ -39,7 +39,7 @@ pub(super) fn joint_states<W: Write + Seek>(
 ) -> Result<()> {
     let rig = setup.rig;
     for tq_s in trajectory::joint_times(&c.segs, setup.sc, c.cycle_t, c.run.cycle_s) {
-        let tq = T0_NS + (tq_s * 1e9).round() as i64;
+        let tq = setup.t0_ns + (tq_s * 1e9).round() as i64;
         wr.write_joint_state(
             &rig.robot.joint_states_topic,
             (tq + LOG_DELAY_NS) as u64,
@@ -160,7 +160,7 @@ pub(super) fn ccd_frames<W: Write + Seek>(
         let camera = &setup.rig.camera[ci];
         let (path, subs) = exposure_path(setup, c, &tcols, ci, tf_s)?;
         let weight = 1.0 / subs as f64;
-        let tf = T0_NS + (tf_s * 1e9).round() as i64;
+        let tf = setup.t0_ns + (tf_s * 1e9).round() as i64;
         let (w, h) = (camera.size_px[0] as usize, camera.size_px[1] as usize);
         let fields = ImageFields {
             stamp_ns: tf,
@@ -246,7 +246,7 @@ pub(super) fn thermal<W: Write + Seek>(
                 .structure_step(st.surface[k], surface_ir[k], st.structure[k], into)
         })
         .collect();
-    let ti = T0_NS + (c.t_ir * 1e9) as i64;
+    let ti = setup.t0_ns + (c.t_ir * 1e9) as i64;
     for _ in 0..sc.ir.frames_per_cycle.max(1) {
         let roi_c: Vec<(usize, f64)> = setup
             .node_roi

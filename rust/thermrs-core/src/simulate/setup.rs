@@ -5,7 +5,7 @@
 use std::io::{Seek, Write};
 
 use crate::effects::Effects;
-use crate::error::{Error, NameKind, Result, UnknownName};
+use crate::error::{Error, FileKind, NameKind, Result, RigError, UnknownName};
 use crate::heat::{self, NodeParams};
 use crate::model::ForwardModel;
 use crate::record::{MsgType, RecordCompression, RecordError, RecordOptions, RecordingWriter};
@@ -32,6 +32,11 @@ pub(super) struct Setup<'a> {
     pub(super) node_roi: Vec<usize>,
     /// For every temperature the model needs: which node, or ambient (`None`).
     pub(super) temp_src: Vec<Option<usize>>,
+    /// When the first run starts (ns since the Unix epoch): the scenario's `start_time`.
+    pub(super) t0_ns: i64,
+    /// Per run, the idle (cooling) time before it (s): `idle_before_min` or up to its
+    /// `start_time`.
+    pub(super) idle_s: Vec<f64>,
 }
 
 impl<'a> Setup<'a> {
@@ -52,6 +57,13 @@ impl<'a> Setup<'a> {
             })
             .collect();
         let temp_src = temperature_sources(&model, &nodes)?;
+        let idle_s = sc.idle_before_s().map_err(|e| RigError {
+            kind: FileKind::Scenario,
+            source_name: "the scenario".into(),
+            line: None,
+            key: e.key,
+            message: e.message,
+        })?;
         Ok(Setup {
             rig,
             sc,
@@ -61,6 +73,8 @@ impl<'a> Setup<'a> {
             nodes,
             node_roi,
             temp_src,
+            t0_ns: sc.start_time.unwrap_or(super::T0_NS),
+            idle_s,
         })
     }
 

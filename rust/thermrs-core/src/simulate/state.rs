@@ -27,7 +27,7 @@ pub(super) struct State {
     /// Per node: what the IR camera sees and what expands.
     pub(super) surface: Vec<f64>,
     pub(super) structure: Vec<f64>,
-    /// Seconds since [`super::T0_NS`].
+    /// Seconds since the scenario's start (`Setup::t0_ns`).
     pub(super) t_s: f64,
     /// The last joint position (`None` before the first move).
     pub(super) q_cur: Option<[f64; 6]>,
@@ -72,13 +72,14 @@ impl State {
     /// Idle (cooling) before run `ri`; a run that starts at ambient resets every node.
     pub(super) fn idle_before(&mut self, setup: &Setup<'_>, ri: usize, run: &Run) {
         let amb = &setup.sc.ambient;
+        let idle = setup.idle_s[ri];
         if run.start == Start::Ambient || ri == 0 {
-            let a = ambient_at(amb, self.t_s + run.idle_before_min * 60.0);
+            let a = ambient_at(amb, self.t_s + idle);
             self.surface.iter_mut().for_each(|s| *s = a);
             self.structure = self.surface.clone();
-            self.t_s += run.idle_before_min * 60.0;
-        } else if run.idle_before_min > 0.0 {
-            let dt = run.idle_before_min * 60.0;
+            self.t_s += idle;
+        } else if idle > 0.0 {
+            let dt = idle;
             let a = ambient_at(amb, self.t_s + dt / 2.0);
             self.step_nodes(setup, a, None, dt);
             self.t_s += dt;
