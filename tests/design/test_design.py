@@ -302,3 +302,6 @@ def test_design_uses_the_diagnosis_it_is_given(
     assert res.diagnosis["baseline"] == doc["baseline"]
     with pytest.raises(InputError, match="the diagnosis was made with train runs r1"):
         design([r2], [r1], paper_rig, diagnosis=doc, prove_it=False)
+    # The rig's path is a rig, as everywhere.
+    by_path = design([r1], [r2], str(paper_rig.source), diagnosis=doc, prove_it=False)
+    assert by_path.diagnosis["baseline"] == doc["baseline"]

@@ -30,6 +30,7 @@ True
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 import time
@@ -194,7 +195,7 @@ def _confounded(doc: dict[str, Any], between: Sequence[str] | None) -> list[str]
 def design(
     train: Sequence[pl.DataFrame],
     holdout: Sequence[pl.DataFrame],
-    rig: Rig,
+    rig: Rig | str | os.PathLike[str],
     *,
     exclude: Sequence[str] = (),
     between: Sequence[str] | None = None,
@@ -257,6 +258,9 @@ def design(
     >>> # r.write("design-out"); r.to_json()["proof"]["matrix"]
     """
     from thermrs.diagnose import diagnose as run_diagnosis
+    from thermrs.rig import as_rig
+
+    rig = as_rig(rig)
 
     if not budget_h >= 1.0:
         raise InputError(f"--budget-h {budget_h}: at least 1 hour of recording is needed")

@@ -86,7 +86,7 @@ def write_report(
     out: str | Path,
     *,
     runs: Sequence[RunInput],
-    rig: Rig,
+    rig: Rig | str | os.PathLike[str],
     train: Sequence[str] | None = None,
     diagnosis: Any | None = None,
     title: str | None = None,
@@ -131,7 +131,10 @@ def write_report(
         No runs, a training run that is not given, two runs of one name, or (``pdf``) no
         Chromium to print with.
     """
+    from thermrs.rig import as_rig
+
     out = Path(out)
+    rig = as_rig(rig)
     if pdf and find_chromium() is None:
         raise InputError("--pdf needs Chromium (`chromium` on PATH, or THERMRS_CHROMIUM)")
     data = gather(

@@ -15,6 +15,7 @@ same defaults, so that a number in the report is the number those commands print
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -138,7 +139,7 @@ def _reanchor(visits: pl.DataFrame) -> pl.DataFrame:
 
 def load_runs(
     spec: str | Path,
-    rig: Rig,
+    rig: Rig | str | os.PathLike[str],
     *,
     name: str | None = None,
     cache: dict[Any, Any] | None = None,
@@ -152,7 +153,7 @@ def load_runs(
     spec
         ``path`` (each of its runs) or ``path#run``.
     rig
-        The rig it was recorded on.
+        The rig it was recorded on (or the path of its file).
     name
         The base name of the runs (default the file's stem): ``<name>#<run>``, or ``<name>``
         alone when the file holds one run.
@@ -164,9 +165,11 @@ def load_runs(
     InputError
         No such file, no such run, or a run without a visit with a spot.
     """
+    from thermrs.rig import as_rig
     from thermrs.runs import load_runs as load_run_tables
     from thermrs.runs import split_run_spec
 
+    rig = as_rig(rig)
     path, _ = split_run_spec(spec)
     rt = load_run_tables(spec, rig, name=name, cache=cache)
     for t in rt.tables:
@@ -231,7 +234,9 @@ def load_runs(
     return out
 
 
-def load_run(path: str | Path, rig: Rig, *, name: str | None = None) -> RunInput:
+def load_run(
+    path: str | Path, rig: Rig | str | os.PathLike[str], *, name: str | None = None
+) -> RunInput:
     """One run of a recording or of extracted tables (``FILE`` holding one run, or
     ``FILE#RUN``); see :func:`load_runs`.
 
