@@ -132,7 +132,10 @@ mod start_time {
     }
 
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<i64>, D::Error> {
-        let v = toml::Value::deserialize(d)?;
+        // `null` (the JSON this module writes for no start time) is none.
+        let Some(v) = Option::<toml::Value>::deserialize(d)? else {
+            return Ok(None);
+        };
         let text = match &v {
             toml::Value::String(s) => s.clone(),
             toml::Value::Datetime(t) if t.offset.is_some() && t.time.is_some() => t.to_string(),
@@ -617,6 +620,8 @@ mod tests {
         // Written back as RFC 3339 text.
         let json = serde_json::to_value(&s).unwrap();
         assert_eq!(json["start_time"], "2026-11-02T07:30:00Z");
+        let back: Scenario = serde_json::from_value(json).unwrap();
+        assert_eq!(back, s);
         assert!(Scenario::from_toml(MIN, "s.toml")
             .unwrap()
             .start_time
