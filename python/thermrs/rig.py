@@ -143,6 +143,9 @@ class Rig:
         self.joint_names: list[str] = list(robot["joint_names"])
         self.joint_states_topic: str = robot["joint_states_topic"]
         self.dh: list[DhRow] = [DhRow(**row) for row in robot["dh"]]
+        rates = robot.get("max_rate_deg_s")
+        #: The joints' rated maximum rates (°/s), when the rig gives them.
+        self.max_rate_deg_s: tuple[float, ...] | None = tuple(rates) if rates else None
         self.laser_origin_mm: tuple[float, ...] = tuple(d["laser"]["origin_mm"])
         self.laser_direction: tuple[float, ...] = tuple(d["laser"]["direction"])
         self.cameras: list[Camera] = [

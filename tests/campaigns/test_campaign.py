@@ -373,6 +373,78 @@ def test_one_recording_runs_in_process(recordings: list[Path], tmp_path: Path) -
     check_against_single_files(res, recordings[:1])
 
 
+def test_runs_extracted_before_the_override_existed_read_it_as_null(
+    recordings: list[Path], tmp_path: Path
+) -> None:
+    """A dataset whose first recording's runs table predates ``speed_pct`` (an older
+    extraction) reads it as null there and keeps the newer recording's."""
+    out = tmp_path / "ds"
+    thermrs.campaign(recordings[:2], out)
+    ds = thermrs.campaigns.Dataset.open(out)
+    first = ds.catalog()["recording"][0]
+    for f in (out / "runs").glob(f"recording={first}/**/*.parquet"):
+        pl.read_parquet(f).drop("speed_pct", "speed_pct_source").write_parquet(f)
+    runs = ds.scan("runs").collect().sort("recording", "run")
+    old = runs.filter(pl.col("recording") == first)
+    new = runs.filter(pl.col("recording") != first)
+    assert old.height == new.height == 2
+    assert old["speed_pct"].null_count() == 2
+    assert new["speed_pct"].to_list() == [30.0, 75.0]  # SCENARIO's overrides
+
+
+def test_speed_override_from_the_marker_or_the_joint_states(recordings: list[Path]) -> None:
+    """The override each run was simulated at: stated by its marker; estimated from the joint
+    states with the joints' rated maxima (here the simulator's own maxima, its default
+    scenario's) where no marker states it; unknown without either."""
+    from thermrs.campaigns.task import run_stats
+    from thermrs.ingest import extract
+
+    rig = thermrs.load_rig()
+    ex = extract(recordings[0], rig)
+    tables = (ex.runs, ex.frames, ex.visits, ex.joints)
+    truth = [30.0, 75.0]  # SCENARIO
+    marked = run_stats(*tables, metadata=ex.report.metadata)
+    assert marked["speed_pct"].to_list() == truth
+    assert marked["speed_pct_source"].to_list() == ["marker", "marker"]
+    rates = [152.0, 152.0, 152.0, 284.0, 293.0, 604.0]  # docs/scenarios.md, motion defaults
+    est = run_stats(*tables, max_rate_deg_s=rates)
+    assert est["speed_pct"].to_list() == pytest.approx(truth, abs=1.0)
+    assert est["speed_pct_source"].to_list() == ["joint states"] * 2
+    assert run_stats(*tables)["speed_pct"].null_count() == 2
+
+
+def test_a_script_without_a_main_guard_is_told_not_left_waiting(
+    recordings: list[Path], tmp_path: Path
+) -> None:
+    """A script that starts a campaign cluster at its top level would be imported again by
+    every worker process (each starting a cluster of its own) and wait for ever: it is
+    refused at once, naming the line and the fix."""
+    script = tmp_path / "go.py"
+    script.write_text(
+        "import sys\nimport thermrs\nthermrs.campaign(sys.argv[1:-1], sys.argv[-1], workers=2)\n"
+    )
+    p = subprocess.run(
+        [sys.executable, str(script), *map(str, recordings[:2]), str(tmp_path / "ds")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert p.returncode != 0
+    assert "(line 3)" in p.stderr and 'if __name__ == "__main__":' in p.stderr, p.stderr
+    guarded = tmp_path / "guarded.py"
+    guarded.write_text(
+        'import sys\nimport thermrs\n\nif __name__ == "__main__":\n'
+        "    thermrs.campaign(sys.argv[1:-1], sys.argv[-1], workers=2)\n"
+    )
+    p = subprocess.run(
+        [sys.executable, str(guarded), *map(str, recordings[:2]), str(tmp_path / "ds")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert p.returncode == 0, p.stderr
+
+
 def test_the_summary_shows_a_bounded_catalog_losses_first() -> None:
     from thermrs.cli.campaign import rows_to_show
 

@@ -449,6 +449,23 @@ def test_where_takes_what_people_type(camp: dict[str, Path], tmp_path: Path) -> 
     assert lines["run"] == "run1, run2"
     assert "r1" in lines["recording"].split(", ") and "r2" in lines["recording"].split(", ")
     assert day.isoformat() in lines["date"]
+    assert lines["speed%"] == "30–75"  # the scenario's overrides
+
+
+def test_where_speed_override_is_the_scenarios(camp: dict[str, Path]) -> None:
+    """``speed%`` is the override each run was simulated at (run1 30 %, run2 75 %), through
+    the CLI: the table shows it, a query picks by it, and a miss says the range there is."""
+    from thermrs.campaigns import select_runs
+
+    fast = select_runs(camp["ds"], where="speed%>=50")
+    assert sorted(fast["run"].to_list()) == ["run2", "run2"]
+    assert fast["speed_pct"].to_list() == [75.0, 75.0]
+    assert select_runs(camp["ds"], where="speed%=30")["run"].to_list() == ["run1", "run1"]
+    p = cli("campaign", str(camp["ds"]), "--where", "speed%<50")
+    assert p.returncode == 0, p.stderr
+    assert "speed (%)" in p.stdout and " run2 " not in p.stdout
+    p = cli("campaign", str(camp["ds"]), "--where", "speed%>90")
+    assert p.returncode == 2 and "speed%: 30–75" in p.stderr, p.stderr
 
 
 def test_the_campaign_page_has_tables_figures_and_the_trend(
@@ -480,38 +497,56 @@ def test_the_campaign_page_has_tables_figures_and_the_trend(
     assert md.count("\n| ") >= 8
 
 
+#: One 40-minute run at 75 % per recording of the trend campaign: it resolves α to about
+#: ±2×10⁻⁶/K (95 %), so twenty runs over six days resolve a slope to about ±2.3×10⁻⁶/K per
+#: week (95 %): the 6×10⁻⁶/K per week injected lies about five standard errors from zero.
+TREND_SCENARIO = """format = "thermrs-scenario/1"
+start_time = {start}
+[[run]]
+name = "run1"
+speed_pct = 75
+duration_min = 40
+cycle_s = 60
+start = "ambient"
+[camera]
+mode = "visits"
+frames_per_visit = 2
+[output]
+compression = "zstd"
+"""
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("per_week", [0.0, 4e-6])
+@pytest.mark.parametrize("per_week", [0.0, 6e-6])
 def test_the_page_finds_a_trend_injected_into_a_simulated_campaign(
     tmp_path: Path, per_week: float
 ) -> None:
-    """Twenty recordings over six days, each simulated with the rig's α moved by
-    ``per_week`` × its day / 7 (the robot's expansion drifting over the weeks) and extracted
-    with the nominal rig: the page's trend interval holds the injected slope, the page says
-    what its test found, and a campaign without a trend says "no change". (A 15-minute run
-    resolves α to a few 10⁻⁶/K: the slope's interval is several 10⁻⁶/K per week wide, so the
-    4×10⁻⁶/K per week injected is held, not told from zero.)"""
+    """Twenty recordings over six days (each started on its day by its scenario), each
+    simulated with the rig's α moved by ``per_week`` × its day / 7 (the robot's expansion
+    drifting over the weeks) and extracted with the nominal rig: the page's trend interval
+    holds the injected slope; the page says "α changed by" where a trend was injected and
+    "no change" where none was."""
     import tomllib
+    from concurrent.futures import ThreadPoolExecutor
 
     from thermrs.campaigns.summary import alpha_by_run, alpha_trend
 
     rig = thermrs.load_rig()
     text = Path(RIG).read_text()
     base = tomllib.loads(text)["expansion"]["alpha_per_k"]
-    # One 15-minute run per recording (the first of SCENARIO's two).
-    (tmp_path / "s.toml").write_text(
-        SCENARIO.split('[[run]]\nname = "run2"')[0] + "[camera]" + SCENARIO.split("[camera]")[1]
-    )
-    assert SCENARIO.count("[[run]]") == 2 and "run2" not in (tmp_path / "s.toml").read_text()
-    recs = []
-    for i in range(20):
+
+    def one(i: int) -> Path:
         day = (6 * i) // 20
         alpha = base + per_week * day / 7.0
         rig_i = tmp_path / f"rig{i}.toml"
         rig_i.write_text(text.replace(f"alpha_per_k = {base!r}", f"alpha_per_k = {alpha!r}"))
         assert thermrs.load_rig(rig_i).alpha_per_k == pytest.approx(alpha)
-        rec = simulate(rig_i, tmp_path / "s.toml", tmp_path / f"raw{i}.mcap", seed=100 + i)
-        recs.append(shift_days(rec.recording, tmp_path / f"d{day}-{i}.mcap", day))
+        sc = tmp_path / f"s{i}.toml"
+        sc.write_text(TREND_SCENARIO.format(start=f"2026-11-{2 + day:02d}T{8 + i % 4:02d}:00:00Z"))
+        return simulate(rig_i, sc, tmp_path / f"d{day}-{i}.mcap", seed=100 + i).recording
+
+    with ThreadPoolExecutor(2) as pool:  # the simulator runs without the GIL
+        recs = list(pool.map(one, range(20)))
     thermrs.campaign(recs, tmp_path / "ds", rig=rig)
     per_run = alpha_by_run(thermrs.campaigns.open_dataset(tmp_path / "ds"), rig)
     assert per_run.height == 20 and per_run["date"].n_unique() == 6
@@ -521,7 +556,5 @@ def test_the_page_finds_a_trend_injected_into_a_simulated_campaign(
     page = tmp_path / "page.html"
     p = cli("campaign", str(tmp_path / "ds"), "-o", str(page))
     assert p.returncode == 0, p.stderr
-    said = "α changed by" if trend["p"] < 0.05 else "no change in α above"
+    said = "α changed by" if per_week else "no change in α above"
     assert said in page.read_text() and said in p.stdout, trend["sentence"]
-    if per_week == 0.0:
-        assert said == "no change in α above"

@@ -295,6 +295,18 @@ BAD_RIGS = [
         "unknown field",
     ),
     bad("unknown-dh-row", put("robot.dh[2].offset_deg", 0.0), "robot.dh[2].offset_deg"),
+    bad(
+        "max-rates-five",
+        put("robot.max_rate_deg_s", [150.0] * 5),
+        "robot.max_rate_deg_s",
+        "has 5 rates, expected 6",
+    ),
+    bad(
+        "max-rate-zero",
+        put("robot.max_rate_deg_s", [150.0, 150.0, 0.0, 280.0, 290.0, 600.0]),
+        "robot.max_rate_deg_s[2]",
+        "positive rate",
+    ),
     bad("unknown-dh-row-typo", rename("robot.dh[5].d_mm", "dmm"), "robot.dh[5].dmm"),
     bad("unknown-laser", rename("laser.direction", "dir"), "laser.dir"),
     bad("unknown-camera", rename("camera[1].topic", "tpoic"), "camera[1].tpoic", "`tpoic`"),
@@ -750,6 +762,19 @@ GOOD_VARIANTS = [
 def test_valid_variants_load(mutate: Mutation) -> None:
     rig = thermrs.Rig.from_toml(mutated_text(mutate), source_name=SOURCE)
     assert [c.name for c in rig.cameras] == ["A", "B"]
+
+
+def test_rated_joint_rates_are_optional_and_leave_the_rig_hash_alone() -> None:
+    """``robot.max_rate_deg_s`` is read when given; a rig without it hashes as before (its
+    JSON leaves the key out), so datasets extracted earlier keep their rig."""
+    rates = [152.0, 152.0, 152.0, 284.0, 293.0, 604.0]
+    rig = thermrs.Rig.from_toml(
+        mutated_text(put("robot.max_rate_deg_s", rates)), source_name=SOURCE
+    )
+    assert rig.max_rate_deg_s == tuple(rates)
+    plain = thermrs.load_rig()
+    assert plain.max_rate_deg_s is None
+    assert "max_rate_deg_s" not in plain._native.to_json()
 
 
 def test_rig_without_thermal_and_ambient_has_no_temperatures() -> None:

@@ -28,7 +28,7 @@ import polars as pl
 
 from thermrs.campaigns.staging import NULL_PARTITION, write_stage
 from thermrs.campaigns.staging import enc as _enc
-from thermrs.campaigns.task import TABLES
+from thermrs.campaigns.task import RUN_STATS_SCHEMA, TABLES
 from thermrs.errors import InputError
 from thermrs.ingest import LOSS_KEY, write_parquet_atomic
 
@@ -173,8 +173,12 @@ class Dataset:
         ]
         if not files:
             return pl.LazyFrame(schema={"recording": pl.String, "run": pl.String})
+        # The runs table's columns are fixed: a recording extracted before a column existed
+        # reads it as null, wherever it comes in the list.
+        schema = {k: v for k, v in RUN_STATS_SCHEMA.items() if k != "run"}
         return pl.scan_parquet(
             files,
+            schema=schema if table == "runs" else None,
             hive_partitioning=True,
             hive_schema={"recording": pl.String, "run": pl.String},
             missing_columns="insert",

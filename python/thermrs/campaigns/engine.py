@@ -428,7 +428,24 @@ def local_cluster(workers: int, **kwargs: Any) -> Any:
     >>> from thermrs.campaigns.engine import local_cluster
     >>> with local_cluster(2) as cluster, Client(cluster) as client:  # doctest: +SKIP
     ...     thermrs.campaign(["day1/"], "campaign", client=client)
+
+    Raises
+    ------
+    RuntimeError
+        Called while a worker process imports the script that started it (a script that runs a
+        campaign without ``if __name__ == "__main__":``): each worker would start a cluster of
+        its own and the campaign would wait for them forever.
     """
+    import multiprocessing
+
+    line = _unguarded_script_line()
+    if line is not None or getattr(multiprocessing.current_process(), "_inheriting", False):
+        where = f" (line {line})" if line is not None else ""
+        raise RuntimeError(
+            f"a campaign cluster started from a script's top level{where}: its worker "
+            "processes import the script again and would start clusters of their own; put "
+            'the campaign under `if __name__ == "__main__":`'
+        )
     import dask
     from distributed import LocalCluster
 
@@ -457,6 +474,45 @@ def local_cluster(workers: int, **kwargs: Any) -> Any:
             close_now(cluster)
             raise
     return cluster
+
+
+def _unguarded_script_line() -> int | None:
+    """The line of the running script (``__main__``, a file) from which this call came when
+    that line is at the script's top level outside ``if __name__ == "__main__":``; else
+    ``None``. Worker processes start by importing the script: such a call would run again in
+    each of them."""
+    import ast
+    import sys
+
+    frame = sys._getframe(1)
+    while frame is not None and not (
+        frame.f_globals.get("__name__") == "__main__" and frame.f_code.co_name == "<module>"
+    ):
+        frame = frame.f_back  # type: ignore[assignment]
+    main = sys.modules.get("__main__")
+    spec = getattr(main, "__spec__", None)
+    if spec is not None and (spec.name == "__main__" or spec.name.endswith(".__main__")):
+        return None  # a package's __main__ (``python -m pkg``): workers do not import it again
+    path = getattr(main, "__file__", None)
+    if frame is None or not path or frame.f_code.co_filename != path:
+        return None
+    try:
+        tree = ast.parse(Path(path).read_text())
+    except (OSError, SyntaxError, ValueError):
+        return None
+    line = frame.f_lineno
+    for node in tree.body:
+        if not isinstance(node, ast.If) or not (node.lineno <= line <= (node.end_lineno or 0)):
+            continue
+        t = node.test
+        if (
+            isinstance(t, ast.Compare)
+            and isinstance(t.left, ast.Name)
+            and t.left.id == "__name__"
+            and any(isinstance(c, ast.Constant) and c.value == "__main__" for c in t.comparators)
+        ):
+            return None
+    return line
 
 
 def _loop_without_sigint() -> Any:

@@ -5,9 +5,12 @@ A query is a comma-separated list of terms ``KEY OP VALUE`` (all must hold), ``O
 ``= != < <= > >=``; keys: ``robot``, ``rig`` (the rig's title, or a rig file: the runs
 extracted with that rig), ``recording`` (its catalog id or its file's stem), ``run`` (text),
 ``date`` (the UTC day the run started: ``YYYY-MM-DD``, ``YYYY/MM/DD``, ``DD.MM.YYYY``, or
-``DD/MM/YYYY`` where the day is above 12), ``speed`` (°/s, the run's 95th-percentile joint
-speed, see :func:`thermrs.campaigns.task.run_stats`), ``duration`` (s). A value with a comma
-is quoted: ``rig="cell 2, KR 15"``. Example: ``robot=KR 15/2, date>=2026-11-02, speed>20``.
+``DD/MM/YYYY`` where the day is above 12), ``speed%`` (the speed override, % of the joints'
+maximum rates: stated by the run's marker, or estimated from its joint states where the rig
+gives the rated maxima; a run whose override is unknown matches no ``speed%`` term),
+``speed`` (°/s, the run's 95th-percentile joint speed; see
+:func:`thermrs.campaigns.task.run_stats` for both), ``duration`` (s). A value with a comma is
+quoted: ``rig="cell 2, KR 15"``. Example: ``robot=KR 15/2, date>=2026-11-02, speed%>=50``.
 
 Rules (:func:`folds`): ``leave-one-run-out`` (each run held out once, trained on all the
 others), ``by-day`` (train on one day's runs, hold out the next day's, for each pair of
@@ -79,10 +82,11 @@ _KEYS: dict[str, tuple[str, Any]] = {
     "recording": ("recording", str),
     "run": ("run", str),
     "date": ("date", parse_date),
+    "speed%": ("speed_pct", float),
     "speed": ("speed_deg_s", float),
     "duration": ("duration_s", float),
 }
-_TERM = re.compile(r"^\s*([a-z]+)\s*(<=|>=|!=|=|<|>)\s*(.*?)\s*$")
+_TERM = re.compile(r"^\s*([a-z]+%?)\s*(<=|>=|!=|=|<|>)\s*(.*?)\s*$")
 RULES = ("leave-one-run-out", "by-day")
 
 
@@ -144,9 +148,9 @@ def parse_query(query: str | None) -> pl.Expr:
 
 def campaign_runs(dataset: Dataset, query: str | None = None) -> pl.DataFrame:
     """One row per run of the campaign that the query selects: the runs table joined with
-    the catalog (``recording``, ``run``, ``robot``, ``rig``, ``date``, ``speed_deg_s``,
-    ``duration_s``, ``start_ns``, ``end_ns``, ``frames``, ``visits``, ``losses``), in time
-    order.
+    the catalog (``recording``, ``run``, ``robot``, ``rig``, ``date``, ``speed_pct``,
+    ``speed_deg_s``, ``duration_s``, ``start_ns``, ``end_ns``, ``frames``, ``visits``,
+    ``losses``), in time order.
 
     Raises
     ------

@@ -32,6 +32,7 @@ ALPHA_BY_RUN_SCHEMA: dict[str, Any] = {
     "run": pl.String,
     "date": pl.Date,
     "speed_deg_s": pl.Float64,
+    "speed_pct": pl.Float64,
     "alpha_per_k": pl.Float64,
     "ci95_low": pl.Float64,
     "ci95_high": pl.Float64,
@@ -52,7 +53,8 @@ HOLDOUT_SCHEMA: dict[str, Any] = {
 
 
 def alpha_by_run(dataset: Dataset, rig: Any, *, query: str | None = None) -> pl.DataFrame:
-    """Per selected run: ``recording``, ``run``, ``date``, ``speed_deg_s``, ``alpha_per_k``
+    """Per selected run: ``recording``, ``run``, ``date``, ``speed_deg_s``, ``speed_pct`` (the
+    override, null where unknown: :func:`thermrs.campaigns.task.run_stats`), ``alpha_per_k``
     with ``ci95_low``/``ci95_high`` (the time-series fit of :func:`thermrs.fit.fit_alpha` on
     that run alone), ``rms_um``, ``visits`` and ``drift_um``: the largest drift of a spot from
     its camera's first visit in the run (µm, the norm of u and v)."""
@@ -70,6 +72,7 @@ def alpha_by_run(dataset: Dataset, rig: Any, *, query: str | None = None) -> pl.
                 "run": r["run"],
                 "date": r["date"],
                 "speed_deg_s": r["speed_deg_s"],
+                "speed_pct": r.get("speed_pct"),
                 "alpha_per_k": f.alpha_per_k,
                 "ci95_low": f.ci95[0],
                 "ci95_high": f.ci95[1],
@@ -282,21 +285,32 @@ def alpha_trend(per_run: pl.DataFrame, *, level: float = 0.05) -> dict[str, Any]
     }
 
 
+def speed_axis(per_run: pl.DataFrame) -> tuple[str, str]:
+    """The speed a campaign's runs are compared by: ``("speed_pct", "%")``, the override, when
+    every run's is known; else ``("speed_deg_s", "°/s")``, the 95th-percentile joint speed."""
+    if "speed_pct" in per_run.columns and per_run["speed_pct"].null_count() == 0:
+        return "speed_pct", "%"
+    return "speed_deg_s", "°/s"
+
+
 def by_group(per_run: pl.DataFrame, key: str) -> pl.DataFrame:
-    """Per day (``key="date"``) or per speed (``key="speed"``: the runs' 95th-percentile joint
-    speed in bins of 10 °/s): runs, α's mean and range, and the drift envelope (the largest
-    and the mean of the runs' largest drifts)."""
+    """Per day (``key="date"``) or per speed (``key="speed"``: the override in bins of 10 %
+    where every run's is known, else the 95th-percentile joint speed in bins of 10 °/s, see
+    :func:`speed_axis`): runs, α's mean and range, and the drift envelope (the largest and the
+    mean of the runs' largest drifts)."""
     if key == "speed":
+        # By override (bins of 10 %) where every run's is known, else by joint speed (10 °/s).
+        col, unit = speed_axis(per_run)
         grouped = per_run.with_columns(
-            group=pl.when(pl.col("speed_deg_s").is_null())
+            group=pl.when(pl.col(col).is_null())
             .then(pl.lit("unknown"))
             .otherwise(
-                ((pl.col("speed_deg_s") // 10) * 10).cast(pl.Int64).cast(pl.String)
+                ((pl.col(col) // 10) * 10).cast(pl.Int64).cast(pl.String)
                 + "–"
-                + ((pl.col("speed_deg_s") // 10) * 10 + 10).cast(pl.Int64).cast(pl.String)
-                + " °/s"
+                + ((pl.col(col) // 10) * 10 + 10).cast(pl.Int64).cast(pl.String)
+                + f" {unit}"
             ),
-            order=pl.col("speed_deg_s").fill_null(1e9),
+            order=pl.col(col).fill_null(1e9),
         )
     elif key == "date":
         grouped = per_run.with_columns(

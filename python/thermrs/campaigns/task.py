@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -27,7 +28,7 @@ from thermrs.campaigns.sources import content_hash, recording_id
 from thermrs.campaigns.staging import reachable, write_stage
 from thermrs.errors import InputError, ThermrsError
 
-__all__ = ["TABLES", "Job", "run_job", "run_jobs", "run_stats"]
+__all__ = ["RUN_STATS_SCHEMA", "TABLES", "Job", "marker_speeds", "run_job", "run_jobs", "run_stats"]
 
 #: The tables of a recording in a campaign dataset; each is partitioned by recording and run.
 TABLES = ("frames", "visits", "temperatures", "joints", "runs")
@@ -119,7 +120,14 @@ def run_job(job: Job) -> dict[str, Any]:
         else ex.visits.with_columns(run=pl.lit(None, pl.String)),
         "temperatures": ex.temperatures.with_columns(run=label_runs(ex.temperatures["t_ns"], runs)),
         "joints": ex.joints.with_columns(run=label_runs(ex.joints["t_ns"], runs)),
-        "runs": run_stats(runs, ex.frames, ex.visits, ex.joints),
+        "runs": run_stats(
+            runs,
+            ex.frames,
+            ex.visits,
+            ex.joints,
+            metadata=ex.report.metadata,
+            max_rate_deg_s=rig.max_rate_deg_s,
+        ),
     }
     losses = ex.report.losses
     stamps = [t["t_ns"] for t in (ex.frames, ex.joints, ex.temperatures) if t.height]
@@ -164,17 +172,69 @@ def run_jobs(jobs: list[Job]) -> list[dict[str, Any]]:
     return [run_job(j) for j in jobs]
 
 
+#: Columns of a recording's ``runs`` table in a dataset (:func:`run_stats`; ``recording`` comes
+#: from the partition). Datasets written before ``speed_pct`` existed read it as null.
+RUN_STATS_SCHEMA: dict[str, Any] = {
+    "run": pl.String,
+    "start_ns": pl.Int64,
+    "end_ns": pl.Int64,
+    "source": pl.String,
+    "date": pl.Date,
+    "duration_s": pl.Float64,
+    "frames": pl.Int64,
+    "visits": pl.Int64,
+    "speed_deg_s": pl.Float64,
+    "speed_pct": pl.Float64,
+    "speed_pct_source": pl.String,
+}
+
+
+def marker_speeds(metadata: Sequence[Mapping[str, Any]]) -> dict[str, float]:
+    """Run name → the speed override (%) its ``thermrs.run`` marker states, for the markers
+    that state one (``thermrs simulate`` writes it; other writers may leave it out)."""
+    from thermrs.rundetect import RUN_METADATA
+
+    out: dict[str, float] = {}
+    for m in metadata:
+        v = m.get("values", {})
+        if m.get("name") != RUN_METADATA or "speed_pct" not in v:
+            continue
+        try:
+            pct = float(v["speed_pct"])
+        except (TypeError, ValueError):
+            continue
+        if np.isfinite(pct) and pct > 0:
+            out[str(v.get("name"))] = pct
+    return out
+
+
 def run_stats(
-    runs: pl.DataFrame, frames: pl.DataFrame, visits: pl.DataFrame, joints: pl.DataFrame
+    runs: pl.DataFrame,
+    frames: pl.DataFrame,
+    visits: pl.DataFrame,
+    joints: pl.DataFrame,
+    *,
+    metadata: Sequence[Mapping[str, Any]] = (),
+    max_rate_deg_s: Sequence[float] | None = None,
 ) -> pl.DataFrame:
     """The runs table of a recording with what a campaign query needs of each run.
 
-    Columns: ``run``, ``start_ns``, ``end_ns``, ``source`` (as :func:`thermrs.runs.find_runs`),
-    ``date`` (UTC day of the start), ``duration_s``, ``frames``, ``visits`` and
-    ``speed_deg_s``: how fast the robot moved in the run, the 95th percentile of the fastest
-    joint's speed (°/s, from consecutive joint states) over the intervals in which it moved
-    (faster than 0.1 °/s; null where it never did).
+    Columns (:data:`RUN_STATS_SCHEMA`): ``run``, ``start_ns``, ``end_ns``, ``source`` (as
+    :func:`thermrs.runs.find_runs`), ``date`` (UTC day of the start), ``duration_s``,
+    ``frames``, ``visits``, and how fast the robot moved in the run:
+
+    ``speed_deg_s``
+        The 95th percentile of the fastest joint's speed (°/s, from consecutive joint states)
+        over the intervals in which it moved (faster than 0.1 °/s; null where it never did).
+    ``speed_pct``, ``speed_pct_source``
+        The speed override (% of the joints' maximum rates): the one the run's marker states
+        (source ``"marker"``, see :func:`marker_speeds`); else, where the rig gives the joints'
+        rated maxima (``robot.max_rate_deg_s``), the 95th percentile over the moving intervals
+        of the largest joint speed as a fraction of its joint's maximum (source
+        ``"joint states"``); else null.
     """
+    stated = marker_speeds(metadata)
+    rates = np.asarray(max_rate_deg_s, float) if max_rate_deg_s else None
     rows = []
     jt = joints["t_ns"].to_numpy() if joints.height else np.zeros(0, np.int64)
     jq = (
@@ -185,15 +245,24 @@ def run_stats(
     for r in runs.iter_rows(named=True):
         a, b = int(r["start_ns"]), int(r["end_ns"])
         inside = (jt >= a) & (jt <= b)
-        speed = None
+        speed = pct = None
         if inside.sum() >= 2:
             dt = np.diff(jt[inside]) / 1e9
-            dq = np.abs(np.diff(jq[inside], axis=0)).max(axis=1)
+            rate = np.degrees(np.abs(np.diff(jq[inside], axis=0)))
             ok = dt > 0
-            v = np.degrees(dq[ok] / dt[ok])
-            moving = v[v > 0.1]
-            if moving.size:
-                speed = float(np.percentile(moving, 95))
+            v = rate[ok] / dt[ok, None]
+            fastest = v.max(axis=1) if v.size else np.zeros(0)
+            moving = fastest > 0.1
+            if moving.any():
+                speed = float(np.percentile(fastest[moving], 95))
+                if rates is not None and rates.size == v.shape[1]:
+                    share = (v[moving] / rates).max(axis=1)
+                    pct = float(100.0 * np.percentile(share, 95))
+        source = None
+        if r["run"] in stated:
+            pct, source = stated[r["run"]], "marker"
+        elif pct is not None:
+            source = "joint states"
         rows.append(
             {
                 **r,
@@ -204,20 +273,11 @@ def run_stats(
                 if "run" in visits.columns
                 else 0,
                 "speed_deg_s": speed,
+                "speed_pct": pct,
+                "speed_pct_source": source,
             }
         )
-    schema = {
-        "run": pl.String,
-        "start_ns": pl.Int64,
-        "end_ns": pl.Int64,
-        "source": pl.String,
-        "date": pl.Date,
-        "duration_s": pl.Float64,
-        "frames": pl.Int64,
-        "visits": pl.Int64,
-        "speed_deg_s": pl.Float64,
-    }
-    return pl.DataFrame(rows, schema=schema)
+    return pl.DataFrame(rows, schema=RUN_STATS_SCHEMA)
 
 
 def _size(path: str) -> int:

@@ -57,18 +57,23 @@ def _fig_time(per_run: pl.DataFrame, trend: dict[str, Any]) -> str:
 
 
 def _fig_speed(per_run: pl.DataFrame) -> str:
-    """α and the largest drift against the run's speed."""
+    """α and the largest drift against the run's speed (override % where every run's is known,
+    else the 95th-percentile joint speed)."""
+    from thermrs.campaigns.summary import speed_axis
+
+    col, unit = speed_axis(per_run)
+    what = "override" if unit == "%" else "95th percentile joint speed"
     fig = figure(3.2)
     ax1, ax2 = fig.subplots(1, 2)
-    s = per_run["speed_deg_s"].fill_null(np.nan).to_numpy()
+    s = per_run[col].fill_null(np.nan).to_numpy()
     a = per_run["alpha_per_k"].to_numpy() * 1e6
     lo = a - per_run["ci95_low"].to_numpy() * 1e6
     hi = per_run["ci95_high"].to_numpy() * 1e6 - a
     ax1.errorbar(s, a, yerr=[lo, hi], fmt="o", capsize=3)
-    ax1.set_xlabel("speed (°/s, 95th percentile joint speed)")
+    ax1.set_xlabel(f"speed ({unit}, {what})")
     ax1.set_ylabel("α (10⁻⁶/K), 95 %")
     ax2.plot(s, per_run["drift_um"].to_numpy(), "s")
-    ax2.set_xlabel("speed (°/s)")
+    ax2.set_xlabel(f"speed ({unit})")
     ax2.set_ylabel("largest drift (µm)")
     return svg(fig)
 
@@ -152,6 +157,7 @@ def campaign_sections(per_run: pl.DataFrame, *, folds: pl.DataFrame | None = Non
                 "recording",
                 "run",
                 "date",
+                "speed (%)",
                 "speed (°/s)",
                 "α (10⁻⁶/K)",
                 "95 % interval",
@@ -163,6 +169,7 @@ def campaign_sections(per_run: pl.DataFrame, *, folds: pl.DataFrame | None = Non
                     r["recording"],
                     r["run"],
                     str(r["date"]),
+                    _f(r.get("speed_pct"), 1.0, ".0f"),
                     _f(r["speed_deg_s"], 1.0, ".0f"),
                     _f(r["alpha_per_k"], 1e6),
                     f"{_f(r['ci95_low'], 1e6)} – {_f(r['ci95_high'], 1e6)}",

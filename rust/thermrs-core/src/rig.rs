@@ -94,6 +94,11 @@ pub struct Robot {
     pub joint_names: Vec<String>,
     pub joint_states_topic: String,
     pub dh: Vec<DhRow>,
+    /// The joints' rated maximum rates (°/s, one per joint), optional: with them a run's speed
+    /// override (% of these rates) is estimated from its joint states where a recording does
+    /// not say it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_rate_deg_s: Option<Vec<f64>>,
 }
 
 /// One standard (distal) DH row: θᵢ = signᵢ·qᵢ + theta_offsetᵢ.
@@ -354,6 +359,22 @@ impl Rig {
                     &format!("robot.dh[{i}].sign"),
                     format!("is {}, expected 1 or -1", row.sign),
                 );
+            }
+        }
+        if let Some(rates) = &r.max_rate_deg_s {
+            if rates.len() != 6 {
+                return fail(
+                    "robot.max_rate_deg_s",
+                    format!("has {} rates, expected 6", rates.len()),
+                );
+            }
+            for (i, v) in rates.iter().enumerate() {
+                if !(v.is_finite() && *v > 0.0) {
+                    return fail(
+                        &format!("robot.max_rate_deg_s[{i}]"),
+                        format!("is {v}, expected a positive rate in °/s"),
+                    );
+                }
             }
         }
         Ok(())

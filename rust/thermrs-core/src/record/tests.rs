@@ -654,10 +654,15 @@ fn errors() {
 #[test]
 fn run_marker_is_a_metadata_record_other_readers_see() {
     let mut w = RecordingWriter::new(Cursor::new(Vec::new()), &RecordOptions::default()).unwrap();
-    w.write_run_marker("run2", 1_750_000_000_000_000_000, 1_750_000_060_000_000_000)
-        .unwrap();
+    w.write_run_marker(
+        "run2",
+        1_750_000_000_000_000_000,
+        1_750_000_060_000_000_000,
+        Some(75.0),
+    )
+    .unwrap();
     assert!(matches!(
-        w.write_run_marker("bad", i64::MAX, i64::MAX),
+        w.write_run_marker("bad", i64::MAX, i64::MAX, None),
         Err(RecordError::StampOutOfRange { .. })
     ));
     let file = w.finish().unwrap().into_inner();
@@ -675,4 +680,5 @@ fn run_marker_is_a_metadata_record_other_readers_see() {
     assert_eq!(v["name"], "run2");
     assert_eq!(v["start_ns"], "1750000000000000000");
     assert_eq!(v["end_ns"], "1750000060000000000");
+    assert_eq!(v["speed_pct"], "75");
 }

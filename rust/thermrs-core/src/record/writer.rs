@@ -456,21 +456,26 @@ impl<W: Write + Seek> RecordingWriter<W> {
     }
 
     /// Writes a run marker: an MCAP Metadata record named [`RUN_METADATA`] with the run's
-    /// `name` and its first and last header stamps (`start_ns` ≤ `end_ns`).
+    /// `name`, its first and last header stamps (`start_ns` ≤ `end_ns`) and, when given, the
+    /// speed override it ran at (`speed_pct`, % of the robot's maximum joint rates).
     pub fn write_run_marker(
         &mut self,
         name: &str,
         start_ns: i64,
         end_ns: i64,
+        speed_pct: Option<f64>,
     ) -> Result<(), RecordError> {
         check_stamp(RUN_METADATA, start_ns)?;
         check_stamp(RUN_METADATA, end_ns)?;
         check_len(RUN_METADATA, "name", name.len(), false)?;
-        let metadata = BTreeMap::from([
+        let mut metadata = BTreeMap::from([
             ("name".to_owned(), name.to_owned()),
             ("start_ns".to_owned(), start_ns.to_string()),
             ("end_ns".to_owned(), end_ns.max(start_ns).to_string()),
         ]);
+        if let Some(v) = speed_pct.filter(|v| v.is_finite()) {
+            metadata.insert("speed_pct".to_owned(), v.to_string());
+        }
         self.writer.write_metadata(&Metadata {
             name: RUN_METADATA.to_owned(),
             metadata,

@@ -124,8 +124,13 @@ pub fn simulate_cancellable<W: Write + Seek>(
             st.t_s = cycle_t + run.cycle_s;
         }
         let stamp = |t: f64| setup.t0_ns + (t * 1e9).round() as i64;
-        wr.write_run_marker(&run.name, stamp(run_start_s), stamp(st.t_s))
-            .map_err(write_error)?;
+        wr.write_run_marker(
+            &run.name,
+            stamp(run_start_s),
+            stamp(st.t_s),
+            Some(run.speed_pct),
+        )
+        .map_err(write_error)?;
     }
     let out = wr.finish().map_err(write_error)?;
     Ok((out, st.truth))
