@@ -144,10 +144,32 @@ def test_predict_by_rule_is_each_fold_predicted_from_files(
 
     rig = thermrs.load_rig()
     out = tmp_path / "p.json"
-    p = on_campaign(camp, "predict", "--rule", "leave-one-run-out", "--json", str(out))
+    series = tmp_path / "s.parquet"
+    p = on_campaign(
+        camp, "predict", "--rule", "leave-one-run-out", "--json", str(out), "--series", str(series)
+    )
     assert p.returncode == 0, p.stderr
     assert "Held out by fold (leave-one-run-out)" in p.stdout
     doc = json.loads(out.read_text())
+    # One held-out rms over the folds: every fold's mean-removed residual series pooled,
+    # recomputed here from the series file.
+    s = pl.read_parquet(series).filter(pl.col("alpha") == "series")
+    keys = ["fold", "run", "camera"]
+    centred = pl.concat(
+        [
+            s.select(
+                (pl.col(f"residual_{a}_um") - pl.col(f"residual_{a}_um").mean().over(keys)).alias(
+                    "r"
+                )
+            )
+            for a in "uv"
+        ]
+    )["r"].drop_nans()
+    pooled = float((centred**2).mean() ** 0.5)  # type: ignore[operator]
+    syn = doc["synthesis"]
+    assert syn["folds"] == 4 and syn["holdout_rms_um"] == pytest.approx(pooled, rel=1e-9)
+    assert syn["fold_rms_um"][0] <= pooled <= syn["fold_rms_um"][1]
+    assert f"Across the folds: held-out rms {pooled:.3f} µm over 4 fold(s)" in p.stdout
     assert doc["rule"] == "leave-one-run-out" and len(doc["folds"]) == 4
     for fold in doc["folds"]:
         assert len(fold["train"]) == 3 and len(fold["holdout"]) == 1

@@ -111,10 +111,10 @@ class Prediction:
     table: pl.DataFrame
     series: pl.DataFrame
 
-    def rms_um(self, label: str = "series") -> float:
-        """The held-out rms (µm) with the α labelled ``label``: measured − predicted drift
-        over every held-out visit and both chip axes, each (run, camera, axis) series' mean
-        removed — the definition of the per-run ``rms_centred_um``, pooled."""
+    def centred_residuals(self, label: str = "series") -> Any:
+        """Measured − predicted drift (µm) with the α labelled ``label`` over every held-out
+        visit and both chip axes, each (run, camera, axis) series' mean removed (a numpy
+        array)."""
         import numpy as np
 
         s = self.series.filter(pl.col("alpha") == label)
@@ -125,7 +125,15 @@ class Prediction:
                 r = r[np.isfinite(r)]
                 if len(r):
                     parts.append(r - r.mean())
-        return float(np.sqrt(np.mean(np.concatenate(parts) ** 2))) if parts else float("nan")
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def rms_um(self, label: str = "series") -> float:
+        """The held-out rms (µm) with the α labelled ``label``: the root mean square of
+        :meth:`centred_residuals` — the definition of the per-run ``rms_centred_um``, pooled."""
+        import numpy as np
+
+        r = self.centred_residuals(label)
+        return float(np.sqrt(np.mean(r**2))) if r.size else float("nan")
 
     def to_json(self) -> dict[str, Any]:
         """The ``thermrs predict --json`` document of this split (with its fold and runs)."""

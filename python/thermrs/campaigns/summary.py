@@ -5,6 +5,7 @@ robot change over weeks?), and the held-out check of a rule
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -21,6 +22,7 @@ __all__ = [
     "by_group",
     "fold_synthesis",
     "holdout_by_rule",
+    "predict_synthesis",
     "standouts",
 ]
 
@@ -375,3 +377,50 @@ def standouts(per_run: pl.DataFrame) -> list[dict[str, Any]]:
         if why:
             out.append({"recording": r["recording"], "run": r["run"], "why": "; ".join(why)})
     return out
+
+
+def predict_synthesis(preds: Sequence[Any], *, label: str = "series") -> dict[str, Any]:
+    """What the folds of a rule say together about prediction (``thermrs predict --rule``).
+
+    Parameters
+    ----------
+    preds
+        The folds' :class:`thermrs.campaigns.analyses.Prediction`.
+    label
+        The α each fold predicted with (default the time-series fit on its training runs).
+
+    Returns
+    -------
+    dict
+        ``folds``, ``holdout_rms_um`` (every fold's held-out visits pooled: the root mean
+        square of each fold's mean-removed residual series together), ``fold_rms_um`` [min,
+        max], ``alpha_per_k`` [min, max] over the folds, ``worst_fold`` and ``sentence``.
+    """
+    rms = [float(p.rms_um(label)) for p in preds]
+    pooled = np.concatenate([np.zeros(0), *(p.centred_residuals(label) for p in preds)])
+    alphas = [float(p.alphas[label]) for p in preds if label in p.alphas]
+    if len(pooled) == 0:
+        return {
+            "folds": len(preds),
+            "holdout_rms_um": None,
+            "fold_rms_um": None,
+            "alpha_per_k": None,
+            "worst_fold": None,
+            "sentence": "no held-out visit to score",
+        }
+    total = float(np.sqrt(np.mean(pooled**2)))
+    worst = int(np.nanargmax(rms))
+    sentence = (
+        f"held-out rms {total:.3f} µm over {len(preds)} fold(s) (every held-out visit pooled; "
+        f"folds {min(rms):.3f}–{max(rms):.3f} µm, the worst {preds[worst].split.name})"
+    )
+    if alphas:
+        sentence += f"; α {min(alphas) * 1e6:.3f}–{max(alphas) * 1e6:.3f} ×10⁻⁶/K"
+    return {
+        "folds": len(preds),
+        "holdout_rms_um": total,
+        "fold_rms_um": [min(rms), max(rms)],
+        "alpha_per_k": [min(alphas), max(alphas)] if alphas else None,
+        "worst_fold": preds[worst].split.name,
+        "sentence": sentence,
+    }

@@ -189,7 +189,13 @@ def _write(
         if rule is None:
             doc = {k: v for k, v in preds[0].to_json().items() if k in ("alpha_per_k", "table")}
         else:
-            doc = {"rule": rule, "folds": [p.to_json() for p in preds]}
+            from thermrs.campaigns.summary import predict_synthesis
+
+            doc = {
+                "rule": rule,
+                "folds": [p.to_json() for p in preds],
+                "synthesis": predict_synthesis(preds),
+            }
         write_json(json_path, doc)
     if series_path is not None:
         series = pl.concat(
@@ -282,3 +288,6 @@ def _render_folds(preds: list[Prediction], rule: str) -> None:
             f"{p.rms_um():.3f}",
         )
     out.print(t)
+    from thermrs.campaigns.summary import predict_synthesis
+
+    out.print(f"Across the folds: {predict_synthesis(preds)['sentence']}.")
