@@ -284,6 +284,16 @@ def test_diagnose_by_rule_is_each_fold_diagnosed_and_predict_uses_a_diagnosis(
     ).to_json()
     assert first["diagnosis"]["verdict"]["status"] == truth["verdict"]["status"]
     assert first["diagnosis"]["verdict"]["effect"] == truth["verdict"]["effect"]
+    # The synthesis tallies what the folds' own documents say, and is printed.
+    outcomes = [
+        f["diagnosis"]["verdict"].get("outcome", f["diagnosis"]["verdict"]["status"])
+        for f in doc["folds"]
+    ]
+    syn = doc["synthesis"]
+    assert syn["tally"] == {o: outcomes.count(o) for o in set(outcomes)}
+    effects = {f["diagnosis"]["verdict"]["effect"] for f in doc["folds"]}
+    assert syn["consistent"] == (len(set(outcomes)) == 1 and len(effects) == 1)
+    assert f"Across the folds: {syn['sentence']}." in " ".join(p.stdout.split())
     # That fold's diagnosis predicts its held-out run as it predicts the file's.
     (tmp_path / "one.json").write_text(json.dumps(first["diagnosis"]))
     a, b = tmp_path / "a.json", tmp_path / "b.json"
