@@ -99,6 +99,7 @@ _SUBMODULES = (
     "stats",
     "visits",
     "workflows",
+    "analyses",
 )
 
 #: Names re-exported at the top level: name → module that defines it.
@@ -158,6 +159,7 @@ __all__ = [
     "stats",
     "visits",
     "workflows",
+    "analyses",
 ]
 
 

@@ -255,7 +255,7 @@ def prediction_table(
         visit, as the paper).
     camera_axes
         With ``axis="auto"``: the axis to use per camera where one is given (the axis its
-        start/end α was taken along, :func:`thermrs.workflows.training_axes`).
+        start/end α was taken along, :func:`thermrs.analyses.fit.training_axes`).
 
     Returns
     -------

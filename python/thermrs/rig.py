@@ -343,3 +343,24 @@ def as_rig(rig: Rig | str | os.PathLike[str], *, what: str = "rig") -> Rig:
         f"{what} must be a thermrs.Rig or the path of a rig file (str or Path), "
         f"not {type(rig).__name__}"
     )
+
+
+def radians_hint(rig: Rig) -> str:
+    """Why no visit may have matched a rig's poses: poses given in radians where degrees are
+    expected.
+
+    Returns
+    -------
+    str
+        A parenthesised hint to append to a message, or ``""`` where some pose lies outside
+        ±2π.
+    """
+    import math
+
+    small = [p.name for p in rig.poses.values() if all(abs(q) <= 2 * math.pi for q in p.joints_deg)]
+    if small and len(small) == len(rig.poses):
+        return (
+            f" (rig {Path(rig.source).name}: every pose's joints_deg lies within ±2π, like "
+            "radians; poses are in degrees, as the controller reports them)"
+        )
+    return ""

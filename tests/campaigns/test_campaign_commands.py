@@ -108,7 +108,7 @@ def test_runs_by_name_and_query(camp: dict[str, Path]) -> None:
 def test_fit_from_the_catalog_is_the_fit_of_the_files(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
-    from thermrs.workflows import fit_document
+    from thermrs.analyses.fit import fit_document
 
     rig = thermrs.load_rig()
     names = ["r1#run1", "r2#run1"]
@@ -139,8 +139,8 @@ def test_fit_from_the_catalog_is_the_fit_of_the_files(
 def test_predict_by_rule_is_each_fold_predicted_from_files(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
+    from thermrs.analyses.fit import fit_document, training_alphas
     from thermrs.predict import prediction_table
-    from thermrs.workflows import fit_document, training_alphas
 
     rig = thermrs.load_rig()
     out = tmp_path / "p.json"
@@ -193,8 +193,8 @@ def test_predict_by_rule_is_each_fold_predicted_from_files(
 def test_by_day_trains_on_one_day_and_predicts_the_next(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
+    from thermrs.analyses.fit import fit_document, training_alphas
     from thermrs.predict import prediction_table
-    from thermrs.workflows import fit_document, training_alphas
 
     # r2 recorded a day later (the same bytes but for the stamps), beside r1.
     shift_days(camp["r2"], tmp_path / "r2d.mcap", 1)

@@ -7,9 +7,13 @@ cluster, and the runs of a campaign chosen by query.
 - :mod:`thermrs.campaigns.split`: the recordings split into Dask tasks;
 - :mod:`thermrs.campaigns.engine`: the campaign run on Dask distributed;
 - :mod:`thermrs.campaigns.select`: runs by query, training and held-out sets by rule;
-- :mod:`thermrs.campaigns.inputs`: run tables and splits of a dataset, runs by name;
-- :mod:`thermrs.campaigns.analyses`: :func:`fit`, :func:`predict`, :func:`drift`,
-  :func:`diagnose`, :func:`design` and :func:`report` on a campaign's runs.
+- :mod:`thermrs.campaigns.summary`: α per run, its trend, per day and per speed, folds
+  concluded.
+
+:func:`fit`, :func:`predict`, :func:`drift`, :func:`diagnose`, :func:`design` and
+:func:`report` on a campaign's runs, and :func:`selected`, :func:`splits`,
+:func:`select_runs`, :func:`open_dataset`, are those of :mod:`thermrs.analyses` (where every
+analysis runs, on files and on datasets alike), reachable from here.
 
 Example
 -------
@@ -24,22 +28,53 @@ Example
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 from thermrs.campaigns import summary
-from thermrs.campaigns.analyses import (
-    DesignFold,
-    DiagnosisFold,
-    DriftResult,
-    Prediction,
-    design,
-    diagnose,
-    drift,
-    fit,
-    predict,
-    report,
-)
 from thermrs.campaigns.dataset import Dataset
 from thermrs.campaigns.engine import CampaignInterrupted, CampaignResult, campaign
-from thermrs.campaigns.inputs import Split, open_dataset, select_runs, selected, splits
+
+if TYPE_CHECKING:
+    from thermrs.analyses.design import DesignFold, design
+    from thermrs.analyses.diagnose import DiagnosisFold, diagnose
+    from thermrs.analyses.drift import DriftResult, drift
+    from thermrs.analyses.fit import fit
+    from thermrs.analyses.inputs import Split, open_dataset, select_runs, selected, splits
+    from thermrs.analyses.predict import Prediction, predict
+    from thermrs.analyses.report import report
+
+#: Names that live in :mod:`thermrs.analyses`, by the module that holds them.
+_ANALYSES = {
+    "DesignFold": "design",
+    "DiagnosisFold": "diagnose",
+    "DriftResult": "drift",
+    "Prediction": "predict",
+    "Split": "inputs",
+    "design": "design",
+    "diagnose": "diagnose",
+    "drift": "drift",
+    "fit": "fit",
+    "open_dataset": "inputs",
+    "predict": "predict",
+    "report": "report",
+    "select_runs": "inputs",
+    "selected": "inputs",
+    "splits": "inputs",
+}
+
+
+def __getattr__(name: str) -> Any:
+    # Read when first asked: thermrs.analyses imports this package's modules.
+    if name in _ANALYSES:
+        import importlib
+
+        return getattr(importlib.import_module(f"thermrs.analyses.{_ANALYSES[name]}"), name)
+    if name in ("analyses", "inputs"):
+        import importlib
+
+        return importlib.import_module(f"thermrs.campaigns.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "CampaignInterrupted",

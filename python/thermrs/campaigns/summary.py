@@ -385,7 +385,7 @@ def predict_synthesis(preds: Sequence[Any], *, label: str = "series") -> dict[st
     Parameters
     ----------
     preds
-        The folds' :class:`thermrs.campaigns.analyses.Prediction`.
+        The folds' :class:`thermrs.analyses.predict.Prediction`.
     label
         The α each fold predicted with (default the time-series fit on its training runs).
 

@@ -26,7 +26,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from rich.console import Console
     from rich.table import Table
 
-    from thermrs.campaigns.inputs import Split
+    from thermrs.analyses.inputs import Split
     from thermrs.rig import Rig
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_DATA_LOSS = 0, 1, 2, 3
@@ -43,14 +43,12 @@ __all__ = [
     "chosen_runs",
     "chosen_splits",
     "console",
-    "distinct_runs",
     "exclude_option",
     "input_file",
     "json_option",
     "no_campaign",
     "out",
     "out_option",
-    "radians_hint",
     "rig_option",
     "rule_option",
     "run_file",
@@ -265,80 +263,20 @@ class AlphaType(click.ParamType):  # type: ignore[type-arg]
 
 
 #: Files read by this process's command, by path: `predict --train rec#run1 --run rec#run2`
-#: extracts `rec` once.
+#: extracts `rec` once (passed to :func:`thermrs.analyses.inputs.file_tables`).
 _FILES: dict[Any, Any] = {}
 
 
+def say(line: str) -> None:
+    """A line for the user on stderr, ``thermrs: `` first."""
+    click.echo(f"thermrs: {line}", err=True)
+
+
 def run_tables(paths: tuple[Path, ...], rig: Rig, what: str) -> tuple[list[pl.DataFrame], bool]:
-    """Run tables of recordings or extracted tables (``FILE`` or ``FILE#RUN``), and whether
-    any recording lost data (for extracted tables: as their Parquet metadata records); lists
-    the runs found in each file on stderr."""
-    from thermrs.fit import run_name
-    from thermrs.runs import load_runs, split_run_spec
+    """:func:`thermrs.analyses.inputs.file_tables`, the runs found told on stderr."""
+    from thermrs.analyses.inputs import file_tables
 
-    seen: set[str] = set()
-    for p in paths:
-        key = f"{split_run_spec(p)[0].resolve()}#{split_run_spec(p)[1]}"
-        if key in seen:
-            raise InputError(f"{what} {p}: given twice")
-        seen.add(key)
-    tables, loss = [], False
-    names = [run_name(split_run_spec(p)[0]) for p in paths]
-    for p, name in zip(paths, names, strict=True):
-        # Two runs of one name (r30.mcap and r30.parquet, or one name in two folders): name
-        # the runs by the paths given, so that no two share a key.
-        base = split_run_spec(p)[0]
-        same = sum(
-            1
-            for q, n in zip(paths, names, strict=True)
-            if n == name and split_run_spec(q)[0] != base
-        )
-        rt = load_runs(p, rig, name=str(base) if same else None, cache=_FILES)
-        click.echo(f"thermrs: {what} {rt.describe()}", err=True)
-        for t in rt.tables:
-            if t.height == 0:
-                raise InputError(f"{what} {p}: no visit with a spot" + radians_hint(rig))
-        if rt.data_loss:
-            click.echo(
-                f"thermrs: data loss: {p}: part of the recording was lost "
-                "(see `thermrs extract` for what); results use what was intact",
-                err=True,
-            )
-        tables.extend(rt.tables)
-        loss |= rt.data_loss
-    return tables, loss
-
-
-def radians_hint(rig: Rig) -> str:
-    """Why no visit may have matched: poses given in radians where degrees are expected."""
-    import math
-
-    small = [p.name for p in rig.poses.values() if all(abs(q) <= 2 * math.pi for q in p.joints_deg)]
-    if small and len(small) == len(rig.poses):
-        return (
-            f" (rig {Path(rig.source).name}: every pose's joints_deg lies within ±2π, like "
-            "radians; poses are in degrees, as the controller reports them)"
-        )
-    return ""
-
-
-def distinct_runs(
-    train: Sequence[pl.DataFrame], held: Sequence[pl.DataFrame], what: str = "--holdout"
-) -> None:
-    """A held-out run must not be a training run again (a copy of its recording, say).
-
-    Raises
-    ------
-    InputError
-        One line naming both runs.
-    """
-    from thermrs.runs import same_runs
-
-    for a, b in same_runs(train, held):
-        raise InputError(
-            f"{what} run {b} is identical to training run {a} (same visits, times and spots): "
-            "a held-out run must be another run"
-        )
+    return file_tables(paths, rig, what, say=say, cache=_FILES)
 
 
 Decorator = Callable[[Callable[..., Any]], Callable[..., Any]]
@@ -398,8 +336,9 @@ where_option = click.option(
     default=None,
     metavar="QUERY",
     help="Runs to use: KEY OP VALUE terms, comma-separated (keys robot, rig (title or rig "
-    "file), recording (id or stem), run, date (2026-11-02, 02.11.2026, …), speed (°/s), "
-    "duration (s)), e.g. 'date>=2026-11-02, speed>20'; quote a value with a comma. "
+    "file), recording (id or stem), run, date (2026-11-02, 02.11.2026, …), speed% (override), "
+    "speed (°/s), duration (s)), e.g. 'date>=2026-11-02, speed%>=50'; quote a value with a "
+    "comma. "
     "`thermrs campaign DATASET --list` lists the values there are.",
 )
 
@@ -461,7 +400,7 @@ def chosen_runs(
         if not names:
             raise click.UsageError(f"Missing option '{what}' (or --campaign DATASET).")
         return run_tables(tuple(names), rig, what)
-    from thermrs.campaigns.inputs import selected
+    from thermrs.analyses.inputs import selected
 
     s = selected(campaign_path, rig, where=query, names=[str(n) for n in names], what=what)
     _say_split(campaign_path, what, s.train_names, s.data_loss)
@@ -470,16 +409,14 @@ def chosen_runs(
 
 def _say_split(campaign_path: Path, what: str, names: Sequence[str], loss: bool) -> None:
     if names:
-        click.echo(
-            f"thermrs: {what} {campaign_path}: {len(names)} run{'s' * (len(names) != 1)}: "
-            + ", ".join(names),
-            err=True,
+        say(
+            f"{what} {campaign_path}: {len(names)} run{'s' * (len(names) != 1)}: "
+            + ", ".join(names)
         )
     if loss:
-        click.echo(
-            f"thermrs: data loss: {campaign_path}: a recording of these runs lost part of its "
-            "data (see the catalog's loss_detail); results use what was intact",
-            err=True,
+        say(
+            f"data loss: {campaign_path}: a recording of these runs lost part of its data (see "
+            "the catalog's loss_detail); results use what was intact"
         )
 
 
@@ -495,39 +432,32 @@ def chosen_splits(
 ) -> list[Split]:
     """Training and held-out run tables: a split per fold of ``--rule`` or the runs named,
     from the ``--campaign`` dataset; from files, the one split of ``--train``/``--holdout``
-    (both lists of files). A held-out run may not be a training run again."""
-    from thermrs.campaigns.inputs import Split, splits
+    (both lists of files) (:mod:`thermrs.analyses.inputs`). A held-out run may not be a
+    training run again."""
+    from thermrs.analyses.inputs import check_splits, file_splits, splits
 
     no_campaign(campaign_path, query, rule)
     if campaign_path is None:
         for opt, given in (("--train", train), (holdout_what, holdout)):
             if not given:
                 raise click.UsageError(f"Missing option '{opt}' (or --campaign DATASET).")
-        tt, loss1 = run_tables(tuple(train), rig, "--train")
-        th, loss2 = run_tables(tuple(holdout), rig, holdout_what)
-        sets = [Split("", tt, th, loss1 or loss2)]
-    else:
-        sets = splits(
-            campaign_path,
-            rig,
-            where=query,
-            rule=rule,
-            train=[str(n) for n in train],
-            holdout=[str(n) for n in holdout],
+        return file_splits(
+            tuple(train), tuple(holdout), rig, holdout_what=holdout_what, say=say, cache=_FILES
         )
-        for s in sets:
-            click.echo(
-                f"thermrs: {campaign_path}: {s.name or 'runs'}: train on "
-                f"{', '.join(s.train_names)}; hold out {', '.join(s.holdout_names) or 'none'}",
-                err=True,
-            )
-        if any(s.data_loss for s in sets):
-            _say_split(campaign_path, "runs", [], True)
+    sets = splits(
+        campaign_path,
+        rig,
+        where=query,
+        rule=rule,
+        train=[str(n) for n in train],
+        holdout=[str(n) for n in holdout],
+    )
     for s in sets:
-        if not s.holdout:
-            raise InputError(
-                f"no held-out run: every run chosen trains; name them with {holdout_what} or "
-                "hold them out by --rule"
-            )
-        distinct_runs(s.train, s.holdout, holdout_what)
+        say(
+            f"{campaign_path}: {s.name or 'runs'}: train on {', '.join(s.train_names)}; hold "
+            f"out {', '.join(s.holdout_names) or 'none'}"
+        )
+    if any(s.data_loss for s in sets):
+        _say_split(campaign_path, "runs", [], True)
+    check_splits(sets, holdout_what=holdout_what)
     return sets

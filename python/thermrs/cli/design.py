@@ -151,7 +151,7 @@ def design(
     a --campaign dataset (named, or held out by --rule). Exits 3 (after designing) if part
     of a recording was lost.
     """
-    from thermrs.campaigns.analyses import design_splits
+    from thermrs.analyses.design import design_splits
     from thermrs.cli.common import EXIT_DATA_LOSS, chosen_splits, write_json
     from thermrs.errors import InputError
     from thermrs.rig import load_rig

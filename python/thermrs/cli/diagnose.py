@@ -23,8 +23,8 @@ from thermrs.cli.common import (
 )
 
 if TYPE_CHECKING:  # pragma: no cover
-    from thermrs.campaigns.analyses import DiagnosisFold
-    from thermrs.campaigns.inputs import Split
+    from thermrs.analyses.diagnose import DiagnosisFold
+    from thermrs.analyses.inputs import Split
 
 #: Visits a camera needs in a run to be diagnosed: one goes to the run's unknown offset.
 MIN_VISITS = 3
@@ -273,7 +273,7 @@ def diagnose(
 
     Exits 3 (after diagnosing) if part of a recording was lost.
     """
-    from thermrs.campaigns.analyses import diagnose_splits
+    from thermrs.analyses.diagnose import diagnose_splits
     from thermrs.campaigns.summary import fold_synthesis
     from thermrs.cli.common import EXIT_DATA_LOSS, chosen_splits, stages, writable, write_json
     from thermrs.errors import InputError

@@ -52,7 +52,7 @@ def drift(
 
     Exits 3 (after reporting) if part of a recording was lost.
     """
-    from thermrs.campaigns.analyses import drift_tables
+    from thermrs.analyses.drift import drift_tables
     from thermrs.iso9283 import LABEL
     from thermrs.rig import load_rig
 

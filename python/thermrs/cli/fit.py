@@ -1,4 +1,4 @@
-"""``thermrs fit``: α over training runs (:mod:`thermrs.workflows`)."""
+"""``thermrs fit``: α over training runs (:mod:`thermrs.analyses.fit`)."""
 
 from __future__ import annotations
 
@@ -47,8 +47,8 @@ def fit(
 
     Exits 3 (after fitting) if part of a training recording was lost.
     """
+    from thermrs.analyses.fit import fit_document
     from thermrs.rig import load_rig
-    from thermrs.workflows import fit_document
 
     writable(json_path, "--json")
     r = load_rig(rig_path)

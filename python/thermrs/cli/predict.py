@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -30,7 +29,7 @@ from thermrs.cli.common import (
 from thermrs.errors import InputError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from thermrs.campaigns.analyses import Prediction
+    from thermrs.analyses.predict import Prediction
 
 
 @click.command()
@@ -118,8 +117,8 @@ def predict(
 
     Exits 3 (after predicting) if part of a recording was lost.
     """
-    from thermrs.campaigns.analyses import predict_splits
-    from thermrs.campaigns.inputs import Split
+    from thermrs.analyses.inputs import Split
+    from thermrs.analyses.predict import predict_splits
     from thermrs.rig import load_rig
 
     training = bool(train) or rule is not None
@@ -162,19 +161,12 @@ def predict(
 
 def _given_alpha(alpha: float | None, fit_path: Path | None) -> dict[str, float]:
     """α given, or read from a `thermrs fit --json` file."""
-    from thermrs.predict import check_alpha
+    from thermrs.analyses.predict import read_fit_alpha
 
     if alpha is not None:
         return {"given": alpha}
     assert fit_path is not None
-    try:
-        doc = json.loads(fit_path.read_text())
-        return {"fit": check_alpha(doc["alpha_per_k"]["value"], what=f"--fit {fit_path}:")}
-    except FileNotFoundError:
-        raise InputError(f"--fit {fit_path}: no such file") from None
-    except (ValueError, KeyError, TypeError) as e:
-        why = f"{type(e).__name__}: {e}".splitlines()[0]
-        raise InputError(f"--fit {fit_path}: not a `thermrs fit --json` file ({why})") from None
+    return {"fit": read_fit_alpha(fit_path)}
 
 
 def _write(

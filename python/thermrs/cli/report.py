@@ -267,7 +267,7 @@ def _file_runs(
 
     got = read_report_runs(train, runs, rig, step=stage, read=said)
     if got.train:
-        from thermrs.cli.common import distinct_runs
+        from thermrs.analyses.inputs import distinct_runs
 
         distinct_runs(
             [r.table for r in got.runs if r.name in got.train],

@@ -10,7 +10,6 @@ import click
 from thermrs.cli.common import (
     input_file,
     out,
-    radians_hint,
     table,
 )
 from thermrs.errors import InputError, ThermrsError
@@ -26,7 +25,7 @@ def rig(rig_path: Path | None, as_json: bool) -> None:
     Per pose: the flange position and, for every camera, where the laser meets its chip and
     at what incidence. Exits 2 if the laser misses a pose's own camera.
     """
-    from thermrs.rig import default_rig_path, load_rig
+    from thermrs.rig import default_rig_path, load_rig, radians_hint
 
     r = load_rig(rig_path)
     try:

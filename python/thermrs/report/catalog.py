@@ -1,7 +1,7 @@
 """The report's runs read from a campaign dataset (``thermrs report --campaign DATASET``): one
 :class:`~thermrs.report.data.RunInput` per run, as :func:`thermrs.report.data.load_runs` makes
 from a recording (the run table, the temperatures, joint states and frames of the run's span),
-named ``<recording>#<run>`` (:mod:`thermrs.campaigns.inputs`)."""
+named ``<recording>#<run>`` (:mod:`thermrs.analyses.inputs`)."""
 
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ def load_campaign_runs(
         Not a dataset; a bad query or one matching no run; a name naming no run; a run
         without a visit with a spot.
     """
-    from thermrs.campaigns.inputs import open_dataset, pick_runs, selected
+    from thermrs.analyses.inputs import open_dataset, pick_runs, selected
     from thermrs.campaigns.select import campaign_runs
 
     ds = open_dataset(dataset)
@@ -100,7 +100,7 @@ def campaign_report_runs(
     InputError
         As :func:`load_campaign_runs`.
     """
-    from thermrs.campaigns.inputs import open_dataset, pick_runs
+    from thermrs.analyses.inputs import open_dataset, pick_runs
     from thermrs.campaigns.select import campaign_runs
 
     ds = open_dataset(dataset)

@@ -458,8 +458,8 @@ def _fit_and_predict(
     say: Callable[[str], object],
 ) -> _Fitted:
     """α on the training runs; the held-out runs (else the training runs) predicted with it."""
+    from thermrs.analyses.fit import fit_document, training_alphas, training_axes
     from thermrs.predict import predict, prediction_table
-    from thermrs.workflows import fit_document, training_alphas, training_axes
 
     out = _Fitted()
     try:

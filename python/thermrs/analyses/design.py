@@ -1,0 +1,82 @@
+"""``thermrs design``: the measurement that separates confounded effects, designed per split
+(:func:`thermrs.design.design`)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from thermrs.analyses.diagnose import Progress, prefixed
+from thermrs.analyses.inputs import DatasetLike, Split, splits
+
+__all__ = ["DesignFold", "design", "design_splits"]
+
+
+@dataclass(frozen=True)
+class DesignFold:
+    """One split's design (:func:`thermrs.design.design`)."""
+
+    split: Split
+    result: Any
+
+
+def design_splits(
+    sets: Sequence[Split], rig: Any, *, progress: Progress | None = None, **options: Any
+) -> list[DesignFold]:
+    """A design per split; ``options`` are :func:`thermrs.design.design`'s keywords."""
+    from thermrs.design import design as design_runs
+
+    res = []
+    for s in sets:
+        say = None if progress is None else prefixed(progress, s.name)
+        res.append(DesignFold(s, design_runs(s.train, s.holdout, rig, progress=say, **options)))
+    return res
+
+
+def design(
+    dataset: DatasetLike,
+    rig: Any,
+    *,
+    where: str | None = None,
+    rule: str | None = None,
+    train: Sequence[str] = (),
+    holdout: Sequence[str] = (),
+    progress: Progress | None = None,
+    **options: Any,
+) -> list[DesignFold]:
+    """The measurement that separates confounded effects, designed on a campaign's runs as
+    ``thermrs design --campaign`` does.
+
+    Parameters
+    ----------
+    dataset, rig, where
+        As :func:`fit`.
+    rule
+        ``leave-one-run-out`` or ``by-day``: a design per fold.
+    train, holdout
+        Else the runs named, as for :func:`diagnose`.
+    progress
+        Called with a short message (starting with the fold) as the work goes on.
+    **options
+        :func:`thermrs.design.design`'s keywords (``exclude``, ``between``, ``budget_h``,
+        ``seed``, ``prove_it``, …).
+
+    Returns
+    -------
+    list of DesignFold
+        One per fold (one without a rule); ``.result.write(DIR)`` writes its files.
+
+    Raises
+    ------
+    InputError
+        What :func:`~thermrs.analyses.inputs.splits` and :func:`thermrs.design.design` raise.
+
+    Examples
+    --------
+    >>> (d,) = thermrs.campaigns.design("campaign/", rig, train=["r1#run1"],
+    ...                                 holdout=["r1#run2"], prove_it=False)  # doctest: +SKIP
+    >>> d.result.write("next-experiment/")  # doctest: +SKIP
+    """
+    sets = splits(dataset, rig, where=where, rule=rule, train=train, holdout=holdout)
+    return design_splits(sets, rig, progress=progress, **options)

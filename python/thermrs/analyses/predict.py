@@ -1,0 +1,193 @@
+"""``thermrs predict``: held-out runs predicted from their temperatures, with the α fitted on
+training runs or given, one :class:`Prediction` per split."""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import polars as pl
+
+from thermrs.analyses.inputs import DatasetLike, Split, selected, splits
+
+__all__ = ["Prediction", "predict", "predict_splits", "read_fit_alpha"]
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """One split's prediction (``thermrs predict``).
+
+    Attributes
+    ----------
+    split
+        The training and held-out runs.
+    alphas
+        The α values predicted with, by label (:func:`thermrs.analyses.fit.training_alphas`, or
+        the α given).
+    table
+        :func:`thermrs.predict.prediction_table` of the held-out runs.
+    series
+        Every held-out visit's predicted and measured drift, per α (``alpha`` column: label).
+    """
+
+    split: Split
+    alphas: dict[str, float]
+    table: pl.DataFrame
+    series: pl.DataFrame
+
+    def centred_residuals(self, label: str = "series") -> Any:
+        """Measured − predicted drift (µm) with the α labelled ``label`` over every held-out
+        visit and both chip axes, each (run, camera, axis) series' mean removed (a numpy
+        array)."""
+        import numpy as np
+
+        s = self.series.filter(pl.col("alpha") == label)
+        parts = []
+        for _, g in s.group_by(["run", "camera"], maintain_order=True):
+            for a in "uv":
+                r = g[f"residual_{a}_um"].to_numpy()
+                r = r[np.isfinite(r)]
+                if len(r):
+                    parts.append(r - r.mean())
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def rms_um(self, label: str = "series") -> float:
+        """The held-out rms (µm) with the α labelled ``label``: the root mean square of
+        :meth:`centred_residuals` — the definition of the per-run ``rms_centred_um``, pooled."""
+        import numpy as np
+
+        r = self.centred_residuals(label)
+        return float(np.sqrt(np.mean(r**2))) if r.size else float("nan")
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``thermrs predict --json`` document of this split (with its fold and runs)."""
+        return {
+            "fold": self.split.name,
+            "train": self.split.train_names,
+            "holdout": self.split.holdout_names,
+            "alpha_per_k": self.alphas,
+            "table": self.table.drop("alpha_per_k").to_dicts(),
+        }
+
+
+def predict_splits(
+    sets: Sequence[Split],
+    rig: Any,
+    *,
+    alphas: Mapping[str, float] | None = None,
+    axis: str = "auto",
+    end_visits: int = 1,
+) -> list[Prediction]:
+    """Per split, its held-out runs predicted with ``alphas`` or, without, with the α fitted
+    on its training runs (:func:`thermrs.analyses.fit.training_alphas`)."""
+    from thermrs.analyses.fit import fit_document, training_alphas, training_axes
+    from thermrs.predict import predict as run_predict
+    from thermrs.predict import prediction_table
+
+    res = []
+    for s in sets:
+        doc = None if alphas else fit_document(s.train, rig)
+        a = dict(alphas) if alphas else training_alphas(doc)  # type: ignore[arg-type]
+        axes = {} if doc is None else training_axes(doc)
+        table = prediction_table(
+            s.holdout, rig, alphas=a, axis=axis, end_visits=end_visits, camera_axes=axes
+        )
+        joined = pl.concat(s.holdout, how="diagonal_relaxed")
+        series = pl.concat(
+            [
+                run_predict(joined, rig, alpha_per_k=v).select(pl.lit(k).alias("alpha"), pl.all())
+                for k, v in a.items()
+            ]
+        )
+        res.append(Prediction(s, a, table, series))
+    return res
+
+
+def predict(
+    dataset: DatasetLike,
+    rig: Any,
+    *,
+    where: str | None = None,
+    rule: str | None = None,
+    train: Sequence[str] = (),
+    runs: Sequence[str] = (),
+    alpha_per_k: float | None = None,
+    axis: str = "auto",
+    end_visits: int = 1,
+) -> list[Prediction]:
+    """Held-out runs of a campaign predicted from their temperatures, as ``thermrs predict
+    --campaign`` does.
+
+    Parameters
+    ----------
+    dataset, rig, where
+        As :func:`fit`.
+    rule
+        ``leave-one-run-out`` or ``by-day``: a prediction per fold, α fitted on its training
+        runs.
+    train
+        Else the runs α is fitted on (names); ``runs`` default to the other runs chosen.
+    runs
+        The runs to predict (names; default: every run chosen that is not trained on).
+    alpha_per_k
+        Else predict with this α (1/K): no rule, no training runs.
+    axis, end_visits
+        As :func:`thermrs.predict.prediction_table`.
+
+    Returns
+    -------
+    list of Prediction
+        One per fold (one without a rule): the α values, the Table 7-style table, the series.
+
+    Raises
+    ------
+    InputError
+        What :func:`~thermrs.analyses.inputs.splits` raises; α given with a rule or training
+        runs; no run left to predict.
+
+    Examples
+    --------
+    >>> folds = thermrs.campaigns.predict("campaign/", rig, rule="by-day")  # doctest: +SKIP
+    >>> [(p.split.name, p.rms_um()) for p in folds]  # doctest: +SKIP
+    """
+    from thermrs.errors import InputError
+
+    if alpha_per_k is not None:
+        if rule or train:
+            raise InputError("α given: no rule and no training runs")
+        s = selected(dataset, rig, where=where, names=runs)
+        sets = [Split("", [], s.train, s.data_loss)]
+        return predict_splits(
+            sets, rig, alphas={"given": alpha_per_k}, axis=axis, end_visits=end_visits
+        )
+    sets = splits(dataset, rig, where=where, rule=rule, train=train, holdout=runs)
+    if any(not s.holdout for s in sets):
+        raise InputError("no run left to predict: every selected run is a training run")
+    return predict_splits(sets, rig, axis=axis, end_visits=end_visits)
+
+
+def read_fit_alpha(path: str | os.PathLike[str], *, what: str = "--fit") -> float:
+    """α (1/K) from a ``thermrs fit --json`` document.
+
+    Raises
+    ------
+    InputError
+        No such file, not such a document, or an α out of range (the message starts with
+        ``what`` and the path).
+    """
+    from thermrs.errors import InputError
+    from thermrs.predict import check_alpha
+
+    p = Path(path)
+    try:
+        doc = json.loads(p.read_text())
+        return check_alpha(doc["alpha_per_k"]["value"], what=f"{what} {p}:")
+    except FileNotFoundError:
+        raise InputError(f"{what} {p}: no such file") from None
+    except (ValueError, KeyError, TypeError) as e:
+        why = f"{type(e).__name__}: {e}".splitlines()[0]
+        raise InputError(f"{what} {p}: not a `thermrs fit --json` file ({why})") from None
