@@ -134,6 +134,7 @@ __all__ = [
     "Spots",
     "ThermrsError",
     "__version__",
+    "analyses",
     "campaign",
     "campaigns",
     "compensate",
@@ -159,7 +160,6 @@ __all__ = [
     "stats",
     "visits",
     "workflows",
-    "analyses",
 ]
 
 

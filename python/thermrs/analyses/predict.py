@@ -12,6 +12,7 @@ from typing import Any
 
 import polars as pl
 
+from thermrs.analyses.fit import FitResult
 from thermrs.analyses.inputs import DatasetLike, Split, selected, splits
 
 __all__ = ["Prediction", "predict", "predict_splits", "read_fit_alpha"]
@@ -32,12 +33,15 @@ class Prediction:
         :func:`thermrs.predict.prediction_table` of the held-out runs.
     series
         Every held-out visit's predicted and measured drift, per α (``alpha`` column: label).
+    fit
+        The fit on the training runs the α values come from (``None`` where α was given).
     """
 
     split: Split
     alphas: dict[str, float]
     table: pl.DataFrame
     series: pl.DataFrame
+    fit: FitResult | None = None
 
     def centred_residuals(self, label: str = "series") -> Any:
         """Measured − predicted drift (µm) with the α labelled ``label`` over every held-out
@@ -103,7 +107,7 @@ def predict_splits(
                 for k, v in a.items()
             ]
         )
-        res.append(Prediction(s, a, table, series))
+        res.append(Prediction(s, a, table, series, doc))
     return res
 
 

@@ -457,26 +457,22 @@ def _fit_and_predict(
     paper_reference: bool,
     say: Callable[[str], object],
 ) -> _Fitted:
-    """α on the training runs; the held-out runs (else the training runs) predicted with it."""
-    from thermrs.analyses.fit import fit_document, training_alphas, training_axes
-    from thermrs.predict import predict, prediction_table
+    """α on the training runs; the held-out runs (else the training runs) predicted with it,
+    as ``thermrs predict`` does (:func:`thermrs.analyses.predict.predict_splits`)."""
+    from thermrs.analyses.inputs import Split
+    from thermrs.analyses.predict import predict_splits
 
     out = _Fitted()
     try:
-        result = fit_document(tr, rig)
-        f = result.fit
-        out.doc = result.to_json()
-        out.alphas.update(training_alphas(result))
         say("predicting")
-        targets = ho if ho else tr
         # The paper compares drift along its cameras' y axis (v): so does its demo.
         axis = "v" if paper_reference else "auto"
-        out.prediction = prediction_table(
-            targets, rig, alphas=out.alphas, axis=axis, camera_axes=training_axes(result)
-        )
-        out.series = predict(
-            pl.concat(targets, how="diagonal_relaxed"), rig, alpha_per_k=f.alpha_per_k
-        )
+        (p,) = predict_splits([Split("", tr, ho if ho else tr)], rig, axis=axis)
+        assert p.fit is not None
+        out.doc = p.fit.to_json()
+        out.alphas.update(p.alphas)
+        out.prediction = p.table
+        out.series = p.series.filter(pl.col("alpha") == "series").drop("alpha")
     except InputError as e:
         out.note = f"α could not be fitted, so nothing was predicted: {e}."
     return out
