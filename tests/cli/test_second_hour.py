@@ -393,6 +393,13 @@ def test_diagnosing_runs_too_short_is_bad_input_not_a_crash(tmp_path: Path) -> N
     ok(cli("simulate", "--rig", rig, "--scenario", str(sc), "-o", str(rec)))
     bad(cli("diagnose", "--rig", rig, "--train", f"{rec}#a", "--holdout", f"{rec}#b"),
         "visit(s); a diagnosis needs at least 3")  # fmt: skip
+    # The library refuses what the command refuses.
+    from thermrs.diagnose import diagnose
+    from thermrs.runs import load_runs
+
+    r = thermrs.load_rig(rig)
+    with pytest.raises(thermrs.InputError, match=r"visit\(s\); a diagnosis needs at least 3"):
+        diagnose(load_runs(f"{rec}#a", r).tables, load_runs(f"{rec}#b", r).tables, r)
 
 
 def test_a_scenario_without_nodes_on_another_rig_says_so(tmp_path: Path) -> None:

@@ -45,12 +45,16 @@ def diagnose_splits(
     """A diagnosis per split: fitted on its training runs, scored on its held-out runs
     (``margin_um``: the practical margin, :func:`thermrs.diagnose.diagnose`)."""
     from thermrs.diagnose import diagnose as diagnose_runs
+    from thermrs.diagnose.inputs import check_visits
     from thermrs.errors import InputError
 
-    res = []
+    # Every split's runs checked before the first is diagnosed.
     for s in sets:
         if not s.holdout:
             raise InputError("no held-out run: effects are scored on runs they were not fitted on")
+        check_visits(s.train, s.holdout)
+    res = []
+    for s in sets:
         say = None if progress is None else prefixed(progress, s.name)
         d = diagnose_runs(
             s.train,

@@ -15,7 +15,14 @@ import polars as pl
 from thermrs.analyses.fit import FitResult
 from thermrs.analyses.inputs import DatasetLike, Split, selected, splits
 
-__all__ = ["Prediction", "predict", "predict_splits", "read_fit_alpha"]
+__all__ = [
+    "DiagnosedPrediction",
+    "Prediction",
+    "predict",
+    "predict_diagnosed",
+    "predict_splits",
+    "read_fit_alpha",
+]
 
 
 @dataclass(frozen=True)
@@ -195,3 +202,75 @@ def read_fit_alpha(path: str | os.PathLike[str], *, what: str = "--fit") -> floa
     except (ValueError, KeyError, TypeError) as e:
         why = f"{type(e).__name__}: {e}".splitlines()[0]
         raise InputError(f"{what} {p}: not a `thermrs fit --json` file ({why})") from None
+
+
+@dataclass(frozen=True)
+class DiagnosedPrediction:
+    """Held-out runs predicted by the nominal model and by a diagnosed one (``thermrs predict
+    --diagnosis``).
+
+    Attributes
+    ----------
+    model
+        The diagnosed model (:class:`thermrs.compensate.DiagnosedModel`).
+    series
+        Every held-out visit, both predictions (:func:`thermrs.compensate.predict_series`).
+    shrink
+        The error before and after per run and camera (:func:`thermrs.compensate.shrink_table`).
+    """
+
+    model: Any
+    series: pl.DataFrame
+    shrink: pl.DataFrame
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``thermrs predict --diagnosis --json`` document."""
+        m = self.model
+        return {
+            "alpha_per_k": {"nominal": m.nominal_alpha_per_k, "diagnosed": m.alpha_per_k},
+            "effects": [e.to_dict() for e in m.effects],
+            "promised_shrink": m.promised_shrink,
+            "table": self.shrink.to_dicts(),
+        }
+
+
+def predict_diagnosed(
+    held: Sequence[pl.DataFrame], rig: Any, diagnosis: str | os.PathLike[str] | Mapping[str, Any]
+) -> DiagnosedPrediction:
+    """Held-out runs predicted by the nominal model and by the model a diagnosis identified
+    (α and its effect), with the error before and after per run and camera.
+
+    Parameters
+    ----------
+    held
+        The held-out run tables.
+    rig
+        The rig (a :class:`~thermrs.rig.Rig` or its file).
+    diagnosis
+        A ``thermrs diagnose --json`` file or its document.
+
+    Returns
+    -------
+    DiagnosedPrediction
+        The model, the series and the before/after table.
+
+    Raises
+    ------
+    InputError
+        Not a diagnosis of this rig (:func:`thermrs.compensate.load_diagnosis`).
+
+    Examples
+    --------
+    >>> p = predict_diagnosed(runs.tables, rig, "diagnosis.json")  # doctest: +SKIP
+    >>> p.shrink.select("run", "camera", "shrink")  # doctest: +SKIP
+    """
+    from thermrs.compensate import diagnosed_model, load_diagnosis, predict_series, shrink_table
+    from thermrs.rig import as_rig
+
+    r = as_rig(rig)
+    if isinstance(diagnosis, Mapping):
+        model = diagnosed_model(dict(diagnosis), r)
+    else:
+        model = load_diagnosis(Path(diagnosis), r)
+    series = predict_series(list(held), r, model)
+    return DiagnosedPrediction(model, series, shrink_table(series))

@@ -27,6 +27,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from rich.table import Table
 
     from thermrs.analyses.inputs import Split
+    from thermrs.compensate import DiagnosedModel
     from thermrs.rig import Rig
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_DATA_LOSS = 0, 1, 2, 3
@@ -461,3 +462,23 @@ def chosen_splits(
         _say_split(campaign_path, "runs", [], True)
     check_splits(sets, holdout_what=holdout_what)
     return sets
+
+
+def say_model(m: DiagnosedModel) -> None:
+    """The diagnosed model a command uses, told on stderr (with its note, if any)."""
+    effects = ", ".join(
+        e.name + " " + ", ".join(f"{k}={v}" for k, v in e.to_dict().items() if k != "name")
+        for e in m.effects
+    )
+    click.echo(
+        f"thermrs: diagnosis {m.status}: α {m.alpha_per_k * 1e6:.3f}×10⁻⁶/K"
+        + (f" with {effects}" if effects else "")
+        + (
+            f"; it promised a held-out shrink of {m.promised_shrink:.0%}"
+            if m.promised_shrink is not None
+            else ""
+        ),
+        err=True,
+    )
+    if m.note:
+        click.echo(f"thermrs: warning: {m.note}", err=True)

@@ -1,19 +1,18 @@
-"""``thermrs compensate`` and ``thermrs predict --diagnosis``: the diagnosed model put to use.
-Parses and renders; :mod:`thermrs.compensate` computes."""
+"""``thermrs compensate``: the diagnosed model as a compensation law. Parses and renders;
+:mod:`thermrs.compensate` computes."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
 
 from thermrs.cli.common import (
-    EXIT_DATA_LOSS,
     input_file,
     out,
     rig_option,
+    say_model,
     table,
     writable,
     write_csv,
@@ -21,84 +20,9 @@ from thermrs.cli.common import (
 )
 
 if TYPE_CHECKING:  # pragma: no cover
-    import polars as pl
+    pass
 
-    from thermrs.compensate import DiagnosedModel
-    from thermrs.rig import Rig
-
-__all__ = ["compensate", "predict_diagnosed"]
-
-
-def _say_model(m: DiagnosedModel) -> None:
-    effects = ", ".join(
-        e.name + " " + ", ".join(f"{k}={v}" for k, v in e.to_dict().items() if k != "name")
-        for e in m.effects
-    )
-    click.echo(
-        f"thermrs: diagnosis {m.status}: α {m.alpha_per_k * 1e6:.3f}×10⁻⁶/K"
-        + (f" with {effects}" if effects else "")
-        + (
-            f"; it promised a held-out shrink of {m.promised_shrink:.0%}"
-            if m.promised_shrink is not None
-            else ""
-        ),
-        err=True,
-    )
-    if m.note:
-        click.echo(f"thermrs: warning: {m.note}", err=True)
-
-
-def predict_diagnosed(
-    r: Rig,
-    diagnosis: Path,
-    held: list[pl.DataFrame],
-    loss: bool,
-    json_path: Path | None,
-    series_path: Path | None,
-) -> None:
-    """``thermrs predict --diagnosis D.json --run RUN…``: the held-out error before (nominal
-    model) and after (α and the identified effect), per run and camera."""
-    from thermrs.compensate import load_diagnosis, predict_series, shrink_table
-    from thermrs.ingest import write_parquet_atomic
-
-    model = load_diagnosis(diagnosis, r)
-    _say_model(model)
-    series = predict_series(held, r, model)
-    shrink = shrink_table(series)
-    if json_path is not None:
-        write_json(
-            json_path,
-            {
-                "alpha_per_k": {
-                    "nominal": model.nominal_alpha_per_k,
-                    "diagnosed": model.alpha_per_k,
-                },
-                "effects": [e.to_dict() for e in model.effects],
-                "promised_shrink": model.promised_shrink,
-                "table": shrink.to_dicts(),
-            },
-        )
-    if series_path is not None:
-        if series_path.name.endswith(".csv"):
-            write_csv(series_path, series)
-        else:
-            write_parquet_atomic(series, series_path)
-    t = table(
-        "Held-out error before (nominal model) and after (the diagnosed effect)",
-        [(c, "left" if c in ("run", "cam") else "right")
-         for c in ("run", "cam", "before rms µm", "after rms µm", "shrink", "visits")],
-        caption="rms: measured − predicted drift over every visit, both axes, each series' "
-        "mean removed"
-        + (f"; the diagnosis promised {model.promised_shrink:.0%}"
-           if model.promised_shrink is not None else ""),
-    )  # fmt: skip
-    for row in shrink.iter_rows(named=True):
-        t.add_row(row["run"], row["camera"], f"{row['nominal_rms_um']:.3f}",
-                  f"{row['diagnosed_rms_um']:.3f}", f"{row['shrink']:.0%}",
-                  str(row["n_visits"]))  # fmt: skip
-    out.print(t)
-    if loss:
-        sys.exit(EXIT_DATA_LOSS)
+__all__ = ["compensate"]
 
 
 @click.command()
@@ -153,7 +77,7 @@ def compensate(
     writable(out_path, "-o", suffixes=(".csv", ".json"))
     r = load_rig(rig_path)
     model = load_diagnosis(diagnosis, r)
-    _say_model(model)
+    say_model(model)
     law = compensation_law(r, model, span_k=span_k)
     checked = None
     if check:

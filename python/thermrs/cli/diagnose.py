@@ -24,10 +24,6 @@ from thermrs.cli.common import (
 
 if TYPE_CHECKING:  # pragma: no cover
     from thermrs.analyses.diagnose import DiagnosisFold
-    from thermrs.analyses.inputs import Split
-
-#: Visits a camera needs in a run to be diagnosed: one goes to the run's unknown offset.
-MIN_VISITS = 3
 
 
 def _f(x: Any, digits: int = 2) -> str:
@@ -302,8 +298,6 @@ def diagnose(
         )
     r = load_rig(rig_path)
     sets = chosen_splits(campaign_path, query, rule, train, holdout, r)
-    for s in sets:
-        check_visits(s)
     with stages("diagnose", verbose=verbose) as say:
         folds = diagnose_splits(sets, r, exclude=exclude, bootstrap=bootstrap, seed=seed,
                                 margin_um=margin_um, progress=say)  # fmt: skip
@@ -330,27 +324,6 @@ def diagnose(
         out.print(f"Across the folds: {synthesis['sentence']}.")
     if any(s.data_loss for s in sets):
         sys.exit(EXIT_DATA_LOSS)
-
-
-def check_visits(s: Split) -> None:
-    """Every camera of every run has the visits a diagnosis needs.
-
-    Raises
-    ------
-    InputError
-        One line naming the run and camera.
-    """
-    from thermrs.errors import InputError
-
-    for role, tables in (("--train", s.train), ("--holdout", s.holdout)):
-        for t in tables:
-            for cam, n in t.group_by("camera").len().sort("camera").iter_rows():
-                if n < MIN_VISITS:
-                    raise InputError(
-                        f"{role} run {t['run'][0]}: camera {cam} has {n} visit(s); a diagnosis "
-                        f"needs at least {MIN_VISITS} per camera and run (each run's unknown "
-                        "mounting takes one)"
-                    )
 
 
 def render_folds(folds: list[DiagnosisFold], rule: str) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -29,6 +29,7 @@ from thermrs.cli.common import (
 from thermrs.errors import InputError
 
 if TYPE_CHECKING:  # pragma: no cover
+    from thermrs.analyses.inputs import Split
     from thermrs.analyses.predict import Prediction
 
 
@@ -139,11 +140,7 @@ def predict(
         held, lost = chosen_runs(campaign_path, query, runs, r, "--run")
         sets = [Split("", [], held, lost)]
     if diagnosis_path is not None:
-        from thermrs.cli.compensate import predict_diagnosed
-
-        predict_diagnosed(
-            r, diagnosis_path, sets[0].holdout, sets[0].data_loss, json_path, series_path
-        )
+        _diagnosed(r, diagnosis_path, sets[0], json_path, series_path)
         return
     preds = predict_splits(sets, r, alphas=alphas, axis=axis, end_visits=end_visits)
     _write(preds, rule, json_path, series_path)
@@ -156,6 +153,42 @@ def predict(
     if rule is not None:
         _render_folds(preds, rule)
     if any(s.data_loss for s in sets):
+        sys.exit(EXIT_DATA_LOSS)
+
+
+def _diagnosed(
+    r: Any, diagnosis: Path, s: Split, json_path: Path | None, series_path: Path | None
+) -> None:
+    """``thermrs predict --diagnosis D.json --run RUN…``: the held-out error before (nominal
+    model) and after (α and the identified effect), per run and camera."""
+    from thermrs.analyses.predict import predict_diagnosed
+    from thermrs.cli.common import say_model
+    from thermrs.ingest import write_parquet_atomic
+
+    p = predict_diagnosed(s.holdout, r, diagnosis)
+    say_model(p.model)
+    if json_path is not None:
+        write_json(json_path, p.to_json())
+    if series_path is not None:
+        if series_path.name.endswith(".csv"):
+            write_csv(series_path, p.series)
+        else:
+            write_parquet_atomic(p.series, series_path)
+    promised = p.model.promised_shrink
+    t = table(
+        "Held-out error before (nominal model) and after (the diagnosed effect)",
+        [(c, "left" if c in ("run", "cam") else "right")
+         for c in ("run", "cam", "before rms µm", "after rms µm", "shrink", "visits")],
+        caption="rms: measured − predicted drift over every visit, both axes, each series' "
+        "mean removed"
+        + (f"; the diagnosis promised {promised:.0%}" if promised is not None else ""),
+    )  # fmt: skip
+    for row in p.shrink.iter_rows(named=True):
+        t.add_row(row["run"], row["camera"], f"{row['nominal_rms_um']:.3f}",
+                  f"{row['diagnosed_rms_um']:.3f}", f"{row['shrink']:.0%}",
+                  str(row["n_visits"]))  # fmt: skip
+    out.print(t)
+    if s.data_loss:
         sys.exit(EXIT_DATA_LOSS)
 
 

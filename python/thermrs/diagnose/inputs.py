@@ -36,6 +36,31 @@ def _check_runs(tables: Sequence[pl.DataFrame], what: str) -> list[pl.DataFrame]
     return out
 
 
+#: Visits a diagnosis needs per camera and run (each run's unknown mounting takes one).
+MIN_VISITS = 3
+
+
+def check_visits(train: Sequence[pl.DataFrame], holdout: Sequence[pl.DataFrame]) -> None:
+    """Every camera of every run has the visits a diagnosis needs (:data:`MIN_VISITS`).
+
+    Raises
+    ------
+    InputError
+        One line naming the run and camera.
+    """
+    for role, tables in (("--train", train), ("--holdout", holdout)):
+        for t in tables:
+            if t.height == 0 or "camera" not in t.columns:
+                continue
+            for cam, n in t.group_by("camera").len().sort("camera").iter_rows():
+                if n < MIN_VISITS:
+                    raise InputError(
+                        f"{role} run {t['run'][0]}: camera {cam} has {n} visit(s); a diagnosis "
+                        f"needs at least {MIN_VISITS} per camera and run (each run's unknown "
+                        "mounting takes one)"
+                    )
+
+
 def check_inputs(
     train: Sequence[pl.DataFrame],
     holdout: Sequence[pl.DataFrame],
@@ -51,6 +76,7 @@ def check_inputs(
         )
     tr = _check_runs(train, "training")
     ho = _check_runs(holdout, "held-out")
+    check_visits(tr, ho)
     if not tr:
         raise InputError(
             "no training run: the nominal model and each effect are fitted on --train runs"
