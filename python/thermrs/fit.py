@@ -57,12 +57,16 @@ from thermrs.stats import lstsq_qr
 __all__ = [
     "RUN_COLUMNS",
     "AlphaFit",
+    "FitResult",
     "StartEndFit",
     "fit_alpha",
     "fit_alpha_start_end",
+    "fit_document",
     "load_run_table",
     "run_table",
     "run_table_from",
+    "training_alphas",
+    "training_axes",
 ]
 
 
@@ -555,3 +559,111 @@ def _camera_start_end(
     return _CameraStartEnd(
         alpha=a, spot_var=2.0 * noise**2 / ds**2, noise=noise, dtemp=dtemp, axis=ax
     )
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """α fitted on training runs, both estimators (see :func:`fit_document`)."""
+
+    fit: AlphaFit
+    start_end: dict[str, StartEndFit]
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``thermrs fit --json`` document: the time-series fit with ``start_end`` per run."""
+        doc = self.fit.to_json()
+        doc["start_end"] = {run: se.to_json() for run, se in self.start_end.items()}
+        return doc
+
+
+def fit_document(tables: Sequence[pl.DataFrame], rig: RigLike) -> FitResult:
+    """Fit α over ``tables`` (time series) and per table with the paper's start/end estimator:
+    what ``thermrs fit`` reports.
+
+    Parameters
+    ----------
+    tables
+        The training run tables.
+    rig
+        The rig they were recorded on.
+
+    Returns
+    -------
+    FitResult
+        The time-series fit and the start/end fit per run (``to_json()``: the ``thermrs fit
+        --json`` document).
+
+    Raises
+    ------
+    InputError
+        Too few visits, or a table that is not a run table (see :func:`fit_alpha`).
+
+    Examples
+    --------
+    >>> res = fit_document(load_runs("rec.mcap#run1", rig).tables, rig)  # doctest: +SKIP
+    >>> res.fit.alpha_per_k, res.start_end["rec#run1"].mean  # doctest: +SKIP
+    """
+    f = fit_alpha(tables, rig)
+    return FitResult(f, {str(t["run"][0]): fit_alpha_start_end(t, rig) for t in tables})
+
+
+def training_alphas(result: FitResult) -> dict[str, float]:
+    """The labelled α values a prediction from the training runs uses: ``series`` (the
+    time-series fit) and, with one training run (the paper's protocol), its start/end α per
+    camera and their ``mean``.
+
+    Parameters
+    ----------
+    result
+        :func:`fit_document` of the training runs.
+
+    Returns
+    -------
+    dict
+        Label → α (1/K).
+
+    Raises
+    ------
+    KeyError
+        Never for a :func:`fit_document` result.
+
+    Examples
+    --------
+    >>> training_alphas(fit_document(tables, rig))  # doctest: +SKIP
+    {'series': …, 'A': 2.187e-05, 'B': 2.163e-05, 'mean': 2.175e-05}
+    """
+    alphas = {"series": result.fit.alpha_per_k}
+    if len(result.start_end) == 1:  # the paper's protocol: α per camera and their mean
+        se = next(iter(result.start_end.values()))
+        for cam, (a, _) in se.per_camera.items():
+            alphas[cam] = a
+        alphas["mean"] = se.mean[0]
+    return alphas
+
+
+def training_axes(result: FitResult) -> dict[str, str]:
+    """The chip axis each camera's start/end α was taken along (the paper's protocol: one
+    training run), by camera: its Table 7 rows are judged along that axis.
+
+    Parameters
+    ----------
+    result
+        :func:`fit_document` of the training runs.
+
+    Returns
+    -------
+    dict
+        Camera → ``"u"`` or ``"v"``; empty with several training runs.
+
+    Raises
+    ------
+    KeyError
+        Never for a :func:`fit_document` result.
+
+    Examples
+    --------
+    >>> training_axes(fit_document(tables, rig))  # doctest: +SKIP
+    {'A': 'v', 'B': 'v'}
+    """
+    if len(result.start_end) != 1:
+        return {}
+    return dict(next(iter(result.start_end.values())).axes)

@@ -24,6 +24,8 @@ Comparison with the measurement
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -34,7 +36,15 @@ from thermrs.fit import RigLike, check_tables, sensitivities
 from thermrs.paper import PaperData, load_paper_data, predicted_dl_um
 from thermrs.rig import as_rig
 
-__all__ = ["MAX_ALPHA_PER_K", "check_alpha", "noise_um", "predict", "prediction_table"]
+__all__ = [
+    "MAX_ALPHA_PER_K",
+    "HeldOut",
+    "check_alpha",
+    "noise_um",
+    "predict",
+    "predict_held_out",
+    "prediction_table",
+]
 
 #: No solid expands by 1/1000 per kelvin (metals 1e-5 to 3e-5, polymers up to 2e-4): an α
 #: this large is a value given in other units (23.2 meaning 23.2 × 10⁻⁶ /K).
@@ -331,3 +341,86 @@ def prediction_table(
                 }
             )
     return pl.DataFrame(rows)
+
+
+@dataclass(frozen=True)
+class HeldOut:
+    """Held-out runs predicted with α fitted on training runs or given
+    (:func:`predict_held_out`).
+
+    Attributes
+    ----------
+    alphas
+        The α values predicted with, by label (:func:`thermrs.fit.training_alphas`, or the α
+        given).
+    table
+        :func:`prediction_table` of the held-out runs.
+    series
+        Every held-out visit's predicted and measured drift, per α (``alpha`` column: label).
+    fit
+        The fit on the training runs (``None`` where α was given).
+    """
+
+    alphas: dict[str, float]
+    table: pl.DataFrame
+    series: pl.DataFrame
+    fit: Any | None = None
+
+
+def predict_held_out(
+    train: Sequence[pl.DataFrame],
+    holdout: Sequence[pl.DataFrame],
+    rig: Any,
+    *,
+    alphas: Mapping[str, float] | None = None,
+    axis: str = "auto",
+    end_visits: int = 1,
+) -> HeldOut:
+    """The held-out runs predicted with ``alphas`` or, without, with the α values fitted on the
+    training runs (:func:`thermrs.fit.fit_document`, :func:`thermrs.fit.training_alphas`):
+    what ``thermrs predict`` and the report's prediction both compute.
+
+    Parameters
+    ----------
+    train
+        The training run tables (unused with ``alphas``).
+    holdout
+        The run tables to predict.
+    rig
+        The rig they were recorded on.
+    alphas
+        α values (1/K) by label to predict with instead of fitting.
+    axis, end_visits
+        As :func:`prediction_table`.
+
+    Returns
+    -------
+    HeldOut
+        The α values, the Table 7-style table and every visit's series.
+
+    Raises
+    ------
+    InputError
+        Too few visits to fit (:func:`thermrs.fit.fit_alpha`), no held-out run, a bad α.
+
+    Examples
+    --------
+    >>> p = predict_held_out(runs.tables[:1], runs.tables[1:], rig)  # doctest: +SKIP
+    >>> p.alphas["series"], p.table  # doctest: +SKIP
+    """
+    from thermrs.fit import fit_document, training_alphas, training_axes
+
+    doc = None if alphas else fit_document(train, rig)
+    a = dict(alphas) if alphas else training_alphas(doc)  # type: ignore[arg-type]
+    axes = {} if doc is None else training_axes(doc)
+    table = prediction_table(
+        holdout, rig, alphas=a, axis=axis, end_visits=end_visits, camera_axes=axes
+    )
+    joined = pl.concat(holdout, how="diagonal_relaxed")
+    series = pl.concat(
+        [
+            predict(joined, rig, alpha_per_k=v).select(pl.lit(k).alias("alpha"), pl.all())
+            for k, v in a.items()
+        ]
+    )
+    return HeldOut(a, table, series, doc)

@@ -2,6 +2,13 @@
 
 from __future__ import annotations
 
-from thermrs.analyses.fit import FitResult, fit_document, training_alphas, training_axes
+import importlib
+from typing import Any
 
-__all__ = ["FitResult", "fit_document", "training_alphas", "training_axes"]
+_MOVED = ("FitResult", "fit_document", "training_alphas", "training_axes")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _MOVED:
+        return getattr(importlib.import_module("thermrs.analyses.fit"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -309,7 +309,7 @@ def test_diagnose_by_rule_is_each_fold_diagnosed_and_predict_uses_a_diagnosis(
 def test_report_from_the_catalog_is_the_report_of_the_files(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
-    from thermrs.report.catalog import campaign_report_runs
+    from thermrs.analyses.report import campaign_report_runs
     from thermrs.report.data import load_runs as report_runs
 
     rig = thermrs.load_rig()

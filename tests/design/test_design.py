@@ -225,8 +225,8 @@ def test_report_subsection_shows_the_experiment(designed: tuple[DesignResult, Pa
     """The report's subsection: the recommendation (or why none), the rivals' predicted drift
     on the new chip (they must differ there: that is what the experiment reads) and the proof
     matrix, rendered to HTML."""
-    from thermrs.report.design_section import design_section
     from thermrs.report.render import to_html
+    from thermrs.report.sections.design import design_section
 
     res, _ = designed
     doc = res.to_json()

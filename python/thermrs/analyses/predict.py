@@ -12,8 +12,8 @@ from typing import Any
 
 import polars as pl
 
-from thermrs.analyses.fit import FitResult
 from thermrs.analyses.inputs import DatasetLike, Split, selected, splits
+from thermrs.fit import FitResult
 
 __all__ = [
     "DiagnosedPrediction",
@@ -94,27 +94,15 @@ def predict_splits(
     end_visits: int = 1,
 ) -> list[Prediction]:
     """Per split, its held-out runs predicted with ``alphas`` or, without, with the α fitted
-    on its training runs (:func:`thermrs.analyses.fit.training_alphas`)."""
-    from thermrs.analyses.fit import fit_document, training_alphas, training_axes
-    from thermrs.predict import predict as run_predict
-    from thermrs.predict import prediction_table
+    on its training runs (:func:`thermrs.predict.predict_held_out`)."""
+    from thermrs.predict import predict_held_out
 
     res = []
     for s in sets:
-        doc = None if alphas else fit_document(s.train, rig)
-        a = dict(alphas) if alphas else training_alphas(doc)  # type: ignore[arg-type]
-        axes = {} if doc is None else training_axes(doc)
-        table = prediction_table(
-            s.holdout, rig, alphas=a, axis=axis, end_visits=end_visits, camera_axes=axes
+        p = predict_held_out(
+            s.train, s.holdout, rig, alphas=alphas, axis=axis, end_visits=end_visits
         )
-        joined = pl.concat(s.holdout, how="diagonal_relaxed")
-        series = pl.concat(
-            [
-                run_predict(joined, rig, alpha_per_k=v).select(pl.lit(k).alias("alpha"), pl.all())
-                for k, v in a.items()
-            ]
-        )
-        res.append(Prediction(s, a, table, series, doc))
+        res.append(Prediction(s, p.alphas, p.table, p.series, p.fit))
     return res
 
 

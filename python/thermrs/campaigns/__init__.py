@@ -28,20 +28,11 @@ Example
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from thermrs.campaigns import summary
 from thermrs.campaigns.dataset import Dataset
 from thermrs.campaigns.engine import CampaignInterrupted, CampaignResult, campaign
-
-if TYPE_CHECKING:
-    from thermrs.analyses.design import DesignFold, design
-    from thermrs.analyses.diagnose import DiagnosisFold, diagnose
-    from thermrs.analyses.drift import DriftResult, drift
-    from thermrs.analyses.fit import fit
-    from thermrs.analyses.inputs import Split, open_dataset, select_runs, selected, splits
-    from thermrs.analyses.predict import Prediction, predict
-    from thermrs.analyses.report import report
 
 #: Names that live in :mod:`thermrs.analyses`, by the module that holds them.
 _ANALYSES = {

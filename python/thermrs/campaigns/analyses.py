@@ -3,24 +3,10 @@ here."""
 
 from __future__ import annotations
 
-from thermrs.analyses import (
-    DesignFold,
-    DiagnosisFold,
-    DriftResult,
-    Prediction,
-    design,
-    design_splits,
-    diagnose,
-    diagnose_splits,
-    drift,
-    drift_tables,
-    fit,
-    predict,
-    predict_splits,
-    report,
-)
+import importlib
+from typing import Any
 
-__all__ = [
+_MOVED = (
     "DesignFold",
     "DiagnosisFold",
     "DriftResult",
@@ -35,4 +21,10 @@ __all__ = [
     "predict",
     "predict_splits",
     "report",
-]
+)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _MOVED:
+        return getattr(importlib.import_module("thermrs.analyses"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from thermrs.analyses.inputs import (
-    DatasetLike,
-    Split,
-    open_dataset,
-    pick_runs,
-    select_runs,
-    selected,
-    splits,
-)
+import importlib
+from typing import Any
 
-__all__ = ["DatasetLike", "Split", "open_dataset", "pick_runs", "select_runs", "selected", "splits"]
+_MOVED = ("DatasetLike", "Split", "open_dataset", "pick_runs", "select_runs", "selected", "splits")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _MOVED:
+        return getattr(importlib.import_module("thermrs.analyses.inputs"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -177,9 +177,9 @@ def campaign_command(
     """α and drift per run across a campaign dataset (written by `thermrs extract` on many
     recordings), runs chosen by query, with the held-out check of a rule."""
     from thermrs.campaigns import Dataset
-    from thermrs.campaigns.page import write_page
     from thermrs.campaigns.summary import alpha_by_run, holdout_by_rule
     from thermrs.cli.common import console, table, writable
+    from thermrs.report.campaign_page import write_campaign_page as write_page
     from thermrs.rig import load_rig
 
     ds = Dataset(dataset)

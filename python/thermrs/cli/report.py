@@ -300,9 +300,9 @@ def _campaign_runs(
     runs: tuple[Path, ...],
     train: tuple[Path, ...],
 ) -> tuple[list[RunInput], list[str]]:
-    """The report's runs from a campaign dataset (:mod:`thermrs.report.catalog`), listed on
+    """The report's runs from a campaign dataset (:mod:`thermrs.analyses.report`), listed on
     stderr, and the training runs' names."""
-    from thermrs.report.catalog import campaign_report_runs
+    from thermrs.analyses.report import campaign_report_runs
 
     loaded, train_names = campaign_report_runs(
         campaign_path, rig, where=query, runs=[str(p) for p in runs], train=[str(p) for p in train]

@@ -11,8 +11,10 @@ Markdown twin with its figures as SVG files beside it, for one run or a campaign
 - what extraction skipped and why.
 
 A section whose input is missing (no thermal readings, one run only, no joint states, no
-diagnoser) says so where it would be. Data gathering is :mod:`thermrs.report.data`, the
-document :mod:`thermrs.report.document`, figures :mod:`thermrs.report.figures`, rendering
+diagnoser) says so where it would be. Every number is computed once by
+:func:`thermrs.report.data.gather`, with the functions the commands call (the prediction by
+:func:`thermrs.predict.predict_held_out`, as ``thermrs predict``); the document
+:mod:`thermrs.report.document`, figures :mod:`thermrs.report.figures`, rendering
 :mod:`thermrs.report.render`, the demo :mod:`thermrs.report.demo`.
 
 Example
@@ -58,13 +60,14 @@ __all__ = [
     "load_runs",
     "print_pdf",
     "run_from_extraction",
+    "write_document",
     "write_report",
 ]
 
 
 @dataclass(frozen=True)
 class Written:
-    """What :func:`write_report` wrote."""
+    """What :func:`write_report` (or :func:`write_document`) wrote."""
 
     html: Path
     markdown: Path | None
@@ -82,6 +85,66 @@ def _version() -> str:
         return "unknown"
 
 
+def write_document(
+    data: ReportData,
+    out: str | Path,
+    *,
+    intro: str | None = None,
+    markdown: bool = True,
+    pdf: bool = False,
+    step: Step | None = None,
+) -> Written:
+    """Render a report whose numbers are computed (:func:`thermrs.report.data.gather`) and
+    write it: the HTML file, its Markdown twin (``OUT.md``, figures in ``OUT_files/``),
+    with ``pdf`` the PDF (``OUT.pdf``), each atomically.
+
+    Parameters
+    ----------
+    data
+        Everything the report shows.
+    out
+        The HTML file.
+    intro
+        A paragraph placed first in the summary.
+    markdown, pdf
+        Also write the Markdown twin; also print to PDF with headless Chromium.
+    step
+        Called with a short description before each stage.
+
+    Returns
+    -------
+    Written
+        The files written.
+
+    Raises
+    ------
+    InputError
+        ``pdf`` without Chromium to print with.
+
+    Examples
+    --------
+    >>> from thermrs.report.data import gather
+    >>> write_document(gather(runs, rig), "report.html")  # doctest: +SKIP
+    """
+    out = Path(out)
+    _say(step, "drawing figures")
+    sections = compose(data)
+    if intro:
+        sections[0].blocks.insert(0, Paragraph(intro))
+    meta = _meta(data)
+    _say(step, "writing the report")
+    text = to_html(sections, title=data.title, meta=meta)
+    write_text(out, text)
+    md_path, figures = _write_markdown(out, sections, data, meta) if markdown else (None, {})
+    pdf_path = None
+    if pdf:
+        _say(step, "printing to PDF")
+        pdf_path = print_pdf(out, out.with_suffix(".pdf"))
+    return Written(
+        html=out, markdown=md_path, figures=figures, pdf=pdf_path, html_bytes=len(text.encode())
+    )
+
+
 def write_report(
     out: str | Path,
     *,
@@ -96,7 +159,9 @@ def write_report(
     paper_reference: bool = False,
     step: Step | None = None,
 ) -> Written:
-    """Write the report of ``runs``.
+    """Write the report of ``runs``: every number computed
+    (:func:`thermrs.report.data.gather`), then the document rendered and written
+    (:func:`write_document`).
 
     Parameters
     ----------
@@ -104,7 +169,8 @@ def write_report(
         The HTML file. The Markdown twin is written beside it (``OUT.md``, figures in
         ``OUT_files/``), and with ``pdf`` the PDF (``OUT.pdf``).
     runs
-        The runs (:func:`load_run`, :func:`run_from_extraction`), in the order shown.
+        The runs (:func:`thermrs.report.load_run`, :func:`thermrs.report.run_from_extraction`),
+        in the order shown.
     rig
         The rig they were recorded on.
     train
@@ -125,43 +191,38 @@ def write_report(
     step
         Called with a short description before each stage.
 
+    Returns
+    -------
+    Written
+        The files written.
+
     Raises
     ------
     InputError
         No runs, a training run that is not given, two runs of one name, or (``pdf``) no
         Chromium to print with.
+
+    Examples
+    --------
+    >>> from thermrs.report import load_runs, write_report
+    >>> rig = thermrs.load_rig()  # doctest: +SKIP
+    >>> write_report("report.html", runs=load_runs("rec.mcap", rig), rig=rig)  # doctest: +SKIP
     """
     from thermrs.rig import as_rig
 
-    out = Path(out)
-    rig = as_rig(rig)
+    r = as_rig(rig)
     if pdf and find_chromium() is None:
         raise InputError("--pdf needs Chromium (`chromium` on PATH, or THERMRS_CHROMIUM)")
     data = gather(
         runs,
-        rig,
+        r,
         train=train,
         diagnosis=diagnosis,
         title=title,
         paper_reference=paper_reference,
         step=step,
     )
-    _say(step, "drawing figures")
-    sections = compose(data)
-    if intro:
-        sections[0].blocks.insert(0, Paragraph(intro))
-    meta = _meta(data)
-    _say(step, "writing the report")
-    text = to_html(sections, title=data.title, meta=meta)
-    write_text(out, text)
-    md_path, figures = _write_markdown(out, sections, data, meta) if markdown else (None, {})
-    pdf_path = None
-    if pdf:
-        _say(step, "printing to PDF")
-        pdf_path = print_pdf(out, out.with_suffix(".pdf"))
-    return Written(
-        html=out, markdown=md_path, figures=figures, pdf=pdf_path, html_bytes=len(text.encode())
-    )
+    return write_document(data, out, intro=intro, markdown=markdown, pdf=pdf, step=step)
 
 
 def _say(step: Step | None, what: str) -> None:

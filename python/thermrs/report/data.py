@@ -281,8 +281,11 @@ class ReportData:
     #: With an identified effect: the held-out runs predicted by the nominal model and by the
     #: diagnosed one (:func:`thermrs.compensate.shrink_table`), else None.
     diagnosed_prediction: pl.DataFrame | None = None
-    #: With an ambiguous diagnosis: the experiment that settles it (:mod:`.sections.design`).
-    design_section: Any | None = None
+    #: With an ambiguous diagnosis: the experiment that settles it
+    #: (:class:`thermrs.design.DesignResult`) and its rivals' forecast drift on it
+    #: (:func:`thermrs.design.rival_drift`), or why there is none.
+    design: Any | None = None
+    design_drift: pl.DataFrame | None = None
     design_note: str | None = None
     notes: list[str] = field(default_factory=list)
 
@@ -343,7 +346,9 @@ def gather(
     paper_reference: bool = False,
     step: Step | None = None,
 ) -> ReportData:
-    """Compute every number of a report.
+    """Compute every number of a report, with the functions the commands call (α and the
+    prediction by :func:`thermrs.predict.predict_held_out`, as ``thermrs predict``; the
+    diagnosis by :func:`thermrs.diagnose.diagnose`; the design by :func:`thermrs.design.design`).
 
     Parameters
     ----------
@@ -395,7 +400,10 @@ def gather(
     if diag is None:
         diag, note = _diagnosis(tr, ho, rig, fitted.note, say)
     diagnosed = _diagnosed_prediction(diag, ho, rig) if diag is not None and ho else None
-    design_sec, design_note = _design(tr, ho, rig, diag, say) if diag is not None else (None, None)
+    designed, design_note = _design(tr, ho, rig, diag, say) if diag is not None else (None, None)
+    from thermrs.design import rival_drift
+
+    design_drift = rival_drift(designed) if designed is not None else None
 
     return ReportData(
         rig=rig,
@@ -416,7 +424,8 @@ def gather(
         diagnosis=diag,
         diagnosis_note=note,
         diagnosed_prediction=diagnosed,
-        design_section=design_sec,
+        design=designed,
+        design_drift=design_drift,
         design_note=design_note,
         title=title or f"Thermal drift of {rig.name or rig.model}",
         paper_reference=paper_reference,
@@ -458,16 +467,15 @@ def _fit_and_predict(
     say: Callable[[str], object],
 ) -> _Fitted:
     """α on the training runs; the held-out runs (else the training runs) predicted with it,
-    as ``thermrs predict`` does (:func:`thermrs.analyses.predict.predict_splits`)."""
-    from thermrs.analyses.inputs import Split
-    from thermrs.analyses.predict import predict_splits
+    as ``thermrs predict`` does (:func:`thermrs.predict.predict_held_out`)."""
+    from thermrs.predict import predict_held_out
 
     out = _Fitted()
     try:
         say("predicting")
         # The paper compares drift along its cameras' y axis (v): so does its demo.
         axis = "v" if paper_reference else "auto"
-        (p,) = predict_splits([Split("", tr, ho if ho else tr)], rig, axis=axis)
+        p = predict_held_out(tr, ho if ho else tr, rig, axis=axis)
         assert p.fit is not None
         out.doc = p.fit.to_json()
         out.alphas.update(p.alphas)
@@ -521,13 +529,14 @@ def _design(
     doc = diagnosis_json(diag)
     if (doc.get("verdict") or {}).get("status") != "ambiguous":
         return None, None
-    from thermrs.report.sections.design import section_for
+    from thermrs.design import design
 
     say("designing the experiment that settles it")
     try:
-        return section_for(train, holdout, rig, diagnosis=doc), None
+        res = design(train, holdout, rig, budget_h=24.0, diagnosis=doc)
     except ThermrsError as e:
         return None, f"No experiment could be designed: {e}"
+    return (res, None) if res.confounded else (None, None)
 
 
 def diagnosis_json(diag: Any) -> dict[str, Any]:

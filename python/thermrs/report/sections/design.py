@@ -19,7 +19,7 @@ import polars as pl
 from thermrs.report.blocks import Figure, Missing, Paragraph, Section, Table
 from thermrs.report.figures import figure, legend, svg
 
-__all__ = ["design_section", "fig_rival_drift", "section_for"]
+__all__ = ["design_section", "fig_rival_drift"]
 
 
 def _run_text(runs: Sequence[Mapping[str, Any]]) -> str:
@@ -136,37 +136,3 @@ def design_section(doc: Mapping[str, Any], drift: pl.DataFrame | None = None) ->
             )
         )
     return s
-
-
-def section_for(
-    train: Sequence[pl.DataFrame],
-    holdout: Sequence[pl.DataFrame],
-    rig: Any,
-    *,
-    diagnosis: Mapping[str, Any] | None = None,
-    budget_h: float = 24.0,
-    exclude: Sequence[str] = (),
-) -> Section | None:
-    """The subsection for runs whose diagnosis is ambiguous (None otherwise): designs the
-    experiment (:func:`thermrs.design.design`, about 100 s for three 15-hour runs: the search
-    and the proof's simulations), forecasts the rivals' drift on it and builds the section.
-
-    ``diagnosis`` (a ``Diagnosis.to_json()`` document the caller already has) decides
-    whether to design and is the design's diagnosis (the runs are not diagnosed again, so the
-    section's numbers are the diagnosis section's).
-    """
-    from thermrs.design import design, rival_drift
-
-    if diagnosis is not None and diagnosis.get("verdict", {}).get("status") != "ambiguous":
-        return None
-    res = design(
-        train,
-        holdout,
-        rig,
-        budget_h=budget_h,
-        exclude=exclude if diagnosis is None else (),
-        diagnosis=diagnosis,
-    )
-    if not res.confounded:
-        return None
-    return design_section(res.to_json(), rival_drift(res))

@@ -41,8 +41,10 @@ def section(d: ReportData, colours: Mapping[str, str]) -> Section:
     s.blocks += _ranking(doc)
     s.blocks.append(_confounded(doc))
     s.blocks.append(_residual_figure(d, colours))
-    if d.design_section is not None:
-        s.subsections.append(d.design_section)
+    if d.design is not None:
+        from thermrs.report.sections.design import design_section
+
+        s.subsections.append(design_section(d.design.to_json(), d.design_drift))
     elif d.design_note:
         s.blocks.append(Missing(d.design_note))
     return s
