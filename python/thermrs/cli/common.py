@@ -45,6 +45,7 @@ __all__ = [
     "chosen_splits",
     "console",
     "exclude_option",
+    "file_tables",
     "input_file",
     "json_option",
     "no_campaign",
@@ -53,7 +54,6 @@ __all__ = [
     "rig_option",
     "rule_option",
     "run_file",
-    "run_tables",
     "runs_option",
     "seed_option",
     "table",
@@ -273,11 +273,12 @@ def say(line: str) -> None:
     click.echo(f"thermrs: {line}", err=True)
 
 
-def run_tables(paths: tuple[Path, ...], rig: Rig, what: str) -> tuple[list[pl.DataFrame], bool]:
-    """:func:`thermrs.analyses.inputs.file_tables`, the runs found told on stderr."""
-    from thermrs.analyses.inputs import file_tables
+def file_tables(paths: Sequence[Any], rig: Rig, what: str) -> tuple[list[pl.DataFrame], bool]:
+    """:func:`thermrs.analyses.inputs.file_tables`, the runs found told on stderr and files
+    read once per command."""
+    from thermrs.analyses import inputs
 
-    return file_tables(paths, rig, what, say=say, cache=_FILES)
+    return inputs.file_tables(paths, rig, what, say=say, cache=_FILES)
 
 
 Decorator = Callable[[Callable[..., Any]], Callable[..., Any]]
@@ -400,7 +401,7 @@ def chosen_runs(
     if campaign_path is None:
         if not names:
             raise click.UsageError(f"Missing option '{what}' (or --campaign DATASET).")
-        return run_tables(tuple(names), rig, what)
+        return file_tables(tuple(names), rig, what)
     from thermrs.analyses.inputs import selected
 
     s = selected(campaign_path, rig, where=query, names=[str(n) for n in names], what=what)

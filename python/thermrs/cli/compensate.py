@@ -70,7 +70,7 @@ def compensate(
     reference temperature, with 95 % intervals, plus the chip and time terms of the effect
     (fixture, sensor drift, lag); a robot controller or a CMM program applies it.
     """
-    from thermrs.cli.common import run_tables
+    from thermrs.cli.common import file_tables
     from thermrs.compensate import compensation_law, load_diagnosis
     from thermrs.rig import load_rig
 
@@ -81,7 +81,7 @@ def compensate(
     law = compensation_law(r, model, span_k=span_k)
     checked = None
     if check:
-        held, _ = run_tables(check, r, "--check")
+        held, _ = file_tables(check, r, "--check")
         checked = law.check(held, r)
     if out_path.name.endswith(".csv"):
         write_csv(out_path, law.wide())

@@ -17,24 +17,20 @@ equally well), :func:`design`:
 5. writes ``rig.toml``, ``scenario.toml`` and ``design.json`` (:meth:`DesignResult.write`;
    ``docs/outputs.md``, "SPEC §7 extensions: design.json").
 
-The package is callable: ``thermrs.design(...)`` is :func:`design`.
-
 Example
 -------
 >>> import thermrs
->>> callable(thermrs.design)
+>>> callable(thermrs.design.design)
 True
->>> # r = thermrs.design([train], [holdout], thermrs.load_rig(), budget_h=24)
+>>> # r = thermrs.design.design([train], [holdout], thermrs.load_rig(), budget_h=24)
 >>> # r.write("design-out"); r.recommended["label"]
 """
 
 from __future__ import annotations
 
 import os
-import sys
 import tempfile
 import time
-import types
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -254,7 +250,7 @@ def design(
     Examples
     --------
     >>> import thermrs
-    >>> # r = thermrs.design([run1], [run2, run3], thermrs.load_rig(), budget_h=24)
+    >>> # r = thermrs.design.design([run1], [run2, run3], thermrs.load_rig(), budget_h=24)
     >>> # r.write("design-out"); r.to_json()["proof"]["matrix"]
     """
     from thermrs.diagnose import diagnose as run_diagnosis
@@ -424,7 +420,7 @@ def rival_drift(result: DesignResult, *, workdir: str | Path | None = None) -> p
 
     Examples
     --------
-    >>> # rival_drift(thermrs.design(train, holdout, rig)).group_by("effect").len()
+    >>> # rival_drift(thermrs.design.design(train, holdout, rig)).group_by("effect").len()
     """
     from thermrs.design.forecast import forecast_tables, protocol_samples
     from thermrs.signatures import VisitSet
@@ -461,13 +457,3 @@ def rival_drift(result: DesignResult, *, workdir: str | Path | None = None) -> p
         drift_u_um=pl.col("u") - pl.col("u").first().over(key),
         drift_v_um=pl.col("v") - pl.col("v").first().over(key),
     )
-
-
-class _CallableModule(types.ModuleType):
-    """This package, callable as :func:`design` (``thermrs.design(...)``)."""
-
-    def __call__(self, *args: Any, **kwargs: Any) -> DesignResult:
-        return design(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule

@@ -49,7 +49,7 @@ import polars as pl
 
 from thermrs.diagnose.candidates import Candidate, plausibility, score
 from thermrs.diagnose.confounding import confounded_pairs
-from thermrs.diagnose.engine import Design, Fit
+from thermrs.diagnose.engine import DesignMatrix, Fit
 from thermrs.diagnose.floor import SCALE_SEPARATION, NoiseFloor, noise_floor, thermal_time_scales
 from thermrs.diagnose.inputs import check_inputs, smooth_temperatures
 from thermrs.diagnose.location import drivers, location_table, phases, whiteness
@@ -170,7 +170,7 @@ class _Base:
 
     tables: list[pl.DataFrame]
     vs: VisitSet
-    design: Design
+    design: DesignMatrix
     base: Fit
     floor: NoiseFloor
     role_visit: npt.NDArray[np.str_]
@@ -186,7 +186,7 @@ def _baseline(
     # correlation times (a fifth of the shortest thermal time constant).
     tables = smooth_temperatures(raw, 2.0 * min(taus.values()) * 60.0 / SCALE_SEPARATION)
     vs = VisitSet(tables, rig)
-    design = Design(vs, set(names_t))
+    design = DesignMatrix(vs, set(names_t))
     base = design.fit(None, {}, label="nominal")
     holdout_runs = set(vs.run.tolist()) - set(names_t)
     floor = noise_floor(vs, base.residual, holdout_runs, rig.mapped_temperatures)
@@ -403,7 +403,7 @@ def _confounded(b: _Base, cands: list[Candidate]) -> list[dict[str, Any]]:
 
 
 def _final_model(
-    design: Design, steps: list[Step], rig: Rig
+    design: DesignMatrix, steps: list[Step], rig: Rig
 ) -> tuple[Fit | None, list[dict[str, Any]]]:
     """The selected effects fitted together (non-linear parameters refined one by one), with
     each effect's parameters from the joint fit."""

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from thermrs.diagnose.engine import Design, Fit
+from thermrs.diagnose.engine import DesignMatrix, Fit
 from thermrs.diagnose.resample import cycle_se
 from thermrs.diagnose.selection import Choice, FamilyGrid
 from thermrs.effects import EFFECT_NAMES, Family
@@ -89,7 +89,7 @@ def is_plausible(rig: Rig, fam: Family, params: dict[str, Any], ci: dict[str, An
     return True
 
 
-def plausibility(design: Design, rig: Rig) -> Any:
+def plausibility(design: DesignMatrix, rig: Rig) -> Any:
     """A cached test of a choice added to a model (for :func:`.selection.forward_selection`)."""
     cache: dict[tuple[str, ...], bool] = {}
 
@@ -112,7 +112,7 @@ def plausibility(design: Design, rig: Rig) -> Any:
 
 
 def score(
-    design: Design,
+    design: DesignMatrix,
     base: Fit,
     grids: list[FamilyGrid],
     step_gain_p: dict[str, float],
@@ -179,7 +179,7 @@ def score(
     return out
 
 
-def _placebos(design: Design, base: Fit, cands: list[Candidate], placebo: VisitSet) -> None:
+def _placebos(design: DesignMatrix, base: Fit, cands: list[Candidate], placebo: VisitSet) -> None:
     hold = design.hold
     for c in cands:
         try:
@@ -194,7 +194,7 @@ def _placebos(design: Design, base: Fit, cands: list[Candidate], placebo: VisitS
 
 
 def _stability(
-    design: Design,
+    design: DesignMatrix,
     lead: list[Candidate],
     units: npt.NDArray[np.intp],
     bootstrap: int,

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from thermrs.diagnose.engine import Design
+from thermrs.diagnose.engine import DesignMatrix
 
 __all__ = ["CONFOUND_COS", "canonical_cos", "confounded_pairs", "residualised"]
 
@@ -26,7 +26,7 @@ FloatArray = npt.NDArray[np.float64]
 CONFOUND_COS = 0.9
 
 
-def residualised(design: Design, cols: FloatArray) -> FloatArray:
+def residualised(design: DesignMatrix, cols: FloatArray) -> FloatArray:
     """Columns with the nominal model (α column and offsets) projected out, weighted, on
     every row; unit-norm."""
     w = np.sqrt(design.weights)
@@ -45,7 +45,7 @@ def canonical_cos(a: FloatArray, b: FloatArray) -> float:
     return float(np.clip(np.linalg.svd(qa.T @ qb, compute_uv=False)[0], 0.0, 1.0))
 
 
-def _where_they_differ(design: Design, a: FloatArray, b: FloatArray) -> str:
+def _where_they_differ(design: DesignMatrix, a: FloatArray, b: FloatArray) -> str:
     vs = design.vs
     run2 = np.concatenate([vs.run, vs.run])
     cam2 = np.concatenate([vs.camera, vs.camera])
@@ -77,7 +77,7 @@ def _where_they_differ(design: Design, a: FloatArray, b: FloatArray) -> str:
 
 
 def confounded_pairs(
-    design: Design, pool: list[tuple[str, str, FloatArray]]
+    design: DesignMatrix, pool: list[tuple[str, str, FloatArray]]
 ) -> list[dict[str, Any]]:
     """Confounded pairs among (effect, family label, columns) candidates."""
     res = [(e, lab, residualised(design, c)) for e, lab, c in pool]

@@ -28,7 +28,7 @@ from thermrs.effects import Family
 from thermrs.signatures import VisitSet
 from thermrs.stats import LeastSquares, lstsq_qr
 
-__all__ = ["Design", "Fit"]
+__all__ = ["DesignMatrix", "Fit"]
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -54,7 +54,7 @@ class Fit:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
-class Design:
+class DesignMatrix:
     """The visits of training and held-out runs with everything the fits share.
 
     Parameters

@@ -30,7 +30,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.linalg import solve_triangular
 
-from thermrs.diagnose.engine import Design
+from thermrs.diagnose.engine import DesignMatrix
 from thermrs.diagnose.floor import NoiseFloor
 
 __all__ = ["Batch", "BatchFit", "Observations", "draw_noise", "format_p", "quantile_above"]
@@ -64,12 +64,12 @@ class Batch:
     Parameters
     ----------
     design
-        The diagnoser's design (:class:`thermrs.diagnose.engine.Design`).
+        The diagnoser's design (:class:`thermrs.diagnose.engine.DesignMatrix`).
     window_s
         The smoothing window of the low-frequency statistic (seconds).
     """
 
-    def __init__(self, design: Design, window_s: float):
+    def __init__(self, design: DesignMatrix, window_s: float):
         self.d = design
         self.tr = np.flatnonzero(design.train)
         self.ho = np.flatnonzero(design.hold)
@@ -153,7 +153,7 @@ class Batch:
 
 
 def draw_noise(
-    design: Design, floor: NoiseFloor, draws: int, rng: np.random.Generator
+    design: DesignMatrix, floor: NoiseFloor, draws: int, rng: np.random.Generator
 ) -> FloatArray:
     """Noise vectors (2n × draws) from the fitted noise model of every series (module docs).
 
@@ -180,7 +180,7 @@ def draw_noise(
 
 
 def _plan(
-    design: Design,
+    design: DesignMatrix,
 ) -> list[
     tuple[str, list[tuple[npt.NDArray[np.intp], str]], list[npt.NDArray[np.intp]], FloatArray]
 ]:

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from thermrs.diagnose.engine import Design
+from thermrs.diagnose.engine import DesignMatrix
 from thermrs.diagnose.floor import NoiseFloor
 from thermrs.diagnose.null import Batch, BatchFit, Observations, draw_noise, quantile_above
 from thermrs.effects import Family
@@ -114,7 +114,7 @@ class Step:
 
 
 def build_grids(
-    families: list[Family], visits: VisitSet, design: Design, *, nameable: bool = True
+    families: list[Family], visits: VisitSet, design: DesignMatrix, *, nameable: bool = True
 ) -> list[FamilyGrid]:
     """Every family's columns at every grid point that can act on these runs."""
     out = []
@@ -166,7 +166,7 @@ def _profile(
 
 def _world(
     batch: Batch,
-    design: Design,
+    design: DesignMatrix,
     floor: NoiseFloor,
     model: list[Choice],
     draws: int,
@@ -189,7 +189,7 @@ def _world(
 
 def run_step(
     batch: Batch,
-    design: Design,
+    design: DesignMatrix,
     floor: NoiseFloor,
     grids: list[FamilyGrid],
     model: list[Choice],
@@ -281,7 +281,7 @@ FLOOR_DRAWS = 49
 
 
 def _floor_uncertainty(
-    batch: Batch, design: Design, floor: NoiseFloor, ys_raw: FloatArray, cur: BatchFit
+    batch: Batch, design: DesignMatrix, floor: NoiseFloor, ys_raw: FloatArray, cur: BatchFit
 ) -> None:
     """The held-out floor's standard error and 95 % interval, from the floor re-estimated on
     replicates of the gap-free world (residuals of the nominal refit)."""
@@ -368,7 +368,7 @@ def _test_rivals(
     ok: list[Choice],
     outside: list[Choice],
     batch: Batch,
-    design: Design,
+    design: DesignMatrix,
     floor: NoiseFloor,
     model: list[Choice],
     *,
@@ -415,7 +415,7 @@ ALTERNATIVES_CAP = 12
 def _test_alternatives(
     steps: list[Step],
     batch: Batch,
-    design: Design,
+    design: DesignMatrix,
     floor: NoiseFloor,
     grids: list[FamilyGrid],
     *,
@@ -475,7 +475,7 @@ def holm_kept(p: dict[str, float], level: float) -> list[str]:
 
 def _rival_p(
     batch: Batch,
-    design: Design,
+    design: DesignMatrix,
     floor: NoiseFloor,
     model: list[Choice],
     best: Choice,
@@ -500,7 +500,7 @@ REVISION_POOL = 30
 
 
 def _revision(
-    batch: Batch, design: Design, grids: list[FamilyGrid], prev: Step, model: list[Choice]
+    batch: Batch, design: DesignMatrix, grids: list[FamilyGrid], prev: Step, model: list[Choice]
 ) -> str | None:
     """A better last choice: among the families significant at the previous step (each at
     its best grid point there), the pair (A, B) of two effects, A in place of the last
@@ -543,7 +543,7 @@ def _revision(
 
 def forward_selection(
     batch: Batch,
-    design: Design,
+    design: DesignMatrix,
     floor: NoiseFloor,
     grids: list[FamilyGrid],
     *,
