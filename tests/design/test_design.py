@@ -249,6 +249,7 @@ def test_report_subsection_shows_the_experiment(designed: tuple[DesignResult, Pa
         assert doc["recommended"]["camera"]["name"] in html
 
 
+@pytest.mark.slow  # it needs the design (about 90 s of CPU)
 def test_old_recording_reads_with_the_larger_rig(
     paper_rig: thermrs.Rig,
     designed: tuple[DesignResult, Path],
@@ -269,7 +270,9 @@ def test_old_recording_reads_with_the_larger_rig(
 
 
 def test_cli_bad_between_is_one_line_exit_2(
-    designed: tuple[DesignResult, Path], tmp_path_factory: pytest.TempPathFactory, tmp_path: Path
+    short_runs: dict[str, pl.DataFrame],
+    tmp_path_factory: pytest.TempPathFactory,
+    tmp_path: Path,
 ) -> None:
     import subprocess
     import sys
