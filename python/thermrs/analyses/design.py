@@ -51,11 +51,11 @@ def design(
     Parameters
     ----------
     dataset, rig, where
-        As :func:`fit`.
+        As :func:`thermrs.analyses.fit.fit`.
     rule
         ``leave-one-run-out`` or ``by-day``: a design per fold.
     train, holdout
-        Else the runs named, as for :func:`diagnose`.
+        Else the runs named, as for :func:`thermrs.analyses.diagnose.diagnose`.
     progress
         Called with a short message (starting with the fold) as the work goes on.
     **options

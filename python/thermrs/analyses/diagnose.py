@@ -94,7 +94,7 @@ def diagnose(
     Parameters
     ----------
     dataset, rig, where
-        As :func:`fit`.
+        As :func:`thermrs.analyses.fit.fit`.
     rule
         ``leave-one-run-out`` or ``by-day``: a diagnosis per fold.
     train, holdout

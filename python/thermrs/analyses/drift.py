@@ -54,7 +54,7 @@ def drift(
     Parameters
     ----------
     dataset, rig, where
-        As :func:`fit`.
+        As :func:`thermrs.analyses.fit.fit`.
     runs
         Runs by name among them (default: every run chosen).
     window, tolerance_um

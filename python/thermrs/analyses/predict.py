@@ -124,7 +124,7 @@ def predict(
     Parameters
     ----------
     dataset, rig, where
-        As :func:`fit`.
+        As :func:`thermrs.analyses.fit.fit`.
     rule
         ``leave-one-run-out`` or ``by-day``: a prediction per fold, α fitted on its training
         runs.

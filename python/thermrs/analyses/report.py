@@ -38,7 +38,7 @@ def report(
     Parameters
     ----------
     dataset, rig, where
-        As :func:`fit`.
+        As :func:`thermrs.analyses.fit.fit`.
     out
         The HTML file (the Markdown twin beside it, see :func:`thermrs.report.write_report`).
     runs
