@@ -32,7 +32,7 @@ import numpy.typing as npt
 import polars as pl
 
 from thermrs.errors import InputError
-from thermrs.fit import RigLike, check_tables, sensitivities
+from thermrs.fit import FitResult, RigLike, check_tables, sensitivities
 from thermrs.paper import PaperData, load_paper_data, predicted_dl_um
 from thermrs.rig import as_rig
 
@@ -364,7 +364,7 @@ class HeldOut:
     alphas: dict[str, float]
     table: pl.DataFrame
     series: pl.DataFrame
-    fit: Any | None = None
+    fit: FitResult | None = None
 
 
 def predict_held_out(
@@ -411,7 +411,7 @@ def predict_held_out(
     from thermrs.fit import fit_document, training_alphas, training_axes
 
     doc = None if alphas else fit_document(train, rig)
-    a = dict(alphas) if alphas else training_alphas(doc)  # type: ignore[arg-type]
+    a = training_alphas(doc) if doc is not None else dict(alphas or {})
     axes = {} if doc is None else training_axes(doc)
     table = prediction_table(
         holdout, rig, alphas=a, axis=axis, end_visits=end_visits, camera_axes=axes

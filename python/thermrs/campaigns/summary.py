@@ -396,8 +396,9 @@ def predict_synthesis(preds: Sequence[Any], *, label: str = "series") -> dict[st
         square of each fold's mean-removed residual series together), ``fold_rms_um`` [min,
         max], ``alpha_per_k`` [min, max] over the folds, ``worst_fold`` and ``sentence``.
     """
-    rms = [float(p.rms_um(label)) for p in preds]
-    pooled = np.concatenate([np.zeros(0), *(p.centred_residuals(label) for p in preds)])
+    parts = [p.centred_residuals(label) for p in preds]  # each fold's residuals, read once
+    rms = [float(np.sqrt(np.mean(r**2))) if r.size else float("nan") for r in parts]
+    pooled = np.concatenate([np.zeros(0), *parts])
     alphas = [float(p.alphas[label]) for p in preds if label in p.alphas]
     if len(pooled) == 0:
         return {
@@ -412,14 +413,14 @@ def predict_synthesis(preds: Sequence[Any], *, label: str = "series") -> dict[st
     worst = int(np.nanargmax(rms))
     sentence = (
         f"held-out rms {total:.3f} µm over {len(preds)} fold(s) (every held-out visit pooled; "
-        f"folds {min(rms):.3f}–{max(rms):.3f} µm, the worst {preds[worst].split.name})"
+        f"folds {np.nanmin(rms):.3f}–{np.nanmax(rms):.3f} µm, the worst {preds[worst].split.name})"
     )
     if alphas:
         sentence += f"; α {min(alphas) * 1e6:.3f}–{max(alphas) * 1e6:.3f} ×10⁻⁶/K"
     return {
         "folds": len(preds),
         "holdout_rms_um": total,
-        "fold_rms_um": [min(rms), max(rms)],
+        "fold_rms_um": [float(np.nanmin(rms)), float(np.nanmax(rms))],
         "alpha_per_k": [min(alphas), max(alphas)] if alphas else None,
         "worst_fold": preds[worst].split.name,
         "sentence": sentence,
