@@ -26,7 +26,6 @@ if os.environ.get("PYTEST_XDIST_WORKER"):
 LONG_FILES = (
     "test_report.py",
     "test_design.py",
-    "test_second_hour.py",
     "test_readme.py",
     "test_effect_residuals.py",
     "test_fit.py",

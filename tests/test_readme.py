@@ -119,3 +119,16 @@ def test_shipped_scenarios_parse_and_short_ones_simulate(name: str, tmp_path: Pa
     assert ex.frames.filter(status="ok").height > 0
     effects = [e["name"] for e in doc.get("effect", [])]
     assert [e["name"] for e in sim.scenario.get("effect", [])] == effects
+
+
+def test_every_module_the_readme_names_is_reachable_after_import() -> None:
+    code = (
+        "import thermrs\n"
+        "for m in ('diagnose', 'runs', 'report', 'stats', 'effects', 'signatures', 'inventory',"
+        " 'compensate'):\n"
+        "    getattr(thermrs, m)\n"
+        "assert issubclass(thermrs.InternalError, thermrs.ThermrsError)\n"
+        "assert callable(thermrs.diagnose.diagnose) and callable(thermrs.report.write_report)\n"
+    )
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr

@@ -1,14 +1,13 @@
 """A new user's mistakes through the CLI (issue #13): every wrong invocation exits 2 with exactly
 one line on stderr and no traceback, writes nothing; an output the system will not take exits 1
 with one line naming the file; losses stay visible; Ctrl-C stops a long
-command at once with exit 130 and one line; tables are never cut."""
+command at once with exit 130 and one line. (Tables never cut: tests/cli/test_tables.py; the
+recording these tests share, ``data``: tests/cli/conftest.py.)"""
 
 from __future__ import annotations
 
 import errno
-import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -16,70 +15,13 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-import polars as pl
 import pytest
 import thermrs
 
-from tests.support.scenarios import FAST_NODES
+from tests.support.cli import cli
+from tests.support.rigs import REPO, UR5
 
-REPO = Path(__file__).resolve().parents[2]
-UR5 = REPO / "fixtures" / "rigs" / "ur5-two-cameras.toml"
 PAPER_RUNS = REPO / "fixtures" / "scenarios" / "paper-runs.toml"
-
-#: Three 10-minute runs at 30 % (one visit per camera a minute, 2 frames each).
-SHORT = (
-    """format = "thermrs-scenario/1"
-seed = 3
-[[run]]
-name = "warm"
-speed_pct = 30
-duration_min = 20
-cycle_s = 60
-start = "ambient"
-"""
-    + FAST_NODES
-)
-
-
-def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "THERMRS_DEBUG": ""}
-    return subprocess.run(
-        [sys.executable, "-m", "thermrs", *args], capture_output=True, text=True, env=env, cwd=cwd
-    )
-
-
-@pytest.fixture(scope="module")
-def data(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """A simulated recording, its extracted tables, the same recording cut short and the
-    tables extracted from the cut one; a folder; a rig; a scenario."""
-    d = tmp_path_factory.mktemp("cli-errors")
-    sc = d / "short.toml"
-    sc.write_text(SHORT)
-    rig = thermrs.default_rig_path()
-    rec = thermrs.simulate.simulate(rig, sc, d / "rec.mcap").recording
-    thermrs.extract(rec, rig).write(d / "rec.parquet")
-    cut = d / "cut.mcap"
-    cut.write_bytes(rec.read_bytes()[: rec.stat().st_size * 2 // 3])
-    ex = thermrs.extract(cut, rig)
-    assert ex.report.data_loss  # the truth this test builds on: cutting loses data
-    ex.write(d / "cut.parquet")
-    (d / "folder").mkdir()
-    bad_json = d / "bad.json"
-    bad_json.write_text("{not json")
-    bad_sc = d / "bad.toml"
-    bad_sc.write_text(SHORT.replace("speed_pct = 30", "speed_pct = 130"))
-    return {
-        "dir": d,
-        "rec": rec,
-        "tables": d / "rec.parquet",
-        "cut": cut,
-        "cut_tables": d / "cut.parquet",
-        "folder": d / "folder",
-        "rig": rig,
-        "sc": sc,
-        "bad_sc": bad_sc,
-        "bad_json": bad_json,
-    }
 
 
 # (arguments with {placeholders}, a piece of the one line on stderr)
@@ -180,71 +122,6 @@ def test_data_loss_survives_quiet_and_stays_with_the_tables(
             assert ("data loss" in r.stderr) == (code == 3), r.stderr
     table, lost = thermrs.fit.load_run_table(tmp_path / "c.visits.parquet", data["rig"])
     assert lost and table.height > 0
-
-
-def test_runs_of_one_stem_keep_distinct_keys(data: dict[str, Path], tmp_path: Path) -> None:
-    out = tmp_path / "fit.json"
-    p = cli("fit", "--rig", str(data["rig"]), "--train", str(data["tables"]), str(data["rec"]),
-            "--json", str(out))  # fmt: skip
-    assert p.returncode == 0, p.stderr
-    assert sorted(json.loads(out.read_text())["start_end"]) == sorted(
-        [str(data["tables"]), str(data["rec"])]
-    )
-
-
-def test_alpha_takes_units_and_series_writes_the_format_named(
-    data: dict[str, Path], tmp_path: Path
-) -> None:
-    docs = {}
-    for alpha in ("23.2e-6", "23.2u", "23.2µ", "2.32e-05"):
-        out = tmp_path / f"p{len(docs)}.json"
-        p = cli("predict", "--rig", str(data["rig"]), "--alpha", alpha, "--run",
-                str(data["tables"]), "--json", str(out))  # fmt: skip
-        assert p.returncode == 0, p.stderr
-        docs[alpha] = json.loads(out.read_text())["alpha_per_k"]["given"]
-    assert all(v == pytest.approx(23.2e-6, rel=1e-12) for v in docs.values()), docs
-    csv, parquet = tmp_path / "s.csv", tmp_path / "s.parquet"
-    for path in (csv, parquet):
-        p = cli("predict", "--rig", str(data["rig"]), "--alpha", "2.2e-5", "--run",
-                str(data["tables"]), "--series", str(path))  # fmt: skip
-        assert p.returncode == 0, p.stderr
-    a, b = pl.read_csv(csv), pl.read_parquet(parquet)
-    assert a.columns == b.columns and a.height == b.height > 0
-    assert not csv.read_bytes().startswith(b"PAR1")
-
-
-def test_tables_fold_at_80_columns_and_are_whole_when_piped(data: dict[str, Path]) -> None:
-    # A run name longer than a narrow terminal leaves room for.
-    long_run = data["dir"] / "a-rather-long-run-name-from-the-night-shift.parquet"
-    for part in ("", ".visits", ".temperatures", ".joints"):
-        src = data["dir"] / f"rec{part}.parquet"
-        shutil.copy(src, data["dir"] / f"a-rather-long-run-name-from-the-night-shift{part}.parquet")
-    try:
-        args = ["predict", "--rig", str(data["rig"]), "--alpha", "2.2e-5", "--run", str(long_run)]
-        env = {**os.environ, "COLUMNS": "80"}
-        narrow = subprocess.run(
-            [sys.executable, "-m", "thermrs", *args], capture_output=True, text=True, env=env
-        )
-        piped = cli(*args)
-    finally:
-        for part in ("", ".visits", ".temperatures", ".joints"):
-            (data["dir"] / f"a-rather-long-run-name-from-the-night-shift{part}.parquet").unlink()
-    headers = ["pred µm", "meas µm", "err %", "rms µm", "noise µm"]
-    for p in (narrow, piped):
-        assert p.returncode == 0, p.stderr
-        assert "…" not in p.stdout, p.stdout
-        for h in headers:
-            for word in h.split():
-                assert word in p.stdout, (word, p.stdout)
-    assert max(len(ln) for ln in narrow.stdout.splitlines()) <= 80, narrow.stdout
-    # Piped: every row on one line, the run name whole.
-    assert "a-rather-long-run-name-from-the-night-shift" in piped.stdout
-    assert any(all(h in ln for h in headers) for ln in piped.stdout.splitlines()), piped.stdout
-    # Narrow: the name is folded onto lines, not cut: all of its characters are there.
-    run_cells = "".join(
-        ln.split("│")[3].strip() for ln in narrow.stdout.splitlines() if ln.startswith("│")
-    )
-    assert "a-rather-long-run-name-from-the-night-shift" in run_cells, narrow.stdout
 
 
 def _start(args: list[str], cwd: Path) -> subprocess.Popen[str]:

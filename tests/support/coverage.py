@@ -15,19 +15,13 @@ thermrs'), as fixtures/make_ur5_rig.py does for the UR5 fixture.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import polars as pl
 import thermrs
 from thermrs import ForwardModel
 
-REPO = Path(__file__).resolve().parents[2]
-UR5 = REPO / "fixtures" / "rigs" / "ur5-two-cameras.toml"
-
-
-def fmt(v: np.ndarray | list[float]) -> str:
-    return "[" + ", ".join(repr(float(c)) for c in v) + "]"
+from tests.support.rigs import UR5, camera, pose, rig_toml
 
 
 def random_rig(rng: np.random.Generator) -> thermrs.Rig:
@@ -77,56 +71,21 @@ def random_rig(rng: np.random.Generator) -> thermrs.Rig:
         x /= np.linalg.norm(x)
         y = np.cross(normal, x)
         cams.append(
-            f'[[camera]]\nname = "{name}"\ntopic = "/ccd_{k}/image_raw"\npose = "P{k}"\n'
-            f"centre_mm = {fmt(centre)}\nx_axis = {fmt(x)}\ny_axis = {fmt(y)}\n"
-            f"pixel_pitch_um = [8.6, 8.3]\nsize_px = [752, 582]\n"
+            camera(name, f"/ccd_{k}/image_raw", f"P{k}", centre, x, y, (8.6, 8.3), (752, 582))
         )
-        poses.append(f'[[pose]]\nname = "P{k}"\njoints_deg = {fmt(q)}\n')
-    rows = "\n".join(
-        f"    {{ a_mm = {a!r}, alpha_deg = {al}, d_mm = {d!r}, theta_offset_deg = {off}, "
-        f"sign = {sg} }},"
-        for a, al, d, off, sg in dh
+        poses.append(pose(f"P{k}", q))
+    text = rig_toml(
+        name="random KR 16-like rig (coverage study)",
+        model="random",
+        joint_names=["a1", "a2", "a3", "a4", "a5", "a6"],
+        dh=dh,
+        laser_origin_mm=origin,
+        laser_direction=direction,
+        cameras=cams,
+        poses=poses,
+        rois=("link2", "link3"),
+        lengths=[("a2", "link2"), ("d4", "link3"), ("a3", "link3")],
     )
-    text = f"""format = "thermrs-rig/1"
-name = "random KR 16-like rig (coverage study)"
-
-[robot]
-model = "random"
-joint_names = ["a1", "a2", "a3", "a4", "a5", "a6"]
-joint_states_topic = "/joint_states"
-dh = [
-{rows}
-]
-
-[laser]
-origin_mm = {fmt(origin)}
-direction = {fmt(direction)}
-
-{chr(10).join(cams)}
-{chr(10).join(poses)}
-[thermal]
-topic = "/ir/image"
-size_px = [160, 120]
-scale = 1.0
-offset_c = 0.0
-
-[[thermal.roi]]
-name = "link2"
-rect_px = [10, 10, 60, 40]
-
-[[thermal.roi]]
-name = "link3"
-rect_px = [70, 20, 150, 50]
-
-[expansion]
-alpha_per_k = 2.3e-05
-reference_c = 20.0
-length = [
-    {{ name = "a2", temperature = "link2" }},
-    {{ name = "d4", temperature = "link3" }},
-    {{ name = "a3", temperature = "link3" }},
-]
-"""
     return thermrs.Rig.from_toml(text, source_name="random-rig")
 
 

@@ -1,272 +1,40 @@
-"""Rig-file validation (SPEC §3) through the Python API and ``thermrs rig`` (SPEC §7).
+"""Rig-file validation (SPEC §3) through the Python API and ``thermrs rig`` (SPEC §7): bad rigs,
+invalid TOML, unreadable files, a laser that misses its pose's camera.
 
 Every bad rig is built from the paper rig: its TOML is parsed with :mod:`tomllib`, one thing is
 changed in the resulting dict (see ``BAD_RIGS``) and the dict is written back with the small TOML
-writer below. The error must be a :class:`thermrs.RigError` whose single-line message is
-``rig SOURCE[ line N]: KEY: what is wrong``, naming the key; the CLI must print that message as
-one ``thermrs: error: ...`` line on stderr and exit 2, with no traceback.
+writer of :mod:`tests.support.rig_mutations`. The error must be a :class:`thermrs.RigError` whose
+single-line message is ``rig SOURCE[ line N]: KEY: what is wrong``, naming the key; the CLI must
+print that message as one ``thermrs: error: ...`` line on stderr and exit 2, with no traceback.
 """
 
 from __future__ import annotations
 
-import copy
-import json
 import math
-import os
-import re
-import subprocess
-import sys
-import tomllib
-from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import pytest
 import thermrs
 
-# --------------------------------------------------------------------------------------------
-# Paths and the good rig
-# --------------------------------------------------------------------------------------------
-
-SHARED = Path(__file__).resolve().parents[3] / "shared"
-SHARED_RIG = SHARED / "rigs" / "kr15-paper.toml"
-requires_shared = pytest.mark.skipif(
-    not SHARED_RIG.is_file(),
-    reason=f"the shared folder's paper rig is absent ({SHARED_RIG})",
+from tests.support.rig_mutations import (
+    GOOD,
+    GOOD_TEXT,
+    MISSES,
+    SOURCE,
+    Mutation,
+    append,
+    assert_cli_rejects,
+    assert_names_key,
+    both,
+    drop,
+    message_detail,
+    mutated_text,
+    put,
+    rename,
+    run_rig_cli,
+    scale_vec,
 )
-
-GOOD_TEXT = thermrs.default_rig_path().read_text(encoding="utf-8")
-GOOD: dict[str, Any] = tomllib.loads(GOOD_TEXT)
-SOURCE = "rig.toml"  # source_name given to Rig.from_toml; appears in every message
-
-
-def good_doc() -> dict[str, Any]:
-    """A fresh, mutable copy of the paper rig as plain data."""
-    return copy.deepcopy(GOOD)
-
-
-# --------------------------------------------------------------------------------------------
-# A small TOML writer (tomli_w is not installed): enough for rig files and their mutations
-# --------------------------------------------------------------------------------------------
-
-_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
-
-
-def _toml_string(s: str) -> str:
-    # JSON string escapes are valid TOML basic-string escapes; TOML also wants DEL escaped.
-    return json.dumps(s, ensure_ascii=False).replace("\x7f", "\\u007f")
-
-
-def _toml_key(k: str) -> str:
-    return k if _BARE_KEY.fullmatch(k) else _toml_string(k)
-
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)  # always has '.' or an exponent, both valid TOML floats
-    if isinstance(v, str):
-        return _toml_string(v)
-    if isinstance(v, list):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
-    raise TypeError(f"cannot write {type(v).__name__} as TOML")
-
-
-def _is_table_array(v: Any) -> bool:
-    return isinstance(v, list) and bool(v) and all(isinstance(x, dict) for x in v)
-
-
-def _emit_table(lines: list[str], path: list[str], table: dict[str, Any]) -> None:
-    for k, v in table.items():  # plain key/values first: they belong to this table's header
-        if not isinstance(v, dict) and not _is_table_array(v):
-            lines.append(f"{_toml_key(k)} = {_toml_value(v)}")
-    for k, v in table.items():
-        sub = [*path, _toml_key(k)]
-        if isinstance(v, dict):
-            lines += ["", f"[{'.'.join(sub)}]"]
-            _emit_table(lines, sub, v)
-        elif _is_table_array(v):
-            for item in v:
-                lines += ["", f"[[{'.'.join(sub)}]]"]
-                _emit_table(lines, sub, item)
-
-
-def dumps_toml(doc: dict[str, Any]) -> str:
-    """TOML text for ``doc`` (tables as ``[a.b]``, lists of tables as ``[[a.b]]``)."""
-    lines: list[str] = []
-    _emit_table(lines, [], doc)
-    return "\n".join(lines) + "\n"
-
-
-# --------------------------------------------------------------------------------------------
-# Mutations addressed by the same key paths the validator reports, e.g. "camera[1].x_axis"
-# --------------------------------------------------------------------------------------------
-
-Doc = dict[str, Any]
-Mutation = Callable[[Doc], None]
-_PATH_TOKEN = re.compile(r"([^.\[\]]+)|\[(\d+)\]")
-
-
-def _parent(doc: Doc, path: str) -> tuple[Any, str | int]:
-    tokens: list[str | int] = [
-        int(index) if index else name for name, index in _PATH_TOKEN.findall(path)
-    ]
-    *head, last = tokens
-    node: Any = doc
-    for t in head:
-        node = node[t]
-    return node, last
-
-
-def put(path: str, value: Any) -> Mutation:
-    """Set (or add) the value at ``path``."""
-
-    def mutate(doc: Doc) -> None:
-        parent, last = _parent(doc, path)
-        parent[last] = copy.deepcopy(value)
-
-    return mutate
-
-
-def drop(path: str) -> Mutation:
-    """Remove the key (or list item) at ``path``."""
-
-    def mutate(doc: Doc) -> None:
-        parent, last = _parent(doc, path)
-        del parent[last]
-
-    return mutate
-
-
-def rename(path: str, new_key: str) -> Mutation:
-    """Misspell the key at ``path`` as ``new_key``, keeping its value and position."""
-
-    def mutate(doc: Doc) -> None:
-        parent, last = _parent(doc, path)
-        items = list(parent.items())
-        assert last in parent, path
-        parent.clear()
-        parent.update((new_key if k == last else k, v) for k, v in items)
-
-    return mutate
-
-
-def append(path: str, value: Any) -> Mutation:
-    """Append ``value`` to the list at ``path``."""
-
-    def mutate(doc: Doc) -> None:
-        parent, last = _parent(doc, path)
-        parent[last].append(copy.deepcopy(value))
-
-    return mutate
-
-
-def both(*mutations: Mutation) -> Mutation:
-    def mutate(doc: Doc) -> None:
-        for m in mutations:
-            m(doc)
-
-    return mutate
-
-
-def scale_vec(path: str, factor: float) -> Mutation:
-    def mutate(doc: Doc) -> None:
-        parent, last = _parent(doc, path)
-        parent[last] = [x * factor for x in parent[last]]
-
-    return mutate
-
-
-def _cross(a: Sequence[float], b: Sequence[float]) -> list[float]:
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def _unit(a: Sequence[float]) -> list[float]:
-    norm = math.hypot(*a)
-    return [x / norm for x in a]
-
-
-def _rotated(v: Sequence[float], degrees: float) -> list[float]:
-    """Unit vector ``v`` turned by ``degrees`` about an axis perpendicular to it (and to z)."""
-    k = _unit(_cross(v, (0.0, 0.0, 1.0)))
-    t = math.radians(degrees)
-    # k is perpendicular to v, so Rodrigues' formula reduces to v cos t + (k x v) sin t.
-    kv = _cross(k, v)
-    return _unit([a * math.cos(t) + b * math.sin(t) for a, b in zip(v, kv, strict=True)])
-
-
-def rotate_laser(degrees: float) -> Mutation:
-    def mutate(doc: Doc) -> None:
-        doc["laser"]["direction"] = _rotated(doc["laser"]["direction"], degrees)
-
-    return mutate
-
-
-def mutated_text(mutate: Mutation) -> str:
-    doc = good_doc()
-    mutate(doc)
-    text = dumps_toml(doc)
-    assert text != dumps_toml(GOOD), "the mutation changed nothing"
-    return text
-
-
-# --------------------------------------------------------------------------------------------
-# Assertions on messages and on the CLI
-# --------------------------------------------------------------------------------------------
-
-_AFTER_SOURCE = re.compile(r"(?: line (?P<line>\d+))?: (?P<detail>.+)")
-
-
-def message_detail(message: str, source: str) -> tuple[int | None, str]:
-    """Split ``rig SOURCE[ line N]: DETAIL`` into (N, DETAIL), checking it is one line."""
-    assert "\n" not in message and "\r" not in message, f"message is not one line: {message!r}"
-    prefix = f"rig {source}"
-    assert message.startswith(prefix), f"message does not name the source: {message!r}"
-    m = _AFTER_SOURCE.fullmatch(message[len(prefix) :])
-    assert m, f"message is not 'rig SOURCE[ line N]: ...': {message!r}"
-    return (int(m["line"]) if m["line"] else None), m["detail"]
-
-
-def assert_names_key(message: str, source: str, key: str, says: Sequence[str]) -> None:
-    """The message is one line, names ``key`` first (when given) and contains ``says``."""
-    _, detail = message_detail(message, source)
-    if key:
-        assert detail.startswith(f"{key}: "), f"expected key {key!r} to be named: {message!r}"
-    for text in says:
-        assert text in detail, f"expected {text!r} in: {message!r}"
-
-
-def run_rig_cli(*args: str) -> subprocess.CompletedProcess[str]:
-    env = {k: v for k, v in os.environ.items() if k != "THERMRS_DEBUG"}
-    return subprocess.run(
-        [sys.executable, "-m", "thermrs", "rig", *args],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env=env,
-        check=False,
-    )
-
-
-def assert_cli_rejects(result: subprocess.CompletedProcess[str]) -> str:
-    """Exit 2, one ``thermrs: error:`` line on stderr, no traceback; returns the message."""
-    assert "Traceback" not in result.stderr, result.stderr
-    assert result.returncode == 2, (result.returncode, result.stderr)
-    lines = [line for line in result.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, f"expected one line on stderr, got: {result.stderr!r}"
-    assert lines[0].startswith("thermrs: error: "), lines[0]
-    assert result.stdout == "", result.stdout
-    return lines[0].removeprefix("thermrs: error: ")
-
 
 # --------------------------------------------------------------------------------------------
 # The table of bad rigs: (mutation, key the error must name first, further text it must contain)
@@ -280,7 +48,10 @@ def bad(case_id: str, mutate: Mutation, key: str, *says: str) -> Any:
 
 
 _CAM0 = GOOD["camera"][0]
+
+
 _ROW = GOOD["robot"]["dh"][0]
+
 
 BAD_RIGS = [
     # --- unknown keys: a typo must not pass, not even for optional keys -----------------------
@@ -686,105 +457,6 @@ BAD_RIGS = [
 
 
 # --------------------------------------------------------------------------------------------
-# The writer itself, and rigs that must load
-# --------------------------------------------------------------------------------------------
-
-
-def test_writer_round_trips_the_paper_rig() -> None:
-    text = dumps_toml(good_doc())
-    assert tomllib.loads(text) == GOOD
-    written = thermrs.Rig.from_toml(text, source_name=SOURCE)
-    shipped = thermrs.Rig.from_toml(GOOD_TEXT, source_name=SOURCE)
-    assert written.to_dict() == shipped.to_dict()
-
-
-def test_writer_handles_awkward_values() -> None:
-    doc = {"k": ['a"b\\c\n\x7f', 1, -0.5, 1e-5, math.inf, True], "t": {"x y": {"z": []}}}
-    assert tomllib.loads(dumps_toml(doc)) == doc
-
-
-def test_embedded_paper_rig_loads() -> None:
-    rig = thermrs.load_rig()
-    assert [c.name for c in rig.cameras] == ["A", "B"]
-    assert sorted(rig.poses) == ["A", "B"]
-    assert len(rig.dh) == 6 and len(rig.joint_names) == 6
-    assert [r.name for r in rig.rois] == ["link2", "link3", "base"]
-    assert rig.ambient_topic == "/ambient/temperature"
-    assert rig.mapped_temperatures == ["link2", "link3"]
-    assert rig.check()["problems"] == []
-
-
-def test_from_toml_and_load_rig_agree() -> None:
-    from_text = thermrs.Rig.from_toml(GOOD_TEXT, source_name="paper")
-    assert from_text.source == "paper"
-    assert from_text.to_dict() == thermrs.load_rig(thermrs.default_rig_path()).to_dict()
-
-
-@requires_shared
-def test_shared_paper_rig_loads() -> None:
-    rig = thermrs.load_rig(SHARED_RIG)
-    assert rig.check()["problems"] == []
-
-
-GOOD_VARIANTS = [
-    pytest.param(
-        both(drop("thermal"), drop("ambient"), put("expansion.length", [])),
-        id="no-thermal-no-ambient-no-lengths",
-    ),
-    pytest.param(
-        both(drop("thermal"), drop("ambient"), drop("expansion.length")),
-        id="no-thermal-no-ambient-length-key-absent",
-    ),
-    pytest.param(
-        both(drop("thermal"), put("expansion.length", [{"name": "a2", "temperature": "ambient"}])),
-        id="ambient-only",
-    ),
-    pytest.param(put("expansion.length[1].temperature", "ambient"), id="length-on-ambient"),
-    pytest.param(
-        both(
-            drop("thermal.roi"),
-            put("expansion.length[0].temperature", "ambient"),
-            put("expansion.length[1].temperature", "ambient"),
-        ),
-        id="thermal-without-rois",
-    ),
-    pytest.param(drop("name"), id="no-rig-name"),
-    pytest.param(put("thermal.roi[0].rect_px", [0, 0, 320, 240]), id="roi-whole-frame"),
-    pytest.param(put("thermal.roi[1].rect_px", [319, 239, 320, 240]), id="roi-last-pixel"),
-    pytest.param(put("robot.dh[1].a_mm", 650), id="integer-for-float"),
-    pytest.param(put("thermal.scale", -0.01), id="negative-thermal-scale"),
-    pytest.param(scale_vec("laser.direction", 1 + 1e-8), id="direction-within-tolerance"),
-    pytest.param(append("pose", {"name": "home", "joints_deg": [0.0] * 6}), id="extra-pose"),
-]
-
-
-@pytest.mark.parametrize("mutate", GOOD_VARIANTS)
-def test_valid_variants_load(mutate: Mutation) -> None:
-    rig = thermrs.Rig.from_toml(mutated_text(mutate), source_name=SOURCE)
-    assert [c.name for c in rig.cameras] == ["A", "B"]
-
-
-def test_rated_joint_rates_are_optional_and_leave_the_rig_hash_alone() -> None:
-    """``robot.max_rate_deg_s`` is read when given; a rig without it hashes as before (its
-    JSON leaves the key out), so datasets extracted earlier keep their rig."""
-    rates = [152.0, 152.0, 152.0, 284.0, 293.0, 604.0]
-    rig = thermrs.Rig.from_toml(
-        mutated_text(put("robot.max_rate_deg_s", rates)), source_name=SOURCE
-    )
-    assert rig.max_rate_deg_s == tuple(rates)
-    plain = thermrs.load_rig()
-    assert plain.max_rate_deg_s is None
-    assert "max_rate_deg_s" not in plain._native.to_json()
-
-
-def test_rig_without_thermal_and_ambient_has_no_temperatures() -> None:
-    text = mutated_text(both(drop("thermal"), drop("ambient"), put("expansion.length", [])))
-    rig = thermrs.Rig.from_toml(text, source_name=SOURCE)
-    assert rig.rois == [] and rig.thermal_topic is None and rig.ambient_topic is None
-    assert rig.lengths == [] and rig.mapped_temperatures == []
-
-
-# --------------------------------------------------------------------------------------------
 # Bad rigs: the Python API
 # --------------------------------------------------------------------------------------------
 
@@ -911,18 +583,6 @@ def test_invalid_toml_is_a_one_line_rig_error_with_its_line(
 # The laser missing its pose's camera: valid file, but `check` (and the CLI) reject it
 # --------------------------------------------------------------------------------------------
 
-MISSES = rotate_laser(3.0)
-
-
-def test_rotated_laser_stays_unit_and_parses() -> None:
-    doc = good_doc()
-    MISSES(doc)
-    assert math.hypot(*doc["laser"]["direction"]) == pytest.approx(1.0, abs=1e-12)
-    rig = thermrs.Rig.from_toml(dumps_toml(doc), source_name=SOURCE)
-    view = rig.explain()
-    assert view["poses"]["A"]["spot_px"]["A"] is None
-    assert view["problems"]
-
 
 def test_laser_missing_its_camera_fails_check() -> None:
     rig = thermrs.Rig.from_toml(mutated_text(MISSES), source_name=SOURCE)
@@ -983,70 +643,3 @@ def test_cli_missing_rig_file_exits_2_naming_the_path(tmp_path: Path) -> None:
     path = tmp_path / "absent.toml"
     message = assert_cli_rejects(run_rig_cli(str(path)))
     assert str(path) in message
-
-
-# --------------------------------------------------------------------------------------------
-# Good rigs: the CLI
-# --------------------------------------------------------------------------------------------
-
-
-def test_cli_rig_without_argument_explains_the_embedded_rig() -> None:
-    result = run_rig_cli()
-    assert result.returncode == 0, result.stderr
-    assert result.stderr == ""
-    assert "Pose A" in result.stdout and "Pose B" in result.stdout
-
-
-@pytest.mark.parametrize(
-    "args",
-    [
-        pytest.param([], id="embedded-no-argument"),
-        pytest.param([str(thermrs.default_rig_path())], id="embedded-path"),
-        pytest.param([str(SHARED_RIG)], id="shared", marks=requires_shared),
-    ],
-)
-def test_cli_rig_json_matches_the_paper(args: list[str]) -> None:
-    result = run_rig_cli(*args, "--json")
-    assert result.returncode == 0, result.stderr
-    doc = json.loads(result.stdout)
-    poses = doc["poses"]
-    assert set(poses) == {"A", "B"}
-    for pose, want in {"A": (1087.78, -48.62, 217.75), "B": (1087.33, -38.29, 198.07)}.items():
-        got = poses[pose]["flange_mm"]
-        assert len(got) == 3
-        assert all(abs(g - w) < 0.1 for g, w in zip(got, want, strict=True)), (pose, got)
-    a = poses["A"]
-    assert a["spot_px"]["A"] == pytest.approx([375.5, 290.5], abs=1e-6)
-    assert a["spot_px"]["B"] is None
-    assert abs(a["incidence_deg"]["A"]) < 1e-4
-    assert poses["B"]["spot_px"]["B"] is not None
-
-
-def test_tolerances_default_to_an_ordinary_rig_and_a_table_overrides_some() -> None:
-    # SPEC §3 [tolerances]: standard uncertainties; absent keys take the documented defaults.
-    r = thermrs.load_rig()
-    assert r.tolerances == {
-        "length_mm": 0.2,
-        "angle_deg": 0.02,
-        "chip_mm": 0.3,
-        "chip_deg": 0.05,
-        "laser_mm": 0.2,
-        "laser_deg": 0.05,
-        "ir_scale": 0.03,
-        "ir_gain": 0.01,
-        "ir_drift_k": 0.05,
-        "ir_clock_s": 30.0,
-    }
-    text = GOOD_TEXT + "\n[tolerances]\nir_gain = 0.02\nir_clock_s = 0\n"
-    t = thermrs.Rig.from_toml(text).tolerances
-    assert t["ir_gain"] == 0.02 and t["ir_clock_s"] == 0.0 and t["length_mm"] == 0.2
-
-
-def test_a_rig_from_its_own_data_is_the_same_rig() -> None:
-    r = thermrs.load_rig()
-    again = thermrs.Rig.from_dict(r.to_dict())
-    assert again.to_dict() == r.to_dict()
-    d = r.to_dict()
-    d["camera"][0]["x_axis"] = [0.0, 0.0, 2.0]
-    with pytest.raises(thermrs.RigError, match=r"camera\[0\]\.x_axis"):
-        thermrs.Rig.from_dict(d)

@@ -1,0 +1,87 @@
+"""Recordings the command-line tests share, each made once per session (per xdist worker): a
+file's tests are spread over the files of the commands they exercise, and a module-scoped
+recording would be simulated again for every one of them.
+
+- ``d``: three 6-hour runs at 30/75/10 % in one file, a joint whose zero drifts with link 3
+  (SPEC §6 ``joint_offset``, 12.8 µrad/K) that the nominal model leaves out (issue #17); its
+  replicate is the same protocol with another seed (new noise, same physics).
+- ``data``: a short simulated recording, its tables, the same cut short, and bad inputs beside
+  them (issue #13)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import thermrs
+
+from tests.support.cli import cli, ok
+from tests.support.scenarios import FAST_NODES
+from tests.support.scenarios import THREE_RUNS_JOINT_OFFSET as SCENARIO
+
+#: Three 10-minute runs at 30 % (one visit per camera a minute, 2 frames each).
+SHORT = (
+    """format = "thermrs-scenario/1"
+seed = 3
+[[run]]
+name = "warm"
+speed_pct = 30
+duration_min = 20
+cycle_s = 60
+start = "ambient"
+"""
+    + FAST_NODES
+)
+
+
+@pytest.fixture(scope="session")
+def data(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """A simulated recording, its extracted tables, the same recording cut short and the
+    tables extracted from the cut one; a folder; a rig; a scenario."""
+    d = tmp_path_factory.mktemp("cli-errors")
+    sc = d / "short.toml"
+    sc.write_text(SHORT)
+    rig = thermrs.default_rig_path()
+    rec = thermrs.simulate.simulate(rig, sc, d / "rec.mcap").recording
+    thermrs.extract(rec, rig).write(d / "rec.parquet")
+    cut = d / "cut.mcap"
+    cut.write_bytes(rec.read_bytes()[: rec.stat().st_size * 2 // 3])
+    ex = thermrs.extract(cut, rig)
+    assert ex.report.data_loss  # the truth this test builds on: cutting loses data
+    ex.write(d / "cut.parquet")
+    (d / "folder").mkdir()
+    bad_json = d / "bad.json"
+    bad_json.write_text("{not json")
+    bad_sc = d / "bad.toml"
+    bad_sc.write_text(SHORT.replace("speed_pct = 30", "speed_pct = 130"))
+    return {
+        "dir": d,
+        "rec": rec,
+        "tables": d / "rec.parquet",
+        "cut": cut,
+        "cut_tables": d / "cut.parquet",
+        "folder": d / "folder",
+        "rig": rig,
+        "sc": sc,
+        "bad_sc": bad_sc,
+        "bad_json": bad_json,
+    }
+
+
+@pytest.fixture(scope="session")
+def d(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """The recording, its replicate, its extracted tables and its diagnosis (30 % → 75 %)."""
+    root = tmp_path_factory.mktemp("second-hour")
+    sc = root / "jo.toml"
+    sc.write_text(SCENARIO)
+    rig = thermrs.default_rig_path()
+    rec, rep = root / "jo.mcap", root / "jo2.mcap"
+    ok(cli("simulate", "--rig", str(rig), "--scenario", str(sc), "-o", str(rec)))
+    ok(cli("simulate", "--rig", str(rig), "--scenario", str(sc), "-o", str(rep), "--seed", "18"))
+    ok(cli("extract", str(rec), "--rig", str(rig), "-o", str(root / "jo.parquet"), "--quiet"))
+    diag = root / "d.json"
+    ok(
+        cli("diagnose", "--rig", str(rig), "--train", f"{rec}#s30", "--holdout", f"{rec}#s75",
+            "--json", str(diag))
+    )  # fmt: skip
+    return {"root": root, "rig": rig, "rec": rec, "rep": rep, "diag": diag, "sc": sc}
