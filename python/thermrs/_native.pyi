@@ -120,10 +120,11 @@ def extract(
 def simulate(
     rig: Rig,
     scenario_toml: str,
-    out_path: str,
+    out_path: str | None,
     *,
     source_name: str = "<string>",
     seed: int | None = None,
 ) -> tuple[dict[str, Any], str]:
-    """Simulate; a failed write raises ``OSError`` naming ``out_path`` (not a ThermrsError)."""
+    """Simulate; a failed write raises ``OSError`` naming ``out_path`` (not a ThermrsError).
+    ``out_path=None``: the truth alone, nothing rendered or written."""
     ...

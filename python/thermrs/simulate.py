@@ -11,6 +11,10 @@ writes the recording atomically and the truth beside it:
   and per expanding DH length (the rig's and an ``unmodelled_length``'s) its true length
   ``<a|d><row>_mm`` with every effect;
 - ``OUT.truth.json``: the scenario as simulated (runs, models, effects with parameters).
+
+:func:`simulate_truth` gives the same truth without the recording (no pixel rendered, nothing
+written): what a forecast of visit times and temperatures needs, at a small fraction of the
+cost.
 """
 
 from __future__ import annotations
@@ -28,7 +32,17 @@ from thermrs.atomic import write_atomic, write_json, write_parquet_atomic
 from thermrs.errors import InputError
 from thermrs.rig import Rig, as_rig
 
-__all__ = ["Simulation", "simulate"]
+__all__ = ["SimulatedTruth", "Simulation", "simulate", "simulate_truth"]
+
+
+@dataclass(frozen=True)
+class SimulatedTruth:
+    """The truth of a simulation (:func:`simulate_truth`): per CCD frame the true spot, per
+    thermal sample the temperatures and expanded lengths, and the scenario as simulated."""
+
+    frames: pl.DataFrame
+    samples: pl.DataFrame
+    scenario: dict[str, Any]
 
 
 @dataclass(frozen=True)
@@ -97,6 +111,69 @@ def simulate(
     rig = as_rig(rig)
     scenario = Path(scenario)
     out = Path(out)
+    text = _read_scenario(rig, scenario, seed)
+    result: list[Any] = []
+
+    def record(tmp: Path) -> None:  # a failed write names the file asked for, not the temporary
+        result.extend(
+            _native.simulate(rig._native, text, str(tmp), source_name=str(scenario), seed=seed)
+        )
+
+    write_atomic(out, record)
+    truth = _truth(rig, *result)
+    frames, samples = truth.frames, truth.samples
+    stem = out.name[: -len(".mcap")] if out.name.endswith(".mcap") else out.name
+    write_parquet_atomic(frames, out.with_name(f"{stem}.truth.parquet"))
+    write_parquet_atomic(samples, out.with_name(f"{stem}.truth-samples.parquet"))
+    doc = truth.scenario
+    write_json(out.with_name(f"{stem}.truth.json"), doc)
+    return Simulation(recording=out, frames=frames, samples=samples, scenario=doc)
+
+
+def simulate_truth(
+    rig: Rig | str | os.PathLike[str],
+    scenario: str | os.PathLike[str],
+    *,
+    seed: int | None = None,
+) -> SimulatedTruth:
+    """The truth :func:`simulate` would give, without the recording: the same runs, motion
+    and thermal state, so the same truth to the last bit (every sensor draws from its own
+    random stream), but no pixel rendered and nothing written.
+
+    Parameters
+    ----------
+    rig
+        The rig to simulate (a :class:`~thermrs.Rig` or the path of a rig file).
+    scenario
+        The scenario file (``format = "thermrs-scenario/1"``).
+    seed
+        Overrides the scenario's seed (0 ≤ seed < 2⁶⁴).
+
+    Returns
+    -------
+    SimulatedTruth
+        Per CCD frame the true spot, per thermal sample the temperatures and lengths, and
+        the scenario as simulated (as :class:`Simulation`, without a recording).
+
+    Raises
+    ------
+    ScenarioError
+        The scenario does not parse or validate.
+    InputError
+        The scenario file cannot be read or does not fit the rig; ``seed`` is out of range.
+    KeyboardInterrupt
+        Ctrl-C.
+    """
+    rig = as_rig(rig)
+    scenario = Path(scenario)
+    text = _read_scenario(rig, scenario, seed)
+    return _truth(
+        rig, *_native.simulate(rig._native, text, None, source_name=str(scenario), seed=seed)
+    )
+
+
+def _read_scenario(rig: Rig, scenario: Path, seed: int | None) -> str:
+    """The scenario's text, checked as far as Python checks it."""
     if seed is not None and not (isinstance(seed, int) and 0 <= seed < 2**64):
         raise InputError(f"seed must be an integer 0 ≤ seed < 2**64, got {seed!r}")
     if scenario.is_dir():
@@ -112,15 +189,11 @@ def simulate(
     except OSError as e:
         raise InputError(f"scenario {scenario}: cannot read it ({e.strerror or e})") from None
     _check_default_nodes(text, scenario, rig)
-    result: list[Any] = []
+    return text
 
-    def record(tmp: Path) -> None:  # a failed write names the file asked for, not the temporary
-        result.extend(
-            _native.simulate(rig._native, text, str(tmp), source_name=str(scenario), seed=seed)
-        )
 
-    write_atomic(out, record)
-    cols, sc_json = result
+def _truth(rig: Rig, cols: dict[str, Any], sc_json: str) -> SimulatedTruth:
+    """The native simulator's truth columns as tables."""
     cams = [c.name for c in rig.cameras]
     runs = [r["name"] for r in json.loads(sc_json)["run"]]
     frames = pl.DataFrame(
@@ -144,12 +217,7 @@ def simulate(
     for k, name in enumerate(cols["length_names"]):
         data[f"{name}_mm"] = cols["lengths_mm"][:, k]
     samples = pl.DataFrame(data, schema_overrides={"run": pl.String, "t_ns": pl.Int64})
-    stem = out.name[: -len(".mcap")] if out.name.endswith(".mcap") else out.name
-    write_parquet_atomic(frames, out.with_name(f"{stem}.truth.parquet"))
-    write_parquet_atomic(samples, out.with_name(f"{stem}.truth-samples.parquet"))
-    doc = json.loads(sc_json)
-    write_json(out.with_name(f"{stem}.truth.json"), doc)
-    return Simulation(recording=out, frames=frames, samples=samples, scenario=doc)
+    return SimulatedTruth(frames=frames, samples=samples, scenario=json.loads(sc_json))
 
 
 #: The thermal nodes a scenario without ``[[node]]`` gets: the paper rig's calibrated links.

@@ -8,7 +8,7 @@ import numpy as np
 import polars as pl
 import pytest
 import thermrs
-from thermrs.diagnose import diagnose
+from thermrs.diagnose import diagnose, noise_floor_um
 from thermrs.diagnose.bench import make_runs
 from thermrs.diagnose.floor import _series_noise
 from thermrs.diagnose.inputs import _loess2, smooth_temperatures
@@ -177,6 +177,11 @@ def test_a_rig_file_path_is_a_rig(rig: thermrs.Rig) -> None:
     assert by_path.baseline["holdout_rms_um"] == by_rig.baseline["holdout_rms_um"]
     with pytest.raises(thermrs.InputError, match=r"no-such-rig\.toml"):
         diagnose(runs[:1], runs[1:], "no-such-rig.toml", bootstrap=0)
+    # The floor alone (what the design's noise calibration asks) is the diagnosis's floor,
+    # and refuses what the diagnosis refuses.
+    assert noise_floor_um(runs[:1], runs[1:], str(rig.source)) == by_rig.noise_floor_um
+    with pytest.raises(thermrs.InputError):
+        noise_floor_um(runs[:1], runs[:1], rig)
 
 
 def test_holm_step_down() -> None:

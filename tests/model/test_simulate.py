@@ -305,3 +305,23 @@ def test_start_times_date_the_recording_and_the_idle_day_between_runs(tmp_path: 
     res = thermrs.campaign([sim.recording], tmp_path / "ds", rig=rig)
     runs = thermrs.campaigns.select_runs(res.dataset)
     assert runs.sort("start_ns")["date"].cast(pl.String).to_list() == ["2026-11-02", "2026-11-03"]
+
+
+def test_the_truth_alone_is_the_recordings_truth_and_writes_nothing(
+    tmp_path: Path, paper_rig: thermrs.Rig
+) -> None:
+    """`simulate_truth` (no pixel rendered) gives the truth `simulate` writes beside its
+    recording, every column equal, and leaves no file."""
+    from polars.testing import assert_frame_equal
+    from thermrs.simulate import simulate_truth
+
+    sc = short(tmp_path, extra='[[effect]]\nname = "thermal_lag"\ntau_min = 40.0\n')
+    sim = simulate(paper_rig, sc, tmp_path / "sim.mcap")
+    before = sorted(tmp_path.iterdir())
+    only = simulate_truth(paper_rig, sc)
+    assert sorted(tmp_path.iterdir()) == before
+    assert_frame_equal(only.frames, sim.frames)
+    assert_frame_equal(only.samples, sim.samples)
+    assert only.scenario == sim.scenario
+    # The file's truth is what extraction measures (the round trip above), so this is too.
+    assert_frame_equal(only.frames, pl.read_parquet(tmp_path / "sim.truth.parquet"))

@@ -31,8 +31,9 @@ def protocol_samples(
     rig: Rig, protocol: Protocol, *, cycle_s: float, workdir: Path
 ) -> tuple[pl.DataFrame, pl.DataFrame]:
     """The protocol simulated on the user's rig without effects: its visit times per camera
-    (``run``, ``camera``, ``t_ns``) and its thermal samples (surface temperatures, ambient)."""
-    from thermrs.simulate import simulate
+    (``run``, ``camera``, ``t_ns``) and its thermal samples (surface temperatures, ambient).
+    Only the truth is simulated (no image rendered, no recording written)."""
+    from thermrs.simulate import simulate_truth
 
     slug = "".join(ch if ch.isalnum() else "-" for ch in protocol.label)
     sc = workdir / f"forecast-{slug}.toml"
@@ -43,8 +44,7 @@ def protocol_samples(
         extra={"camera": {"frames_per_visit": 1}, "output": {"compression": "lz4"}},
     )
     write_text_atomic(sc, text)
-    rec = workdir / f"forecast-{slug}.mcap"
-    sim = simulate(rig, sc, rec)
+    sim = simulate_truth(rig, sc)
     return sim.frames.select("run", "camera", "t_ns"), sim.samples
 
 

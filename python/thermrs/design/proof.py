@@ -85,9 +85,10 @@ def calibrate_noise(
     seed: int,
 ) -> dict[str, float]:
     """The joint repeatability (µrad) that gives the design's simulated runs the user's noise
-    floor: one effect-free simulation at the default repeatability, its floor measured by the
-    diagnoser, the repeatability scaled by the ratio."""
-    from thermrs.diagnose import diagnose
+    floor: one effect-free simulation at the default repeatability, its floor measured as the
+    diagnoser measures it (:func:`thermrs.diagnose.noise_floor_um`), the repeatability scaled
+    by the ratio."""
+    from thermrs.diagnose import noise_floor_um
 
     text, new = rig_toml(rig, cand)
     sc = scenario_toml(
@@ -98,8 +99,7 @@ def calibrate_noise(
     )
     tables = simulated_runs(new, text, sc, workdir=workdir, stem="calibration", seed=seed)
     tr, ho = _split(cand, tables)
-    d = diagnose(tr, ho, new, bootstrap=0).to_json()
-    sim_floor = float(d["noise_floor_um"])
+    sim_floor = noise_floor_um(tr, ho, new)
     rep = DEFAULT_REPEATABILITY_URAD * floor_um / sim_floor if sim_floor > 0 else 2.0
     return {
         "user_floor_um": floor_um,

@@ -64,7 +64,7 @@ from thermrs.rig import Rig
 from thermrs.signatures import VisitSet
 from thermrs.stats import effective_sample_size
 
-__all__ = ["LEVEL", "Diagnosis", "diagnose"]
+__all__ = ["LEVEL", "Diagnosis", "diagnose", "noise_floor_um"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -161,6 +161,41 @@ def diagnose(
             margin_um=margin_um,
             say=progress or (lambda _m: None),
         )
+
+
+def noise_floor_um(
+    train: Sequence[pl.DataFrame],
+    holdout: Sequence[pl.DataFrame],
+    rig: Rig | str | os.PathLike[str],
+) -> float:
+    """The noise floor :func:`diagnose` reports for these runs (``noise_floor_um``), computed
+    the same way but without selecting effects: what calibrating a simulation's noise needs.
+
+    Parameters
+    ----------
+    train, holdout
+        Run tables, as for :func:`diagnose`.
+    rig
+        The rig they were recorded on.
+
+    Returns
+    -------
+    float
+        The held-out runs' noise floor (µm rms).
+
+    Raises
+    ------
+    InputError
+        Bad runs, as :func:`diagnose`.
+    """
+    from threadpoolctl import threadpool_limits
+
+    from thermrs.rig import as_rig
+
+    rig = as_rig(rig)
+    with threadpool_limits(limits=1, user_api="blas"):
+        tr, ho, names_t, _ = check_inputs(train, holdout, rig, (), None)
+        return float(_baseline(tr, ho, names_t, rig).floor.holdout_um)
 
 
 @dataclass

@@ -14,17 +14,18 @@ use crate::guard::call;
 use crate::progress::{signal_checker, Pending};
 use crate::rig::PyRig;
 
-/// Simulate a scenario on a rig, writing the recording to `out_path`; returns the truth as a
-/// dict of numpy columns and the parsed scenario as JSON. Runs without the GIL; Ctrl-C stops it
-/// (signals are checked every few milliseconds between cycles and frames). A failed write
-/// raises `OSError` naming `out_path`.
+/// Simulate a scenario on a rig, writing the recording to `out_path` (or, when it is `None`,
+/// nothing: the truth alone, no pixel rendered); returns the truth as a dict of numpy columns
+/// and the parsed scenario as JSON. Runs without the GIL; Ctrl-C stops it (signals are checked
+/// every few milliseconds between cycles and frames). A failed write raises `OSError` naming
+/// `out_path`.
 #[pyfunction]
 #[pyo3(signature = (rig, scenario_toml, out_path, *, source_name = "<string>", seed = None))]
 fn simulate<'py>(
     py: Python<'py>,
     rig: &PyRig,
     scenario_toml: &str,
-    out_path: PathBuf,
+    out_path: Option<PathBuf>,
     source_name: &str,
     seed: Option<u64>,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
@@ -39,16 +40,19 @@ fn simulate<'py>(
     // Load NumPy's C API now: loading it later, with a Ctrl-C pending, would panic.
     let _ = numpy::PyArray1::<f64>::zeros(py, 0, false);
     let inner = &rig.inner;
-    let target = out_path.display().to_string();
     let pending = Pending::default();
     let res = py.detach(|| {
         call("simulating", || {
             let cancel = signal_checker(&pending);
+            let Some(out_path) = &out_path else {
+                return thermrs_core::simulate::simulate_truth(inner, &sc, &cancel);
+            };
+            let target = out_path.display().to_string();
             let named = |source: RecordError| CoreError::Write {
                 target: target.clone(),
                 source,
             };
-            let f = std::fs::File::create(&out_path).map_err(|e| named(e.into()))?;
+            let f = std::fs::File::create(out_path).map_err(|e| named(e.into()))?;
             let (w, truth) = thermrs_core::simulate::simulate_cancellable(
                 inner,
                 &sc,

@@ -23,6 +23,7 @@
 use std::io::{Seek, Write};
 
 use crate::error::{Error, Result};
+use crate::record::RecordingWriter;
 use crate::rig::Rig;
 use crate::scenario::Scenario;
 
@@ -84,9 +85,31 @@ pub fn simulate_cancellable<W: Write + Seek>(
 ) -> Result<(W, Truth)> {
     let setup = Setup::new(rig, sc)?;
     let mut wr = setup.writer(out)?;
-    let mut st = State::new(&setup);
+    let truth = run_scenario(&setup, Some(&mut wr), cancel)?;
+    let out = wr.finish().map_err(write_error)?;
+    Ok((out, truth))
+}
+
+/// The truth of [`simulate`] without the recording: the same runs, cycles, motion and thermal
+/// state, so the same truth to the last bit (every sensor draws from its own random stream),
+/// but no pixel is rendered and nothing is written. What a forecast needs (where and when the
+/// visits are, the temperatures) at a small fraction of the cost. Asks `cancel` like
+/// [`simulate_cancellable`].
+pub fn simulate_truth(rig: &Rig, sc: &Scenario, cancel: &dyn Fn() -> bool) -> Result<Truth> {
+    let setup = Setup::new(rig, sc)?;
+    run_scenario::<std::io::Cursor<Vec<u8>>>(&setup, None, cancel)
+}
+
+/// Every run and cycle of the scenario; messages go to `wr` when there is one.
+fn run_scenario<W: Write + Seek>(
+    setup: &Setup<'_>,
+    mut wr: Option<&mut RecordingWriter<W>>,
+    cancel: &dyn Fn() -> bool,
+) -> Result<Truth> {
+    let (rig, sc) = (setup.rig, setup.sc);
+    let mut st = State::new(setup);
     for (ri, run) in sc.run.iter().enumerate() {
-        st.idle_before(&setup, ri, run);
+        st.idle_before(setup, ri, run);
         let run_start_s = st.t_s;
         let speed = run.speed_pct / 100.0;
         let cycles = (run.duration_min * 60.0 / run.cycle_s).floor() as usize;
@@ -115,23 +138,116 @@ pub fn simulate_cancellable<W: Write + Seek>(
                 t_ir,
                 segs,
             };
-            sensors::joint_states(&setup, &mut wr, &c)?;
-            sensors::ccd_frames(&setup, &mut st, &mut wr, &c, cancel)?;
-            sensors::thermal(&setup, &mut st, &mut wr, &c)?;
+            if let Some(w) = wr.as_deref_mut() {
+                sensors::joint_states(setup, w, &c)?;
+            }
+            sensors::ccd_frames(setup, &mut st, wr.as_deref_mut(), &c, cancel)?;
+            sensors::thermal(setup, &mut st, wr.as_deref_mut(), &c)?;
             // Advance the thermal state over the cycle (running at the run's speed).
             let a_mid = state::ambient_at(&sc.ambient, cycle_t + run.cycle_s / 2.0);
-            st.step_nodes(&setup, a_mid, Some(speed), run.cycle_s);
+            st.step_nodes(setup, a_mid, Some(speed), run.cycle_s);
             st.t_s = cycle_t + run.cycle_s;
         }
-        let stamp = |t: f64| setup.t0_ns + (t * 1e9).round() as i64;
-        wr.write_run_marker(
-            &run.name,
-            stamp(run_start_s),
-            stamp(st.t_s),
-            Some(run.speed_pct),
-        )
-        .map_err(write_error)?;
+        if let Some(w) = wr.as_deref_mut() {
+            let stamp = |t: f64| setup.t0_ns + (t * 1e9).round() as i64;
+            w.write_run_marker(
+                &run.name,
+                stamp(run_start_s),
+                stamp(st.t_s),
+                Some(run.speed_pct),
+            )
+            .map_err(write_error)?;
+        }
     }
-    let out = wr.finish().map_err(write_error)?;
-    Ok((out, st.truth))
+    Ok(st.truth)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn paper_rig() -> Rig {
+        Rig::from_path(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../python/thermrs/data/kr15-paper.toml"
+        ))
+        .unwrap()
+    }
+
+    const SCENARIO: &str = r#"
+format = "thermrs-scenario/1"
+name = "two short runs, a lag and a chip drift"
+seed = 11
+
+[[run]]
+name = "a"
+speed_pct = 75
+duration_min = 30
+cycle_s = 60
+start = "ambient"
+
+[[run]]
+name = "b"
+speed_pct = 10
+duration_min = 20
+cycle_s = 60
+start = "continue"
+idle_before_min = 15
+
+[ambient]
+start_c = 22.0
+drift_c_per_h = 0.4
+noise_c = 0.02
+
+[camera]
+mode = "visits"
+frames_per_visit = 2
+
+[[effect]]
+name = "thermal_lag"
+tau_min = 40.0
+
+[[effect]]
+name = "fixture_drift"
+camera = "A"
+um_per_k = [0.8, -0.5]
+"#;
+
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    #[test]
+    fn the_truth_alone_is_the_recordings_truth_to_the_bit() {
+        let rig = paper_rig();
+        let sc = Scenario::from_toml(SCENARIO, "test").unwrap();
+        let (bytes, full) = simulate(&rig, &sc, std::io::Cursor::new(Vec::new())).unwrap();
+        assert!(
+            bytes.into_inner().len() > 100_000,
+            "a recording was written"
+        );
+        let only = simulate_truth(&rig, &sc, &|| false).unwrap();
+        assert!(full.frame_t_ns.len() > 50 && full.sample_t_ns.len() > 40);
+        assert_eq!(only.frame_camera, full.frame_camera);
+        assert_eq!(only.frame_t_ns, full.frame_t_ns);
+        assert_eq!(only.frame_run, full.frame_run);
+        assert_eq!(bits(&only.frame_x_px), bits(&full.frame_x_px));
+        assert_eq!(bits(&only.frame_y_px), bits(&full.frame_y_px));
+        assert_eq!(only.sample_t_ns, full.sample_t_ns);
+        assert_eq!(only.sample_run, full.sample_run);
+        assert_eq!(bits(&only.sample_ambient_c), bits(&full.sample_ambient_c));
+        assert_eq!(bits(&only.surface_c), bits(&full.surface_c));
+        assert_eq!(bits(&only.structure_c), bits(&full.structure_c));
+        assert_eq!(bits(&only.lengths_mm), bits(&full.lengths_mm));
+        assert_eq!(only.node_names, full.node_names);
+        assert_eq!(only.length_names, full.length_names);
+    }
+
+    #[test]
+    fn the_truth_alone_stops_when_asked() {
+        let rig = paper_rig();
+        let sc = Scenario::from_toml(SCENARIO, "test").unwrap();
+        let e = simulate_truth(&rig, &sc, &|| true).unwrap_err();
+        assert!(matches!(e, Error::Interrupted));
+    }
 }

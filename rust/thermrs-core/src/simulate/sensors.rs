@@ -143,7 +143,7 @@ fn exposure_path(
 pub(super) fn ccd_frames<W: Write + Seek>(
     setup: &Setup<'_>,
     st: &mut State,
-    wr: &mut RecordingWriter<W>,
+    mut wr: Option<&mut RecordingWriter<W>>,
     c: &Cycle<'_>,
     cancel: &dyn Fn() -> bool,
 ) -> Result<()> {
@@ -161,25 +161,27 @@ pub(super) fn ccd_frames<W: Write + Seek>(
         let (path, subs) = exposure_path(setup, c, &tcols, ci, tf_s)?;
         let weight = 1.0 / subs as f64;
         let tf = setup.t0_ns + (tf_s * 1e9).round() as i64;
-        let (w, h) = (camera.size_px[0] as usize, camera.size_px[1] as usize);
-        let fields = ImageFields {
-            stamp_ns: tf,
-            frame_id: &camera.name,
-            width: w as u32,
-            height: h as u32,
-            encoding: if bpp == 1 { "mono8" } else { "mono16" },
-            is_bigendian: false,
-            step: (w * bpp) as u32,
-        };
-        let rng = &mut st.ccd_rng;
-        wr.write_image_with(
-            &camera.topic,
-            (tf + LOG_DELAY_NS) as u64,
-            &fields,
-            w * h * bpp,
-            |buf| render_ccd(buf, w, h, bpp, &path, weight, cam, rng),
-        )
-        .map_err(write_error)?;
+        if let Some(wr) = wr.as_deref_mut() {
+            let (w, h) = (camera.size_px[0] as usize, camera.size_px[1] as usize);
+            let fields = ImageFields {
+                stamp_ns: tf,
+                frame_id: &camera.name,
+                width: w as u32,
+                height: h as u32,
+                encoding: if bpp == 1 { "mono8" } else { "mono16" },
+                is_bigendian: false,
+                step: (w * bpp) as u32,
+            };
+            let rng = &mut st.ccd_rng;
+            wr.write_image_with(
+                &camera.topic,
+                (tf + LOG_DELAY_NS) as u64,
+                &fields,
+                w * h * bpp,
+                |buf| render_ccd(buf, w, h, bpp, &path, weight, cam, rng),
+            )
+            .map_err(write_error)?;
+        }
         let n = path.len() as f64;
         let (x, y) = if path.is_empty() {
             (f64::NAN, f64::NAN)
@@ -226,10 +228,10 @@ fn ir_payload(img: &[f64], th: &Thermal, encoding: &str) -> (&'static str, Vec<u
 pub(super) fn thermal<W: Write + Seek>(
     setup: &Setup<'_>,
     st: &mut State,
-    wr: &mut RecordingWriter<W>,
+    wr: Option<&mut RecordingWriter<W>>,
     c: &Cycle<'_>,
 ) -> Result<()> {
-    let (sc, th) = (setup.sc, setup.th);
+    let sc = setup.sc;
     let ambient = ambient_at(&sc.ambient, c.t_ir);
     let into = c.t_ir - c.cycle_t;
     let a_ir = ambient_at(&sc.ambient, c.cycle_t + into / 2.0);
@@ -247,11 +249,42 @@ pub(super) fn thermal<W: Write + Seek>(
         })
         .collect();
     let ti = setup.t0_ns + (c.t_ir * 1e9) as i64;
+    if let Some(wr) = wr {
+        write_thermal(setup, st, wr, &surface_ir, ambient, ti)?;
+    }
+    let truth = &mut st.truth;
+    truth.sample_t_ns.push(ti);
+    truth.sample_run.push(c.ri as u32);
+    truth.sample_ambient_c.push(ambient);
+    truth.surface_c.extend_from_slice(&surface_ir);
+    truth.structure_c.extend_from_slice(&structure_ir);
+    let temps_ir = setup.model_temperatures(&structure_ir, ambient);
+    let (a_mm, d_mm) = setup.model.lengths_at(Some(&temps_ir));
+    for (l, _) in setup.model.expanding_lengths() {
+        truth.lengths_mm.push(match *l {
+            LengthRef::A(r) => a_mm[r],
+            LengthRef::D(r) => d_mm[r],
+        });
+    }
+    Ok(())
+}
+
+/// The cycle's IR frames (the surface temperatures `surface_ir`) and thermometer readings at
+/// `ti`, written to `wr`.
+fn write_thermal<W: Write + Seek>(
+    setup: &Setup<'_>,
+    st: &mut State,
+    wr: &mut RecordingWriter<W>,
+    surface_ir: &[f64],
+    ambient: f64,
+    ti: i64,
+) -> Result<()> {
+    let (sc, th) = (setup.sc, setup.th);
     for _ in 0..sc.ir.frames_per_cycle.max(1) {
         let roi_c: Vec<(usize, f64)> = setup
             .node_roi
             .iter()
-            .zip(&surface_ir)
+            .zip(surface_ir)
             .map(|(&r, &t)| (r, t))
             .collect();
         let img = render_ir(setup.rig, sc, ambient, &roi_c, &mut st.ir_rng);
@@ -283,20 +316,6 @@ pub(super) fn thermal<W: Write + Seek>(
             )
             .map_err(write_error)?;
         }
-    }
-    let truth = &mut st.truth;
-    truth.sample_t_ns.push(ti);
-    truth.sample_run.push(c.ri as u32);
-    truth.sample_ambient_c.push(ambient);
-    truth.surface_c.extend_from_slice(&surface_ir);
-    truth.structure_c.extend_from_slice(&structure_ir);
-    let temps_ir = setup.model_temperatures(&structure_ir, ambient);
-    let (a_mm, d_mm) = setup.model.lengths_at(Some(&temps_ir));
-    for (l, _) in setup.model.expanding_lengths() {
-        truth.lengths_mm.push(match *l {
-            LengthRef::A(r) => a_mm[r],
-            LengthRef::D(r) => d_mm[r],
-        });
     }
     Ok(())
 }
