@@ -25,6 +25,7 @@ import thermrs
 from thermrs.design import DesignResult, design, rival_drift
 from thermrs.design.candidates import candidates, protocols
 from thermrs.design.files import rig_toml, scenario_toml
+from thermrs.design.search import Z_TARGET
 from thermrs.design.separation import Block, Rival, pair_z, rival_families
 from thermrs.effects import JointOffset, UnmodelledLength
 from thermrs.signatures import VisitSet
@@ -247,6 +248,17 @@ def test_report_subsection_shows_the_experiment(designed: tuple[DesignResult, Pa
             assert row["truth"] in html
     if doc["recommended"] is not None:
         assert doc["recommended"]["camera"]["name"] in html
+        # The recommendation is the last candidate proved, the one whose proof passed.
+        assert doc["proofs_tried"][-1]["candidate"] == doc["recommended"]["label"]
+        assert doc["proofs_tried"][-1]["all_right"]
+    # The separation is said once, agreeing with the diagnosis: its least z now is the
+    # table's, and a white-noise z past the target beside a pair the diagnosis could not
+    # separate is called an overstatement, not a separation.
+    said = doc["separation_said"]
+    assert html.count(said[:60]) == 1
+    least = min(doc["separation_now"], key=lambda p: p["z"])
+    assert f"least z is {least['z']:.1f}" in said
+    assert ("overstates" in said) == any(p["z"] >= Z_TARGET for p in doc["separation_now"])
 
 
 @pytest.mark.slow  # it needs the design (about 90 s of CPU)

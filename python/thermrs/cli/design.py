@@ -33,7 +33,10 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
         f"(noise floor {dg['noise_floor_um']:.2f} µm)"
     )
     now = {(p["truth"], p["rival"]): p["z"] for p in doc["separation_now"]}
-    t = Table(title="Candidates (best first): least z over ordered pairs (truth over rival)")
+    t = Table(
+        title="Candidates (best first): least z over ordered pairs (truth over rival; every "
+        "visit counted as independent)"
+    )
     for c in ("#", "measurement", "hours", "least z", "now"):
         t.add_column(c, justify="left" if c == "measurement" else "right")
     for c in doc["candidates"][:8]:
@@ -46,6 +49,8 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
             f"{now.get((worst['truth'], worst['rival']), float('nan')):.1f}",
         )
     out.print(t)
+    if doc.get("separation_said"):
+        out.print(doc["separation_said"], markup=False, soft_wrap=True)
     if doc.get("proofs_tried"):
         t = Table(title="Proofs, in the order tried (each rival simulated as the truth, diagnosed)")
         for c in ("tried", "measurement", "rank", "hours", "outcome"):

@@ -104,11 +104,13 @@ def design_section(doc: Mapping[str, Any], drift: pl.DataFrame | None = None) ->
              f"{p['z']:.1f}"]
             for p in rec["separation"]
         ]  # fmt: skip
+        if doc.get("separation_said"):
+            s.blocks.append(Paragraph(doc["separation_said"]))
         s.blocks.append(
             Table(
-                "Predicted separation: the margin (standard errors, white noise) by which "
-                "each effect, were it the truth, would beat its rival — on the given runs, "
-                "and with the recommended measurement added",
+                "Predicted separation: the margin (standard errors, every visit counted as "
+                "independent) by which each effect, were it the truth, would beat its rival — "
+                "on the given runs, and with the recommended measurement added",
                 ["truth", "rival", "z now", "z with the design"],
                 rows,
             )
