@@ -30,6 +30,7 @@ def cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     )
 
 
+@pytest.mark.slow
 def test_readme_python_examples_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     code = blocks(README, "python")
     assert len(code) >= 2 and all(">>>" in c for c in code)

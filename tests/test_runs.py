@@ -192,6 +192,8 @@ def test_markers_give_runs_and_drift_is_anchored_per_run(
         assert np.max(np.abs(g["drift_u_um"].to_numpy() - true_drift)) < 2.0, (run, cam)
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_without_markers_the_idle_gap_splits(
     recording: tuple[Path, pl.DataFrame], paper_rig: thermrs.Rig, tmp_path: Path
 ) -> None:

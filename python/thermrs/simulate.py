@@ -163,6 +163,14 @@ def simulate_truth(
         The scenario file cannot be read or does not fit the rig; ``seed`` is out of range.
     KeyboardInterrupt
         Ctrl-C.
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> t = thermrs.simulate.simulate_truth(
+    ...     thermrs.load_rig(), "fixtures/scenarios/two-runs-thermal-lag.toml"
+    ... )  # doctest: +SKIP
+    >>> t.samples.select("t_ns", "run", "ambient_c")  # doctest: +SKIP
     """
     rig = as_rig(rig)
     scenario = Path(scenario)

@@ -58,6 +58,14 @@ def recordings(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
 
 
 @pytest.fixture(scope="module")
+def one_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One recording of the scenario (seed 1), for the tests that need no more."""
+    d = tmp_path_factory.mktemp("campaign-one")
+    (d / "s.toml").write_text(SCENARIO)
+    return simulate(thermrs.load_rig(), d / "s.toml", d / "r1.mcap", seed=1).recording
+
+
+@pytest.fixture(scope="module")
 def client() -> Iterator[Any]:
     from distributed import Client
     from thermrs.campaigns.engine import local_cluster
@@ -367,12 +375,13 @@ def test_ctrl_c_stops_a_cli_campaign_at_once_and_it_resumes(
     assert sorted(cat["path"]) == sorted(str(p.resolve()) for p in recordings)
 
 
-def test_one_recording_runs_in_process(recordings: list[Path], tmp_path: Path) -> None:
-    res = thermrs.campaign([recordings[0]], tmp_path / "ds")
+def test_one_recording_runs_in_process(one_recording: Path, tmp_path: Path) -> None:
+    res = thermrs.campaign([one_recording], tmp_path / "ds")
     assert res.dashboard is None and len(res.extracted) == 1
-    check_against_single_files(res, recordings[:1])
+    check_against_single_files(res, [one_recording])
 
 
+@pytest.mark.slow
 def test_runs_extracted_before_the_override_existed_read_it_as_null(
     recordings: list[Path], tmp_path: Path
 ) -> None:
@@ -392,7 +401,7 @@ def test_runs_extracted_before_the_override_existed_read_it_as_null(
     assert new["speed_pct"].to_list() == [30.0, 75.0]  # SCENARIO's overrides
 
 
-def test_speed_override_from_the_marker_or_the_joint_states(recordings: list[Path]) -> None:
+def test_speed_override_from_the_marker_or_the_joint_states(one_recording: Path) -> None:
     """The override each run was simulated at: stated by its marker; estimated from the joint
     states with the joints' rated maxima (here the simulator's own maxima, its default
     scenario's) where no marker states it; unknown without either."""
@@ -400,7 +409,7 @@ def test_speed_override_from_the_marker_or_the_joint_states(recordings: list[Pat
     from thermrs.ingest import extract
 
     rig = thermrs.load_rig()
-    ex = extract(recordings[0], rig)
+    ex = extract(one_recording, rig)
     tables = (ex.runs, ex.frames, ex.visits, ex.joints)
     truth = [30.0, 75.0]  # SCENARIO
     marked = run_stats(*tables, metadata=ex.report.metadata)
@@ -413,6 +422,7 @@ def test_speed_override_from_the_marker_or_the_joint_states(recordings: list[Pat
     assert run_stats(*tables)["speed_pct"].null_count() == 2
 
 
+@pytest.mark.slow
 def test_a_script_without_a_main_guard_is_told_not_left_waiting(
     recordings: list[Path], tmp_path: Path
 ) -> None:
@@ -491,10 +501,10 @@ def test_workers_are_quiet_when_thermrs_closes_its_cluster() -> None:
 
 
 def test_catalog_reads_old_fragments_and_names_a_damaged_one(
-    recordings: list[Path], tmp_path: Path
+    one_recording: Path, tmp_path: Path
 ) -> None:
     out = tmp_path / "ds"
-    thermrs.campaign([recordings[0]], out)
+    thermrs.campaign([one_recording], out)
     (frag,) = (out / "_catalog").glob("*.parquet")
     row = pl.read_parquet(frag)
     # A fragment written before the catalog had a `report` column, with a narrower integer
@@ -586,6 +596,7 @@ def test_cli_campaign_on_a_scheduler(recordings: list[Path], client: Any, tmp_pa
     assert "Traceback" not in p.stderr
 
 
+@pytest.mark.slow
 def test_runs_by_query_alpha_per_run_and_rules(
     recordings: list[Path], client: Any, tmp_path: Path
 ) -> None:

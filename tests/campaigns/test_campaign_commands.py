@@ -105,6 +105,8 @@ def test_runs_by_name_and_query(camp: dict[str, Path]) -> None:
         splits(camp["ds"], rig, train=["r1"], holdout=["r1#run2"])
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_fit_from_the_catalog_is_the_fit_of_the_files(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
@@ -136,6 +138,8 @@ def test_fit_from_the_catalog_is_the_fit_of_the_files(
     )
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_predict_by_rule_is_each_fold_predicted_from_files(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
@@ -190,6 +194,8 @@ def test_predict_by_rule_is_each_fold_predicted_from_files(
     assert got["predicted_um"].to_list() == pytest.approx(truth["predicted_um"].to_list())
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_by_day_trains_on_one_day_and_predicts_the_next(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
@@ -218,6 +224,8 @@ def test_by_day_trains_on_one_day_and_predicts_the_next(
     assert got["predicted_um"].to_list() == pytest.approx(truth["predicted_um"].to_list(), rel=1e-9)
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_drift_from_the_catalog_is_drift_of_the_files(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
@@ -234,6 +242,8 @@ def test_drift_from_the_catalog_is_drift_of_the_files(
     assert da["iso9283"] == db["iso9283"]
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_diagnose_from_the_catalog_is_the_diagnosis_of_the_files(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
@@ -254,6 +264,8 @@ def test_diagnose_from_the_catalog_is_the_diagnosis_of_the_files(
     )
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_diagnose_by_rule_is_each_fold_diagnosed_and_predict_uses_a_diagnosis(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
@@ -306,6 +318,8 @@ def test_diagnose_by_rule_is_each_fold_diagnosed_and_predict_uses_a_diagnosis(
     assert_frame_equal(ta.drop("run"), tb.drop("run"), rel_tol=1e-9)
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_report_from_the_catalog_is_the_report_of_the_files(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
@@ -409,6 +423,8 @@ def test_bad_campaign_input_is_one_line_exit_2(
     assert "Traceback" not in p.stderr and len(errors) == 1
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_a_dataset_refuses_a_rig_it_was_not_extracted_with(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
@@ -484,6 +500,8 @@ def test_where_takes_what_people_type(camp: dict[str, Path], tmp_path: Path) -> 
     assert lines["speed%"] == "30–75"  # the scenario's overrides
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_where_speed_override_is_the_scenarios(camp: dict[str, Path]) -> None:
     """``speed%`` is the override each run was simulated at (run1 30 %, run2 75 %), through
     the CLI: the table shows it, a query picks by it, and a miss says the range there is."""
@@ -500,6 +518,8 @@ def test_where_speed_override_is_the_scenarios(camp: dict[str, Path]) -> None:
     assert p.returncode == 2 and "speed%: 30–75" in p.stderr, p.stderr
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_the_campaign_page_has_tables_figures_and_the_trend(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:

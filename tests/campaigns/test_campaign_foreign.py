@@ -91,6 +91,8 @@ def _info(*args: str) -> subprocess.CompletedProcess[str]:
     )
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_info_takes_folders_and_globs_as_extract_does(recs: dict[str, Path]) -> None:
     """``thermrs info FOLDER`` and ``'GLOB'``: every recording below, each once, named as
     found; exit 3 for the cut one; the table says how it counts visits (not as extract)."""

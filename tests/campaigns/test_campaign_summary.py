@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import pytest
 from thermrs.campaigns.summary import fold_synthesis
 
 
@@ -88,6 +89,7 @@ def _campaign(
     )
 
 
+@pytest.mark.slow
 def test_the_trend_interval_covers_the_true_slope() -> None:
     """Over 400 simulated campaigns with a known trend (and run-to-run scatter beyond the runs'
     intervals), the slope's 95 % interval covers the truth at close to 95 %, and a campaign

@@ -21,6 +21,7 @@ def _run_temperatures(rec: Path, run: str) -> pl.DataFrame:
     return t.sort("camera", "t_ns")
 
 
+@pytest.mark.slow
 def test_the_compensation_law_applied_by_hand_removes_what_the_diagnosis_promised(
     d: dict[str, Path],
 ) -> None:

@@ -14,6 +14,7 @@ import thermrs
 from tests.support.cli import bad, cli, ok
 
 
+@pytest.mark.slow
 def test_diagnosing_runs_too_short_is_bad_input_not_a_crash(tmp_path: Path) -> None:
     rig = str(thermrs.default_rig_path())
     sc = tmp_path / "short.toml"
@@ -37,6 +38,7 @@ def test_diagnosing_runs_too_short_is_bad_input_not_a_crash(tmp_path: Path) -> N
         diagnose(load_runs(f"{rec}#a", r).tables, load_runs(f"{rec}#b", r).tables, r)
 
 
+@pytest.mark.slow
 def test_a_gap_closed_beyond_the_gap_is_capped_and_implausible_candidates_marked(
     d: dict[str, Path],
 ) -> None:

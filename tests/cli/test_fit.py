@@ -17,6 +17,7 @@ import thermrs
 from tests.support.cli import bad, cli, ok
 
 
+@pytest.mark.slow
 def test_the_library_fit_over_a_files_runs_is_the_cli_fit(d: dict[str, Path]) -> None:
     out = d["root"] / "fit.json"
     ok(cli("fit", "--rig", str(d["rig"]), "--train", str(d["rec"]), "--json", str(out)))

@@ -17,6 +17,7 @@ from tests.support.scenarios import THREE_RUNS_JOINT_OFFSET as SCENARIO
 from tests.support.scenarios import THREE_RUNS_VISITS as VISITS
 
 
+@pytest.mark.slow
 def test_info_says_what_the_recording_holds(d: dict[str, Path]) -> None:
     doc = json.loads(ok(cli("info", str(d["rec"]), "--rig", str(d["rig"]), "--json")).stdout)[0]
     # Every topic's count against the mcap package reading every message.
@@ -44,6 +45,7 @@ def test_info_says_what_the_recording_holds(d: dict[str, Path]) -> None:
     assert doc["duration_s"] / 3600 == pytest.approx(22.0, abs=0.1)
 
 
+@pytest.mark.slow
 def test_info_on_a_cut_recording_and_one_without_markers(
     d: dict[str, Path], shared: Path, tmp_path: Path
 ) -> None:

@@ -14,6 +14,7 @@ import pytest
 from tests.support.cli import bad, cli, ok
 
 
+@pytest.mark.slow
 def test_predict_with_the_diagnosis_shrinks_a_run_it_never_saw_by_the_promised_share(
     d: dict[str, Path],
 ) -> None:
@@ -34,6 +35,7 @@ def test_predict_with_the_diagnosis_shrinks_a_run_it_never_saw_by_the_promised_s
     assert everything["nominal_rms_um"] > 3 * everything["diagnosed_rms_um"]
 
 
+@pytest.mark.slow
 def test_a_diagnosis_that_found_nothing_predicts_with_the_nominal_model(
     d: dict[str, Path], tmp_path: Path
 ) -> None:
@@ -53,6 +55,8 @@ def test_a_diagnosis_that_found_nothing_predicts_with_the_nominal_model(
             str(tmp_path / "c.txt")), "-o", ".csv or .json")  # fmt: skip
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_alpha_takes_units_and_series_writes_the_format_named(
     data: dict[str, Path], tmp_path: Path
 ) -> None:

@@ -36,6 +36,7 @@ def test_report_takes_runs_inside_a_recording(d: dict[str, Path], tmp_path: Path
     assert not (tmp_path / "missing").exists()
 
 
+@pytest.mark.slow
 def test_the_overview_puts_runs_side_by_side(d: dict[str, Path]) -> None:
     from thermrs.report import figures
 

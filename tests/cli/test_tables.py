@@ -13,11 +13,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 import thermrs
 
 from tests.support.cli import cli, ok
 
 
+@pytest.mark.slow
 def test_diagnose_tables_are_whole_when_piped(d: dict[str, Path]) -> None:
     for args in (
         ["diagnose", "--paper"],
@@ -45,6 +47,7 @@ noise_c = 0.02
 """
 
 
+@pytest.mark.slow
 def test_end_errors_inside_the_noise_and_undetermined_heating_curves_are_said_so(
     tmp_path: Path,
 ) -> None:

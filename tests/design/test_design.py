@@ -320,3 +320,48 @@ def test_design_uses_the_diagnosis_it_is_given(
     # The rig's path is a rig, as everywhere.
     by_path = design([r1], [r2], str(paper_rig.source), diagnosis=doc, prove_it=False)
     assert by_path.diagnosis["baseline"] == doc["baseline"]
+
+
+def test_a_room_swing_separates_what_the_room_drives(
+    paper_rig: thermrs.Rig, short_runs: dict[str, pl.DataFrame], tmp_path: Path
+) -> None:
+    """A fixture that moves with the room cannot be told from a length that follows a link
+    while the room holds still: a steady-room protocol predicts no fixture drift at all, so
+    it adds next to nothing to the separation (z stays within 1 % of what it is on the given
+    runs: the rival's fit must now also leave the new, driftless visits alone). The room-swing
+    protocol moves the room apart from the links, and the fixture's drift, um_per_k times
+    the room's excursion, then separates it."""
+    from thermrs.design.candidates import ROOM_SWING_C
+    from thermrs.design.forecast import forecast_tables, protocol_samples
+    from thermrs.effects import FixtureDrift
+
+    rv = [
+        Rival(
+            "fixture_drift",
+            {},
+            paper_rig.alpha_per_k,
+            FixtureDrift(camera="A", um_per_k=(3.0, -2.0)),
+        ),
+        Rival("unmodelled_length", {}, paper_rig.alpha_per_k, UnmodelledLength("a3", "link3")),
+    ]
+    old = Block(VisitSet(list(short_runs.values()), paper_rig), rv)
+    fams = rival_families(paper_rig, old.vs, rv)
+    pair = ("fixture_drift", "unmodelled_length")
+    now = pair_z([old], rv, fams, 1.0)[pair]
+    by_label = {p.label.split(" ")[0] + " " + p.label.split(" ")[1]: p for p in protocols()}
+    z = {}
+    for key in ("hot-cool 12+12", "room-swing 12+12"):
+        p = by_label[key]
+        vis, samp = protocol_samples(paper_rig, p, cycle_s=600.0, workdir=tmp_path)
+        room = samp["ambient_c"].to_numpy()
+        blk = Block(VisitSet(forecast_tables(paper_rig, vis, samp), paper_rig), rv)
+        z[key] = pair_z([old, blk], rv, fams, 1.0)[pair]
+        if key.startswith("room"):
+            assert np.ptp(room) == pytest.approx(2 * ROOM_SWING_C, rel=0.01)
+        else:
+            assert np.ptp(room) < 1e-9
+    assert now <= z["hot-cool 12+12"] <= 1.01 * now
+    assert z["room-swing 12+12"] >= Z_TARGET > 3 * now
+    # Only a rig that records the room is offered the protocol.
+    assert any(p.room for p in protocols())
+    assert not any(p.room for p in protocols(room_swing=False))

@@ -218,6 +218,7 @@ def test_scoring_follows_the_issue() -> None:
     assert withheld_outcome({"excluded": {"status": "none"}}) == "none"
 
 
+@pytest.mark.slow
 def test_diagnose_bench_cli_runs_a_case_blind_and_withheld(tmp_path: Path) -> None:
     """The CLI end to end on one small case: the case reached its SNR, was diagnosed blind and
     again with its effect excluded, and was scored in its world's bin."""

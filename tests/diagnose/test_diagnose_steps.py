@@ -85,6 +85,8 @@ def test_english_lists() -> None:
     assert english_list(["a", "b", "c"], conj="or") == "a, b or c"
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_an_excluded_effect_is_gone_from_the_library(rig: thermrs.Rig) -> None:
     runs = make_runs(rig, thermrs.effects.ThermalLag(tau_min=70.0), seed=7, hours=6.0)
     d = diagnose(runs[:1], runs[1:], rig, bootstrap=0, exclude=["thermal_lag"], null_draws=49)
@@ -105,6 +107,8 @@ def test_delta_aicc_penalises_a_useless_column(rig: thermrs.Rig) -> None:
             assert r["evidence"]["delta_aicc"] > -10.0, r["family"]
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_no_effect_gives_none_in_most_seeds(rig: thermrs.Rig) -> None:
     # The null world's tests at 5 %: a run without any gap is called otherwise rarely.
     wrong = 0
@@ -169,6 +173,8 @@ def test_two_effects_at_once_are_both_named_or_the_rest_called_unexplained(
         assert {"thermal_lag", "fixture_drift"} <= named, row
 
 
+@pytest.mark.slow
+@pytest.mark.floors
 def test_a_rig_file_path_is_a_rig(rig: thermrs.Rig) -> None:
     # As every other function takes it: the path of the rig file, str or Path.
     runs = make_runs(rig, None, seed=21, hours=4.0)

@@ -78,6 +78,8 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
             f"[bold]Recommended[/bold]: {rec['label']} ({rec['hours']:g} h); roles: "
             + ", ".join(f"{k} {v}" for k, v in doc["roles"].items())
         )
+        if rec.get("room"):
+            out.print(f"Meanwhile {rec['room']}.", markup=False, soft_wrap=True)
         out.print(
             f"Wrote {out_dir / 'rig.toml'}, {out_dir / 'scenario.toml'} and "
             f"{out_dir / 'design.json'}"

@@ -297,6 +297,13 @@ def design(
 
     if not budget_h >= 1.0:
         raise InputError(f"--budget-h {budget_h}: at least 1 hour of recording is needed")
+    if between:
+        from thermrs.effects import effect_classes
+
+        known = effect_classes()
+        for name in between:
+            if name not in known:  # said before the runs are diagnosed, not after
+                raise InputError(f"--between {name!r}: not an effect (known: {', '.join(known)})")
     say = progress or (lambda _m: None)
     t0 = time.perf_counter()
     lim = tuple(limits_deg) if limits_deg is not None else DEFAULT_LIMITS_DEG

@@ -105,10 +105,15 @@ class RunPlan:
 
 @dataclass(frozen=True)
 class Protocol:
-    """A sequence of runs (speeds, durations, starts, idle time)."""
+    """A sequence of runs (speeds, durations, starts, idle time), and what the room must do
+    meanwhile: ``ambient`` are keys of the scenario's ``[ambient]`` table (``swing_c``, the
+    amplitude of the room's daily swing; ``drift_c_per_h``), empty for a room held steady;
+    ``room`` says it in words."""
 
     label: str
     runs: tuple[RunPlan, ...]
+    ambient: tuple[tuple[str, float], ...] = ()
+    room: str | None = None
 
     @property
     def hours(self) -> float:
@@ -140,6 +145,8 @@ class Candidate:
             "hours": self.hours,
             "pose": self.pose,
             "camera": self.camera,
+            "room": self.protocol.room,
+            "ambient": dict(self.protocol.ambient),
             "runs": [
                 {
                     "name": r.name,
@@ -155,15 +162,26 @@ class Candidate:
         }
 
 
-def protocols(*, prefix: str = "design") -> list[Protocol]:
+#: The amplitude (K) of the room's daily swing a ``room-swing`` protocol asks for.
+ROOM_SWING_C = 2.0
+
+
+def protocols(*, prefix: str = "design", room_swing: bool = True) -> list[Protocol]:
     """The run protocols searched: each has a training run and a held-out run (the held-out
     run must carry whatever the new measurement adds, so that the diagnoser scores on it).
 
     - ``hot-cool``: a cold start at 75 % (the links heat), then 10 % (they cool): the drivers
       rise and fall within the design;
-    - ``fast-idle-slow``: 100 % from cold, an idle cool-down, then 30 %;
+    - ``fast-idle-slow``: 100 % from cold, an idle cool-down of 2 h, then 30 %;
+    - ``hot-rest-slow``: 75 % from cold for 8 h, the robot at rest for a stated cool-down
+      (4 or 8 h), then 10 % for 4 h: the links' cooling and the warm restart held out;
     - ``two-speeds-warm``: 50 %, then 30 % straight after it (a warm start);
-    each in a short and a long version.
+    - ``room-swing`` (with ``room_swing``, for rigs with an ambient thermometer): 30 % for a
+      whole day while the room swings by ±:data:`ROOM_SWING_C` K (its climate control off, or
+      its set point moved): the room's temperature then moves apart from the links', which
+      separates what the room drives (a fixture, a length that follows the room) from what
+      the links drive;
+    each but the last in a short and a long version.
     """
     out = []
     for hours in (4.0, 6.0, 8.0, 10.0, 12.0):
@@ -188,6 +206,16 @@ def protocols(*, prefix: str = "design") -> list[Protocol]:
                 ),
             )
         )
+    for rest in (4.0, 8.0):
+        out.append(
+            Protocol(
+                f"hot-rest-slow 8+{rest:g}+4 h (a {rest:g}-h cool-down)",
+                (
+                    RunPlan(f"{prefix}-heat", 75.0, 480.0, "ambient", 0.0, "train"),
+                    RunPlan(f"{prefix}-after", 10.0, 240.0, "continue", rest * 60.0, "holdout"),
+                ),
+            )
+        )
     out.append(
         Protocol(
             "two-speeds-warm 8+8 h",
@@ -197,6 +225,19 @@ def protocols(*, prefix: str = "design") -> list[Protocol]:
             ),
         )
     )
+    if room_swing:
+        out.append(
+            Protocol(
+                f"room-swing 12+12 h (room ±{ROOM_SWING_C:g} K over the day)",
+                (
+                    RunPlan(f"{prefix}-day", 30.0, 720.0, "ambient", 0.0, "train"),
+                    RunPlan(f"{prefix}-night", 30.0, 720.0, "continue", 0.0, "holdout"),
+                ),
+                ambient=(("swing_c", ROOM_SWING_C),),
+                room=f"the room's temperature swings by ±{ROOM_SWING_C:g} K over the day "
+                "(climate control off, or its set point moved)",
+            )
+        )
     return out
 
 

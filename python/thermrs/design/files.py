@@ -84,8 +84,10 @@ def scenario_toml(
     if seed is not None:
         d["seed"] = int(seed)
     d["run"] = [r.to_scenario(cycle_s) for r in candidate.protocol.runs]
+    if candidate.protocol.ambient:
+        d["ambient"] = dict(candidate.protocol.ambient)
     for k, v in (extra or {}).items():
-        d[k] = dict(v)
+        d[k] = {**d.get(k, {}), **dict(v)}
     if effects:
         d["effect"] = [dict(e) for e in effects]
     return tomli_w.dumps(_clean(d))

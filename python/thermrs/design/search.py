@@ -66,14 +66,16 @@ def _pairs(z: dict[tuple[str, str], float]) -> list[dict[str, Any]]:
     return [{"truth": a, "rival": b, "z": v} for (a, b), v in z.items()]
 
 
-def _protocols(taken: set[str]) -> list[Protocol]:
-    """The protocols, their runs named so that no name is one of the user's runs."""
+def _protocols(taken: set[str], rig: Rig) -> list[Protocol]:
+    """The protocols, their runs named so that no name is one of the user's runs; a room
+    swing only where the rig records the room's temperature."""
+    swing = rig.ambient_topic is not None
     prefix = "design"
     k = 1
-    while any(r.name in taken for p in protocols(prefix=prefix) for r in p.runs):
+    while any(r.name in taken for p in protocols(prefix=prefix, room_swing=swing) for r in p.runs):
         k += 1
         prefix = f"design{k}"
-    return protocols(prefix=prefix)
+    return protocols(prefix=prefix, room_swing=swing)
 
 
 def search(
@@ -90,7 +92,7 @@ def search(
     progress: Callable[[str], object],
 ) -> Found:
     """Score every candidate within ``budget_h`` (see the module docstring)."""
-    protos = [p for p in _protocols(taken) if p.hours <= budget_h + 1e-9]
+    protos = [p for p in _protocols(taken, rig) if p.hours <= budget_h + 1e-9]
     if not protos:
         shortest = min(p.hours for p in protocols())
         return Found([], [], [], f"the budget ({budget_h:g} h) is below the shortest protocol "

@@ -46,6 +46,8 @@ def _what(rec: Mapping[str, Any]) -> str:
             f"{rec.get('distance_mm', 0):g} mm from the laser. "
         )
     text += f"Record {_run_text(rec['runs'])}."
+    if rec.get("room"):
+        text += f" Meanwhile {rec['room']}."
     return text
 
 
