@@ -365,3 +365,20 @@ def test_a_room_swing_separates_what_the_room_drives(
     # Only a rig that records the room is offered the protocol.
     assert any(p.room for p in protocols())
     assert not any(p.room for p in protocols(room_swing=False))
+
+
+def test_what_the_robot_alone_can_record_is_proved_before_a_room_swing() -> None:
+    """Of two candidates that both reach the target, the one that needs the room's climate
+    control off is proved second, even with the better score and the less alike signatures."""
+    from thermrs.design.candidates import Candidate
+    from thermrs.design.search import conclude
+
+    by = {p.label.split(" ")[0]: p for p in protocols()}
+    robot = Candidate(label="robot", kind="protocol", protocol=by["hot-cool"])
+    room = Candidate(label="room", kind="protocol", protocol=by["room-swing"])
+    pair = ("a", "b")
+    scored = [(2 * Z_TARGET, room, {pair: 2 * Z_TARGET}), (Z_TARGET, robot, {pair: Z_TARGET})]
+    cosines = {id(room): {pair: 0.1}, id(robot): {pair: 0.5}}
+    found = conclude([], scored, cosines, [])
+    assert [c.label for c in found.proof_order] == ["robot", "room"]
+    assert [r["label"] for r, _ in found.ranked] == ["room", "robot"]  # ranked by score

@@ -5,7 +5,8 @@ protocol; the best poses then with every protocol). Scores are the least ``z`` o
 pairs of rivals (:mod:`thermrs.design.separation`). The proof order takes the candidates
 whose score reaches :data:`Z_TARGET` first, those that leave the least canonical correlation
 between the rivals' signatures over all runs (the diagnoser calls a pair confounded above 0.9
-of it, whatever the held-out gain) before the others; then the rest by score.
+of it, whatever the held-out gain) before the others, and those the robot alone can record
+before those that ask the room to change; then the rest by score.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from thermrs.design.separation import Block, Rival, pair_cos, pair_z, rival_fami
 from thermrs.rig import Rig
 from thermrs.signatures import VisitSet
 
-__all__ = ["NOT_SEARCHED", "Z_TARGET", "Found", "search"]
+__all__ = ["NOT_SEARCHED", "Z_TARGET", "Found", "conclude", "search"]
 
 #: Score (least z over ordered pairs, white noise) a candidate should reach; about 3 standard
 #: errors once the residuals' autocorrelation is accounted for (z is optimistic by √3–√10).
@@ -141,16 +142,35 @@ def search(
                 score_pose(
                     replace(c, protocol=p, label=c.label.rsplit("; ", 1)[0] + "; " + p.label)
                 )
-    return _conclude(now, scored, cosines, rivals)
+    return conclude(now, scored, cosines, rivals)
 
 
-def _conclude(
+def conclude(
     now: list[dict[str, Any]],
     scored: Scored,
     cosines: dict[int, dict[tuple[str, str], float]],
     rivals: Sequence[Rival],
 ) -> Found:
-    """The ranking, the proof order and, if a pair is inseparable everywhere, why."""
+    """The ranking, the proof order and, if a pair is inseparable everywhere, why.
+
+    Parameters
+    ----------
+    now
+        The separation on the user's runs alone (``{truth, rival, z}`` per ordered pair).
+    scored
+        Per candidate: its least z, the candidate, its z per ordered pair (sorted here).
+    cosines
+        Per candidate (by ``id``): the canonical correlation of each pair's signatures.
+    rivals
+        The rivals separated.
+
+    Returns
+    -------
+    Found
+        ``ranked`` by least z; ``proof_order``: those reaching :data:`Z_TARGET` first (the
+        robot alone before a room change, then the least alike signatures first), then the
+        rest by score; ``why_not`` when a pair is inseparable on every candidate.
+    """
     scored.sort(key=lambda s: -s[0])
     ranked = []
 
@@ -165,7 +185,12 @@ def _conclude(
                 c,
             )
         )
-    good = sorted((s for s in scored if s[0] >= Z_TARGET), key=lambda s: worst_cos(s[1]))
+    # A candidate that asks the room to change (a room swing) is proved after those the
+    # robot alone can record: turning off a hall's climate control is the larger request.
+    good = sorted(
+        (s for s in scored if s[0] >= Z_TARGET),
+        key=lambda s: (s[1].protocol.room is not None, worst_cos(s[1])),
+    )
     rest = [s for s in scored if s[0] < Z_TARGET]
     order = [c for _, c, _ in good + rest]
     why = None
