@@ -52,6 +52,9 @@ use crate::heat::Rise;
 
 /// The format string every scenario file must carry.
 pub const SCENARIO_FORMAT: &str = "thermrs-scenario/1";
+/// When the first run starts unless the scenario says (`start_time`): 2025-06-15T15:06:40Z,
+/// like the sample recording.
+pub const T0_NS: i64 = 1_750_000_000_000_000_000;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -63,7 +66,7 @@ pub struct Scenario {
     #[serde(default)]
     pub seed: u64,
     /// When the first run starts, ns since the Unix epoch (a TOML offset date-time or an RFC
-    /// 3339 string; default [`crate::simulate::T0_NS`]).
+    /// 3339 string; default [`T0_NS`]).
     #[serde(default, with = "start_time")]
     pub start_time: Option<i64>,
     pub run: Vec<Run>,
@@ -414,7 +417,7 @@ impl Scenario {
     /// Each run's idle time before it (s): `idle_before_min`, or up to its `start_time`.
     /// Errors where a run's start time is before the previous run's end.
     pub fn idle_before_s(&self) -> Result<Vec<f64>, KeyError> {
-        let t0 = self.start_time.unwrap_or(crate::simulate::T0_NS);
+        let t0 = self.start_time.unwrap_or(T0_NS);
         let mut t_s = 0.0_f64;
         let mut out = Vec::with_capacity(self.run.len());
         for (i, r) in self.run.iter().enumerate() {

@@ -39,9 +39,8 @@ use state::State;
 
 /// Transport delay between a message's stamp and its log time.
 const LOG_DELAY_NS: i64 = 2_000_000;
-/// When the first run starts unless the scenario says (`start_time`): 2025-06-15T15:06:40Z,
-/// like the sample recording.
-pub const T0_NS: i64 = 1_750_000_000_000_000_000;
+/// When the first run starts unless the scenario says: [`crate::scenario::T0_NS`].
+pub use crate::scenario::T0_NS;
 
 /// Most sub-exposure samples of a spot that moves during a frame (its smear).
 const MAX_SMEAR_SAMPLES: usize = 4096;
