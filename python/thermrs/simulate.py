@@ -196,7 +196,7 @@ def _read_scenario(rig: Rig, scenario: Path, seed: int | None) -> str:
         ) from None
     except OSError as e:
         raise InputError(f"scenario {scenario}: cannot read it ({e.strerror or e})") from None
-    _check_default_nodes(text, scenario, rig)
+    check_default_nodes(text, scenario, rig)
     return text
 
 
@@ -228,13 +228,30 @@ def _truth(rig: Rig, cols: dict[str, Any], sc_json: str) -> SimulatedTruth:
     return SimulatedTruth(frames=frames, samples=samples, scenario=json.loads(sc_json))
 
 
-#: The thermal nodes a scenario without ``[[node]]`` gets: the paper rig's calibrated links.
+#: The thermal nodes a scenario without ``[[node]]`` gets, those of them the rig has ROIs for:
+#: the paper rig's calibrated links and base.
 DEFAULT_NODES = ("link2", "link3", "base")
 
 
-def _check_default_nodes(text: str, scenario: Path, rig: Rig) -> None:
-    """A scenario without ``[[node]]`` on a rig whose ROIs are not the paper rig's: say so in
-    the user's terms (the node names come from the default, not from their file)."""
+def check_default_nodes(text: str, scenario: str | Path, rig: Rig) -> None:
+    """A scenario without ``[[node]]`` is simulated with the paper rig's calibrated nodes of
+    the ROIs the rig shares with it (:data:`DEFAULT_NODES`); a rig with a ROI none of them
+    covers is refused in the user's terms, naming the ROIs and the fix.
+
+    Parameters
+    ----------
+    text
+        The scenario's TOML.
+    scenario
+        Its name in messages.
+    rig
+        The rig it is simulated on.
+
+    Raises
+    ------
+    InputError
+        No ``[[node]]`` and a ROI of the rig without a default node.
+    """
     import tomllib
 
     try:
@@ -242,10 +259,11 @@ def _check_default_nodes(text: str, scenario: Path, rig: Rig) -> None:
     except tomllib.TOMLDecodeError:
         return  # the core names the line
     rois = [r.name for r in rig.rois]
-    missing = [n for n in DEFAULT_NODES if n not in rois]
-    if "node" not in doc and missing:
+    uncovered = [r for r in rois if r not in DEFAULT_NODES]
+    if "node" not in doc and uncovered:
         raise InputError(
             f"scenario {scenario}: no [[node]] given, so the paper rig's thermal nodes "
             f"({', '.join(DEFAULT_NODES)}) are assumed, but rig {Path(rig.source).name} has the "
-            f"ROIs {', '.join(rois) or '(none)'}: add one [[node]] per ROI (docs/scenarios.md)"
+            f"ROIs {', '.join(rois)}, of which {', '.join(uncovered)} has no such node: add "
+            "one [[node]] per ROI (docs/scenarios.md)"
         )

@@ -382,3 +382,34 @@ def test_what_the_robot_alone_can_record_is_proved_before_a_room_swing() -> None
     found = conclude([], scored, cosines, [])
     assert [c.label for c in found.proof_order] == ["robot", "room"]
     assert [r["label"] for r, _ in found.ranked] == ["room", "robot"]  # ranked by score
+
+
+def test_a_rig_whose_rois_have_no_calibrated_node_is_refused_before_any_work() -> None:
+    """The design forecasts the links' temperatures with the simulator's calibrated nodes; a
+    rig whose ROIs bear other names (the UR5 fixture's upper_arm and forearm) is refused at
+    once, in one error naming them, not deep inside a forecast's temporary scenario."""
+    from tests.support.rigs import UR5
+
+    with pytest.raises(thermrs.InputError, match=r"upper_arm, forearm have none") as e:
+        design([], [], UR5)
+    assert "thermrs-design-" not in str(e.value)
+
+
+def test_new_chips_go_on_the_side_of_the_base_plane_where_the_rigs_chips_are(
+    paper_rig: thermrs.Rig,
+) -> None:
+    """On the paper rig the chips stand above the base plane, and so does every new one; on a
+    random KR 16-like rig whose chips all lie below it (the base frame above the work, as on
+    an arm mounted overhead) the new chips go below it too, not nowhere."""
+    from tests.support.coverage import random_rig
+
+    rig = random_rig(np.random.default_rng(7))
+    assert all(c.centre_mm[2] < 0 for c in rig.cameras)
+    for r, sign in ((paper_rig, 1.0), (rig, -1.0)):
+        cands = candidates(r, protocol=protocols()[0])
+        assert len(cands) > 50
+        assert all(sign * c.camera["centre_mm"][2] >= 0 for c in cands if c.camera)
+        # The new chip takes the visit times of the camera seen at the pose it turns, named
+        # as a camera (the random rig's poses P0, P1 are not its cameras' names A, B).
+        seen = {cam.pose: cam.name for cam in r.cameras}
+        assert all(c.detail["from_camera"] == seen[c.detail["from_pose"]] for c in cands)

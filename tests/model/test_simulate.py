@@ -325,3 +325,22 @@ def test_the_truth_alone_is_the_recordings_truth_and_writes_nothing(
     assert only.scenario == sim.scenario
     # The file's truth is what extraction measures (the round trip above), so this is too.
     assert_frame_equal(only.frames, pl.read_parquet(tmp_path / "sim.truth.parquet"))
+
+
+def test_without_nodes_a_rig_gets_the_calibrated_nodes_of_the_rois_it_has(
+    tmp_path: Path, paper_rig: thermrs.Rig
+) -> None:
+    """The paper rig without its base ROI simulates a scenario without ``[[node]]`` with the
+    calibration's link 2 and link 3 nodes: their temperatures are the full rig's, every
+    one (the nodes are independent), and no base column exists."""
+    from thermrs.simulate import simulate_truth
+
+    d = paper_rig.to_dict()
+    d["thermal"]["roi"] = [r for r in d["thermal"]["roi"] if r["name"] != "base"]
+    two = thermrs.Rig.from_dict(d, source_name="paper rig without base")
+    sc = short(tmp_path)
+    full = simulate_truth(paper_rig, sc).samples
+    part = simulate_truth(two, sc).samples
+    assert "base_surface_c" in full.columns and "base_surface_c" not in part.columns
+    for col in ("link2_surface_c", "link3_surface_c", "link2_structure_c", "ambient_c"):
+        assert np.array_equal(part[col].to_numpy(), full[col].to_numpy()), col

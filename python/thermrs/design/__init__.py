@@ -297,6 +297,16 @@ def design(
 
     if not budget_h >= 1.0:
         raise InputError(f"--budget-h {budget_h}: at least 1 hour of recording is needed")
+    from thermrs.simulate import DEFAULT_NODES
+
+    uncovered = [r.name for r in rig.rois if r.name not in DEFAULT_NODES]
+    if uncovered:
+        raise InputError(
+            f"rig {Path(rig.source).name}: thermrs design forecasts the links' temperatures "
+            f"with the simulator's calibrated thermal nodes ({', '.join(DEFAULT_NODES)}), and "
+            f"the ROI(s) {', '.join(uncovered)} have none: a ROI on link 2, link 3 or the base "
+            "is forecast when it bears that name"
+        )
     if between:
         from thermrs.effects import effect_classes
 
@@ -477,7 +487,7 @@ def rival_drift(result: DesignResult, *, workdir: str | Path | None = None) -> p
         vis, samp = protocol_samples(result.rig, cand.protocol, cycle_s=result.cycle_s,
                                      workdir=wd)  # fmt: skip
     _, new = rig_toml(result.rig, cand)
-    like = cand.detail.get("from_pose")
+    like = cand.detail.get("from_camera")
     cam = cand.camera["name"] if cand.camera is not None else None
     tables = forecast_tables(new, vis, samp, new_camera=cam, like_camera=like)
     if cam is not None:

@@ -10,8 +10,9 @@ the wrist (joints 4–6), which turns the beam away from the directions of the m
 arm (joints 2 and 3). The rig file format has no joint limits, so the limits are given by the
 caller or default to :data:`DEFAULT_LIMITS_DEG` (the KUKA KR 15/2's axis ranges, stated in
 ``design.json``). Collisions with the robot's own links, the table or the other chips are not
-checked: a chip must lie above the base plane (z ≥ 0) and at least :data:`MIN_RADIUS_MM` from
-the base axis; the user checks the rest before mounting it.
+checked: a chip must lie on the side of the base plane where the rig's own chips lie (above it,
+z ≥ 0, unless they all lie below it, as on a robot mounted overhead) and at least
+:data:`MIN_RADIUS_MM` from the base axis; the user checks the rest before mounting it.
 """
 
 from __future__ import annotations
@@ -254,11 +255,13 @@ def chip_at(
 ) -> dict[str, Any] | None:
     """A chip (rig ``[[camera]]`` fields but name, topic and pose) centred where the laser
     meets it ``distance_mm`` from its exit at ``joints_deg``, its plane normal to the beam;
-    pitch and size copied from camera ``like``. None where it would sit below the base plane
-    or within :data:`MIN_RADIUS_MM` of the base axis."""
+    pitch and size copied from camera ``like``. None where it would sit on the other side of
+    the base plane than the rig's chips (below it, unless they all lie below it) or within
+    :data:`MIN_RADIUS_MM` of the base axis."""
     o, d = _laser_ray(rig, joints_deg)
     c = o + distance_mm * d
-    if c[2] < 0.0 or float(np.hypot(c[0], c[1])) < MIN_RADIUS_MM:
+    below = all(cam.centre_mm[2] < 0.0 for cam in rig.cameras)
+    if (c[2] >= 0.0) == below or float(np.hypot(c[0], c[1])) < MIN_RADIUS_MM:
         return None
     ref = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
     x = np.cross(ref, d)
@@ -326,6 +329,8 @@ def candidates(
                         camera=camera,
                         detail={
                             "from_pose": cam.pose,
+                            # The camera seen at that pose: the new chip is visited when it is.
+                            "from_camera": cam.name,
                             "joint_steps_deg": {f"joint {j + 1}": s for j, s in steps},
                             "distance_mm": dist,
                         },

@@ -121,7 +121,7 @@ def search(
         vis, samp, blk = fc[c.protocol.label]
         assert c.camera is not None
         new = rig_toml(rig, c)[1]
-        like = str(c.detail["from_pose"])
+        like = str(c.detail["from_camera"])
         tabs = forecast_tables(
             new, vis.filter(pl.col("camera") == like), samp, new_camera=c.camera["name"],
             like_camera=like,

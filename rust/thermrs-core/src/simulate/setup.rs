@@ -139,7 +139,13 @@ fn effects(rig: &Rig, sc: &Scenario) -> Result<Effects> {
 /// Thermal nodes: the scenario's, else the KR 15/2 calibration; each must be a ROI of the rig.
 fn nodes(rig: &Rig, sc: &Scenario) -> Result<Vec<NodeParams>> {
     let nodes: Vec<NodeParams> = if sc.node.is_empty() {
+        // The calibration's nodes of the ROIs this rig has (a rig with link 2 and link 3
+        // but no base ROI is simulated with those two).
+        let rois = rig.rois();
         heat::kr15_paper_nodes()
+            .into_iter()
+            .filter(|n| rois.contains_key(&n.name))
+            .collect()
     } else {
         sc.node
             .iter()
