@@ -3,7 +3,7 @@
 What ``thermrs.extract`` spends after the Rust core, and how it grows with the frames.
 
 ``thermrs.extract`` is the core's extraction (``thermrs._native.extract``: numpy columns)
-followed by Python: the polars tables, the visits and the runs (``thermrs.ingest._assemble``).
+followed by Python: the polars tables, the visits and the runs (``thermrs.ingest.assemble_tables``).
 This benchmark extracts one recording once with the core, then times the Python part alone on
 the core's columns repeated ``K`` times (each copy's times shifted past the one before, so that
 the copies are later stretches of the same recording), for each ``K`` of ``--times``. With the
@@ -31,7 +31,7 @@ sys.path[:0] = [str(Path(__file__).resolve().parents[1])]
 
 import thermrs  # noqa: E402
 from thermrs import _native  # noqa: E402
-from thermrs.ingest import _assemble  # noqa: E402
+from thermrs.ingest import assemble_tables  # noqa: E402
 
 
 def tiled(cols: dict[str, np.ndarray], k: int, span: int) -> dict[str, np.ndarray]:
@@ -77,11 +77,11 @@ def main() -> None:
     for k in args.times:
         cols = tuple(tiled(c, k, span) for c in (frames_c, thermal_c, joints_c, ambient_c))
         columns = (*cols, report)
-        _assemble(args.recording, rig, columns)  # type: ignore[arg-type]
+        assemble_tables(args.recording, rig, columns)  # type: ignore[arg-type]
         times = []
         for _ in range(args.repeats):
             t = time.perf_counter()
-            _assemble(args.recording, rig, columns)  # type: ignore[arg-type]
+            assemble_tables(args.recording, rig, columns)  # type: ignore[arg-type]
             times.append(time.perf_counter() - t)
         py_ms = statistics.median(times) * 1e3
         core_ms = core_us * n * k / 1e3

@@ -26,13 +26,13 @@ def one(args: tuple[str, str, int]) -> dict[str, Any]:
     import thermrs
     from thermrs.compensate import compensation_law, diagnosed_model
     from thermrs.diagnose import diagnose
-    from thermrs.diagnose.bench_world.cases import _rigs, _truths
+    from thermrs.diagnose.bench_world.cases import case_rigs, case_truths
     from thermrs.diagnose.bench_world.world import Campaign, draw_scene, render
 
     effect, world, seed = args
-    rig, wrig = _rigs(str(thermrs.default_rig_path()))
+    rig, wrig = case_rigs(str(thermrs.default_rig_path()))
     scene = draw_scene(wrig, Campaign(), world, seed)
-    truths, _, _ = _truths(wrig, scene, (effect,), 2.0, seed)
+    truths, _, _ = case_truths(wrig, scene, (effect,), 2.0, seed)
     tables = render(scene, tuple(truths))
     doc = diagnose(tables[:1], tables[1:], rig, seed=seed, bootstrap=0).to_json()
     row: dict[str, Any] = {"effect": effect, "world": world, "seed": seed}

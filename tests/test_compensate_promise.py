@@ -18,7 +18,7 @@ import pytest
 import thermrs
 from thermrs.compensate import compensation_law, diagnosed_model
 from thermrs.diagnose import diagnose
-from thermrs.diagnose.bench_world.cases import _rigs, _truths, make_case
+from thermrs.diagnose.bench_world.cases import case_rigs, case_truths, make_case
 from thermrs.diagnose.bench_world.world import Campaign, draw_scene, render
 from thermrs.errors import InputError
 
@@ -31,9 +31,9 @@ CASES = [
 
 
 def _promise_kept(effect: str, world: str, seed: int) -> bool | None:
-    rig, wrig = _rigs(str(thermrs.default_rig_path()))
+    rig, wrig = case_rigs(str(thermrs.default_rig_path()))
     scene = draw_scene(wrig, Campaign(), world, seed)
-    truths, _, _ = _truths(wrig, scene, (effect,), 2.0, seed)
+    truths, _, _ = case_truths(wrig, scene, (effect,), 2.0, seed)
     tables = render(scene, tuple(truths))
     doc = diagnose(tables[:1], tables[1:], rig, seed=seed, bootstrap=0).to_json()
     if doc["verdict"]["status"] != "identified":

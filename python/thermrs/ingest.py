@@ -298,7 +298,7 @@ def extract(
         verify_crc=verify_crc,
         content_hash=content_hash,
     )
-    return _assemble(
+    return assemble_tables(
         p,
         rig,
         columns,
@@ -308,7 +308,7 @@ def extract(
     )
 
 
-def _assemble(
+def assemble_tables(
     path: Path,
     rig: Rig,
     columns: tuple[

@@ -10,8 +10,8 @@ import pytest
 import thermrs
 from thermrs.diagnose import diagnose, noise_floor_um
 from thermrs.diagnose.bench import make_runs
-from thermrs.diagnose.floor import _series_noise
-from thermrs.diagnose.inputs import _loess2, smooth_temperatures
+from thermrs.diagnose.floor import series_noise
+from thermrs.diagnose.inputs import loess2, smooth_temperatures
 from thermrs.diagnose.resample import block_length
 from thermrs.diagnose.verdict import english_list
 
@@ -43,7 +43,7 @@ def test_the_floor_finds_known_noise_and_leaves_a_slow_gap_out(
         if corr:
             noise += _ar1(len(t), np.exp(-600 / (tau_min * 60)), corr, rng)
         gap = 6.0 * np.exp(-t / (200 * 60)) * (1 - np.exp(-t / (40 * 60)))
-        w, a, _ = _series_noise(noise + gap, t, tau_c_max_s=30 * 60)  # type: ignore[misc]
+        w, a, _ = series_noise(noise + gap, t, tau_c_max_s=30 * 60)  # type: ignore[misc]
         est.append(np.hypot(w, a))
     truth = np.hypot(white, corr)
     assert np.median(est) == pytest.approx(truth, rel=0.12)
@@ -56,9 +56,9 @@ def test_smoothing_keeps_a_heating_curve_and_removes_reading_noise() -> None:
     rng = np.random.default_rng(1)
     t = np.arange(0, 15 * 3600, 60.0)
     curve = 30.0 - 7.0 * np.exp(-t / (300 * 60))
-    got = _loess2(t, curve + rng.normal(0, 0.03, len(t)), 30 * 60)
+    got = loess2(t, curve + rng.normal(0, 0.03, len(t)), 30 * 60)
     # a local quadratic is exact to second order: the bias is far below the reading noise
-    assert np.max(np.abs(_loess2(t, curve, 30 * 60) - curve)) < 2e-3
+    assert np.max(np.abs(loess2(t, curve, 30 * 60) - curve)) < 2e-3
     assert np.std(got - curve) < 0.35 * 0.03
     table = pl.DataFrame(
         {

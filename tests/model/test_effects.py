@@ -162,14 +162,14 @@ def test_effects_and_keywords_build_the_same_model(paper_rig: thermrs.Rig) -> No
 
 
 def test_lag_and_chip_shifts_match_independent_closed_forms(paper_rig: thermrs.Rig) -> None:
-    from thermrs.diagnose.bench import _lag
+    from thermrs.diagnose.bench import first_order_lag
     from thermrs.effects import FixtureDrift, SensorDrift, ThermalLag
 
     t = np.linspace(0, 6 * 3600, 400)
     x = 23 + 6 * (1 - np.exp(-t / 5000)) + 0.3 * np.sin(t / 900)
     m = ForwardModel(paper_rig, effects=[ThermalLag(tau_min=40.0)])
     got = m._native.structure_temperatures(t, x)
-    assert np.max(np.abs(got - _lag(t, x, 40 * 60.0))) < 1e-9
+    assert np.max(np.abs(got - first_order_lag(t, x, 40 * 60.0))) < 1e-9
     amb = 23 + 0.1 * t / 3600
     m = ForwardModel(
         paper_rig,

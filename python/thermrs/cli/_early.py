@@ -8,7 +8,7 @@ import signal
 import sys
 
 
-def _interrupted_early(signum: int, frame: object) -> None:
+def interrupted_early(signum: int, frame: object) -> None:
     """Ctrl-C while the CLI starts (imports): stop at once with the one line of SPEC §7.
     Nothing has been written yet; :func:`main` hands Ctrl-C back to Python before any work."""
     sys.stderr.write("thermrs: interrupted\n")
@@ -17,7 +17,7 @@ def _interrupted_early(signum: int, frame: object) -> None:
 
 
 # Installed before anything heavy is imported, unless Ctrl-C is ignored (a background job).
-def _invoked_as_cli() -> bool:
+def invoked_as_cli() -> bool:
     """Whether this process is the ``thermrs`` command (the console script or ``python -m
     thermrs``), not a program that imports the module (a test runner, a notebook)."""
     argv0 = os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else ""
@@ -26,6 +26,6 @@ def _invoked_as_cli() -> bool:
     )
 
 
-_EARLY = signal.getsignal(signal.SIGINT) is signal.default_int_handler and _invoked_as_cli()
-if _EARLY:
-    signal.signal(signal.SIGINT, _interrupted_early)
+EARLY = signal.getsignal(signal.SIGINT) is signal.default_int_handler and invoked_as_cli()
+if EARLY:
+    signal.signal(signal.SIGINT, interrupted_early)

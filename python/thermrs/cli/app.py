@@ -12,7 +12,7 @@ from typing import Any
 
 import click
 
-from thermrs.cli._early import _EARLY, _interrupted_early, _invoked_as_cli
+from thermrs.cli._early import EARLY, interrupted_early, invoked_as_cli
 from thermrs.cli.common import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED
 from thermrs.errors import ThermrsError
 
@@ -53,7 +53,7 @@ MULTI_VALUE_OPTIONS = (
 )
 
 
-def _expand_multi(argv: list[str]) -> list[str]:
+def expand_multi(argv: list[str]) -> list[str]:
     """``--train A B --json X`` → ``--train A --train B --json X``."""
     res: list[str] = []
     opt = None
@@ -110,14 +110,14 @@ def main(argv: list[str] | None = None) -> None:
     """
     from thermrs.errors import InternalError, OutputError
 
-    if _EARLY and signal.getsignal(signal.SIGINT) is _interrupted_early:
+    if EARLY and signal.getsignal(signal.SIGINT) is interrupted_early:
         # From here Ctrl-C raises KeyboardInterrupt, so that whatever is being written is
         # removed on the way out (and the Rust loops see it between chunks).
         signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         args = sys.argv[1:] if argv is None else argv
-        cli.main(args=_expand_multi(list(args)), prog_name="thermrs", standalone_mode=False)
-        if _invoked_as_cli():
+        cli.main(args=expand_multi(list(args)), prog_name="thermrs", standalone_mode=False)
+        if invoked_as_cli():
             # Done and reported: a Ctrl-C while the interpreter shuts down must not turn exit 0
             # into death by SIGINT (Python re-raises an uncaught KeyboardInterrupt as a signal).
             signal.signal(signal.SIGINT, signal.SIG_IGN)

@@ -61,7 +61,7 @@ def _rise(params: tuple[float, float, float, float], speed: float) -> float:
     return float(r0 + span * (1.0 - np.exp(-speed / s0)))
 
 
-def _lag(t_s: FloatArray, x: FloatArray, tau_s: float) -> FloatArray:
+def first_order_lag(t_s: FloatArray, x: FloatArray, tau_s: float) -> FloatArray:
     """Exact first-order lag of a piecewise-linear input (independent of the Rust one)."""
     y = np.empty_like(x)
     y[0] = x[0]
@@ -219,7 +219,7 @@ class _World:
         for k in self.links:
             s_fine = run.amb_fine + run.rise[k]
             if self.lag_tau is not None:
-                s_fine = _lag(run.t_fine, s_fine, self.lag_tau)
+                s_fine = first_order_lag(run.t_fine, s_fine, self.lag_tau)
             s_v = np.interp(t_v, run.t_fine, s_fine)
             struct[k] = amb_v + gain * (s_v - amb_v)
         temps = {k: struct[k] for k in self.model.temperature_names if k in struct}

@@ -201,7 +201,7 @@ def _variogram(r: FloatArray, t: FloatArray, lags: npt.NDArray[np.intp]) -> Floa
     return out
 
 
-def _series_noise(
+def series_noise(
     r: FloatArray, t: FloatArray, tau_c_max_s: float
 ) -> tuple[float, float, float] | None:
     """(σ_w, σ_a, τ_c) of one series by the constrained variogram; None if too short."""
@@ -262,7 +262,7 @@ def holdout_floor_draws(
     for b in range(residuals.shape[1]):
         vals, wts = [], []
         for idx, t, m in series:
-            got = _series_noise(residuals[idx, b], t, tau_c_max_s)
+            got = series_noise(residuals[idx, b], t, tau_c_max_s)
             if got is not None:
                 vals.append(float(np.hypot(got[0], got[1])))
                 wts.append(m)
@@ -299,7 +299,7 @@ def noise_floor(
         run = str(visits.run[g[0]])
         cam = str(visits.camera[g[0]])
         for ax, off in (("u", 0), ("v", n)):
-            got = _series_noise(residual[g + off], visits.t_s[g], tau_c_max_s)
+            got = series_noise(residual[g + off], visits.t_s[g], tau_c_max_s)
             if got is None:
                 continue
             w, a, tau = got

@@ -128,13 +128,13 @@ def smooth_temperatures(tables: list[pl.DataFrame], half_width_s: float) -> list
         parts = []
         for _, g in t.sort("t_ns").group_by(["run", "camera"], maintain_order=True):
             ts = (g["t_ns"].to_numpy() - g["t_ns"].to_numpy()[0]).astype(np.float64) / 1e9
-            new = {c: _loess2(ts, g[c].to_numpy().astype(np.float64), half_width_s) for c in cols}
+            new = {c: loess2(ts, g[c].to_numpy().astype(np.float64), half_width_s) for c in cols}
             parts.append(g.with_columns(**{c: pl.Series(c, v) for c, v in new.items()}))
         out.append(pl.concat(parts).sort("__row").drop("__row"))
     return out
 
 
-def _loess2(t: np.ndarray, y: np.ndarray, h: float) -> np.ndarray:
+def loess2(t: np.ndarray, y: np.ndarray, h: float) -> np.ndarray:
     """Local quadratic regression with tricube weights of half-width ``h`` (every sample's
     weighted least squares by QR on its window, all windows at once)."""
     ok = np.isfinite(y)

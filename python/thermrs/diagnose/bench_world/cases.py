@@ -94,7 +94,7 @@ def worker_init() -> None:
 _RIGS: dict[str, tuple[Any, WorldRig]] = {}
 
 
-def _rigs(path: str) -> tuple[Any, WorldRig]:
+def case_rigs(path: str) -> tuple[Any, WorldRig]:
     if path not in _RIGS:
         from thermrs.rig import load_rig
 
@@ -128,7 +128,7 @@ def _summary(doc: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def _truths(
+def case_truths(
     wrig: WorldRig, scene: Scene, effects: tuple[str, ...], snr: float, seed: int
 ) -> tuple[list[Truth], list[float], Sizer | None]:
     rng = np.random.default_rng([seed, 11])
@@ -178,7 +178,7 @@ def make_case(
     """
     wrig = read_rig(rig_path)
     scene = draw_scene(wrig, campaign or Campaign(), world, seed)
-    truths, snrs, _ = _truths(wrig, scene, tuple(effects), snr, seed)
+    truths, snrs, _ = case_truths(wrig, scene, tuple(effects), snr, seed)
     tables = render(scene, tuple(truths))
     return tables, [t.spec(scene.alpha_per_k) for t in truths], snrs
 
@@ -189,9 +189,9 @@ def run_case(case: Case) -> dict[str, Any]:
     from thermrs.diagnose import diagnose
 
     t0 = time.perf_counter()
-    rig, wrig = _rigs(case.rig_path)
+    rig, wrig = case_rigs(case.rig_path)
     scene = draw_scene(wrig, case.campaign, case.world, case.seed)
-    truths, snrs, sizer = _truths(wrig, scene, case.effects, case.target_snr, case.seed)
+    truths, snrs, sizer = case_truths(wrig, scene, case.effects, case.target_snr, case.seed)
     row: dict[str, Any] = {
         "kind": case.kind,
         "world": case.world,
