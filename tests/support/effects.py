@@ -38,6 +38,8 @@ drift_c_per_h = 0.6
 frames_per_visit = 4
 [motion]
 repeatability_urad = 0.0
+[output]
+compression = "lz4"
 {effect}
 """
 
