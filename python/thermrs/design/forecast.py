@@ -41,7 +41,7 @@ def protocol_samples(
         _protocol_candidate(protocol),
         cycle_s=cycle_s,
         name=f"forecast {protocol.label}",
-        extra={"camera": {"frames_per_visit": 1}, "output": {"compression": "lz4"}},
+        extra={"camera": {"frames_per_visit": 1}, "output": {"compression": "none"}},
     )
     write_text_atomic(sc, text)
     sim = simulate_truth(rig, sc)

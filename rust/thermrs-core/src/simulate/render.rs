@@ -3,6 +3,7 @@
 //! noise). Each draws from its own random stream, in a fixed order.
 
 use rand::rngs::StdRng;
+use rand::Rng;
 use rand_distr::{Distribution, Normal, Poisson, StandardNormal};
 
 use crate::rig::Rig;
@@ -34,9 +35,17 @@ pub(super) fn render_ccd(
             out[2 * i..2 * i + 2].copy_from_slice(&(v as u16).to_le_bytes());
         }
     };
-    for i in 0..w * h {
-        let z: f64 = StandardNormal.sample(rng);
-        put(out, i, cam.background_dn + sd_dn * z);
+    // The background: each pixel's rounded, clipped value drawn at once from its exact
+    // distribution (one 32-bit uniform a pixel), not as a Gaussian draw then rounded.
+    let bg = RoundedNormal::new(cam.background_dn, sd_dn, max);
+    if bpp == 1 {
+        for px in out[..w * h].iter_mut() {
+            *px = bg.draw(rng.next_u32()) as u8;
+        }
+    } else {
+        for px in out[..2 * w * h].chunks_exact_mut(2) {
+            px.copy_from_slice(&(bg.draw(rng.next_u32()) as u16).to_le_bytes());
+        }
     }
     if path.is_empty() {
         return;
@@ -64,6 +73,66 @@ pub(super) fn render_ccd(
             let dn = (e + read.sample(rng)) * gain;
             put(out, row as usize * w + col as usize, dn);
         }
+    }
+}
+
+/// `round_clamped(mean + sd·z, max)` for a standard normal `z`, as a discrete distribution drawn
+/// by inversion from one 32-bit uniform `u` (a guide table over `u`'s top 8 bits, then a
+/// short search: Chen & Asau's method). `P(value ≤ k) = Φ((k + ½ − mean) / sd)` below `max`
+/// (rounding half away from zero; everything under ½ clips to 0, everything from `max − ½` to
+/// `max`), each cumulative probability rounded to a multiple of 2⁻³², so a value is drawn with
+/// its exact probability to within 2⁻³² (values beyond ±8 sd, rarer than 10⁻¹⁵, never).
+pub(crate) struct RoundedNormal {
+    /// The least value drawn.
+    lo: u32,
+    /// `upper[k]`: `P(value ≤ lo + k)·2³²`, rounded; the last is 2³².
+    upper: Vec<u64>,
+    /// `guide[g]`: the least `k` with `upper[k] > g·2²⁴`.
+    guide: [u32; 256],
+}
+
+impl RoundedNormal {
+    pub(crate) fn new(mean: f64, sd: f64, max: f64) -> RoundedNormal {
+        let scale = 4_294_967_296.0_f64; // 2³²
+        if !(sd > 0.0 && sd.is_finite() && mean.is_finite()) {
+            let v = round_clamped(mean, max);
+            return RoundedNormal {
+                lo: v,
+                upper: vec![1 << 32],
+                guide: [0; 256],
+            };
+        }
+        let lo = round_clamped(mean - 8.0 * sd, max);
+        let hi = round_clamped(mean + 8.0 * sd, max);
+        let phi = |x: f64| 0.5 * libm::erfc(-x / std::f64::consts::SQRT_2);
+        let mut upper: Vec<u64> = (lo..hi)
+            .map(|k| {
+                (phi((f64::from(k) + 0.5 - mean) / sd) * scale)
+                    .round()
+                    .min(scale) as u64
+            })
+            .collect();
+        upper.push(1 << 32);
+        let mut guide = [0u32; 256];
+        let mut k = 0usize;
+        for (g, slot) in guide.iter_mut().enumerate() {
+            while upper[k] <= (g as u64) << 24 {
+                k += 1;
+            }
+            *slot = k as u32;
+        }
+        RoundedNormal { lo, upper, guide }
+    }
+
+    /// The value for the uniform `u`.
+    #[inline]
+    pub(crate) fn draw(&self, u: u32) -> u32 {
+        let u = u64::from(u);
+        let mut k = self.guide[(u >> 24) as usize] as usize;
+        while self.upper[k] <= u {
+            k += 1;
+        }
+        self.lo + k as u32
     }
 }
 
@@ -252,6 +321,68 @@ mod tests {
                 assert_eq!(got, want, "dn {dn:e} max {max}");
             }
         }
+    }
+
+    /// The background sampler's values have the closed-form probabilities of a rounded,
+    /// clipped Gaussian, to within 2⁻³² each, and inversion is monotone.
+    #[test]
+    fn the_rounded_background_has_the_normal_probabilities() {
+        use super::RoundedNormal;
+        let phi = |x: f64| 0.5 * libm::erfc(-x / std::f64::consts::SQRT_2);
+        for &(mean, sd, max) in &[
+            (10.0, 4.1, 255.0),
+            (2.0, 3.0, 255.0),
+            (250.3, 2.2, 255.0),
+            (1000.0, 33.0, 65535.0),
+            (0.7, 0.35, 255.0),
+        ] {
+            let t = RoundedNormal::new(mean, sd, max);
+            // P(value = k) from the cumulative thresholds, against the closed form.
+            let mut prev = 0u64;
+            let mut total = 0.0;
+            for (k, &u) in t.upper.iter().enumerate() {
+                let v = f64::from(t.lo) + k as f64;
+                let hi = if v >= max {
+                    1.0
+                } else {
+                    phi((v + 0.5 - mean) / sd)
+                };
+                let lo = if v <= 0.0 {
+                    0.0
+                } else {
+                    phi((v - 0.5 - mean) / sd)
+                };
+                let got = (u - prev) as f64 / 4_294_967_296.0;
+                assert!(
+                    (got - (hi - lo)).abs() <= 2.0 / 4_294_967_296.0,
+                    "{mean} {sd} {v}"
+                );
+                total += hi - lo;
+                // Inversion: the uniforms just below and at a threshold fall either side.
+                if u > prev {
+                    assert_eq!(t.draw((u - 1) as u32), t.lo + k as u32);
+                }
+                if u < 1 << 32 {
+                    assert!(t.draw(u as u32) > t.lo + k as u32);
+                }
+                prev = u;
+            }
+            assert!(
+                (total - 1.0).abs() < 1e-12,
+                "{mean} {sd}: the support holds {total}"
+            );
+            // The extreme uniforms give the extreme values of non-zero probability.
+            let least = t.upper.iter().position(|&u| u > 0).expect("reaches 2³²");
+            assert_eq!(t.draw(0), t.lo + least as u32);
+            let top = t
+                .upper
+                .iter()
+                .position(|&u| u == 1 << 32)
+                .expect("ends at 2³²");
+            assert_eq!(t.draw(u32::MAX), t.lo + top as u32);
+        }
+        // No spread: the rounded mean.
+        assert_eq!(RoundedNormal::new(7.6, 0.0, 255.0).draw(12345), 8);
     }
 
     /// The IR blob's pixels outside its span cannot pass the 1e-4 test.
