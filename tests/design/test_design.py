@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import polars as pl
 import pytest
+import scipy.linalg
 import thermrs
 from thermrs.design import DesignResult, design, rival_drift
 from thermrs.design.candidates import candidates, protocols
@@ -126,6 +127,35 @@ def test_own_signature_leaves_nothing(
     coef, *_ = np.linalg.lstsq(x, mu, rcond=None)
     left = float(np.linalg.norm(mu - x @ coef))
     assert z2[("joint_offset", "unmodelled_length")] == pytest.approx(left / 2.0, rel=1e-6)
+
+
+def test_blocks_taken_together_are_the_stacked_least_squares(
+    paper_rig: thermrs.Rig, short_runs: dict[str, pl.DataFrame]
+) -> None:
+    """z over two blocks (each compressed to its triangular factor) is the residual of μ_A
+    fitted by least squares on the stacked visits: α, every block's mountings and B's
+    signature, the least over B's families."""
+    jo = JointOffset(joint="joint_a3", temperature="link3", urad_per_k=12.8)
+    ul = UnmodelledLength("a3", "link3")
+    rv = [
+        Rival("joint_offset", {}, paper_rig.alpha_per_k, jo),
+        Rival("unmodelled_length", {}, paper_rig.alpha_per_k, ul),
+    ]
+    runs = list(short_runs.values())
+    vss = [VisitSet(runs[:1], paper_rig), VisitSet(runs[1:], paper_rig)]
+    fams = rival_families(paper_rig, vss[0], rv)
+    z = pair_z([Block(v, rv) for v in vss], rv, fams, 1.0)
+    s = np.concatenate([v.alpha_column() for v in vss])
+    off = scipy.linalg.block_diag(*[v.offset_columns()[0] for v in vss])
+    for a, b in ((rv[0], rv[1]), (rv[1], rv[0])):
+        mu = np.concatenate([v.positions(effects=[a.truth]) for v in vss])
+        left = []
+        for fam in fams[b.effect]:
+            cols = np.concatenate([fam.columns(v, fam.grid[0]) for v in vss])
+            x = np.column_stack([s, off, cols])
+            coef, *_ = np.linalg.lstsq(x, mu, rcond=None)
+            left.append(float(np.sum((mu - x @ coef) ** 2)))
+        assert z[(a.effect, b.effect)] == pytest.approx(np.sqrt(min(left)), rel=1e-6)
 
 
 def test_files_are_valid_and_the_laser_meets_the_new_chip(

@@ -34,7 +34,7 @@ from thermrs.errors import InputError, ThermrsError
 from thermrs.rig import Rig
 from thermrs.signatures import VisitSet
 
-__all__ = ["Block", "Rival", "pair_z", "rival_families", "rivals_from"]
+__all__ = ["Block", "Compact", "Rival", "pair_z", "rival_families", "rivals_from"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -123,10 +123,12 @@ class Block:
             r.effect: vs.positions(effects=[r.truth], alpha_per_k=r.alpha_per_k) for r in rivals
         }
         self.cols: dict[tuple[str, str], FloatArray | None] = {}
+        self.rows = 2 * vs.n
+        self._compact: dict[tuple[int, ...], Compact] = {}
 
     def columns(self, fam: Family, eta: dict[str, float]) -> FloatArray | None:
         """The family's signature on this block (None where it cannot act)."""
-        key = (fam.label, repr(sorted(eta.items())))
+        key = _key(fam, eta)
         if key not in self.cols:
             try:
                 c = fam.columns(self.vs, eta)
@@ -134,6 +136,66 @@ class Block:
             except (ThermrsError, ValueError):
                 self.cols[key] = None
         return self.cols[key]
+
+    def compact(self, rivals: Sequence[Rival], families: Mapping[str, Sequence[Family]]) -> Compact:
+        """This block with its rows compressed (kept, for the next candidate that reuses it)."""
+        key = (*map(id, rivals), *(id(f) for r in rivals for f in families[r.effect]))
+        if key not in self._compact:
+            self._compact[key] = Compact(self, rivals, families)
+        return self._compact[key]
+
+
+def _key(fam: Family, eta: Mapping[str, float]) -> tuple[str, str]:
+    return (fam.label, repr(sorted(eta.items())))
+
+
+class Compact:
+    """A :class:`Block` with its rows compressed: every column the criterion takes of it (α,
+    mountings, each rival's truth, each signature at each grid point) replaced by the rows of
+    the triangular factor ``R`` of their QR (on unit-norm columns, rescaled). ``RᵀR`` is the
+    block's Gram matrix, so every projection and norm the criterion takes over a stack of
+    blocks is the same, from at most as many rows per block as it has columns: a block shared by
+    many candidates (the user's runs, a protocol's runs) is factored once, not once per
+    candidate and grid point."""
+
+    def __init__(
+        self, block: Block, rivals: Sequence[Rival], families: Mapping[str, Sequence[Family]]
+    ):
+        parts: list[FloatArray] = [block.s[:, None], block.off]
+        spans: dict[tuple[str, str], slice | None] = {}
+        at = 1 + block.off.shape[1]
+        for r in rivals:
+            grid = [(f, eta) for f in families[r.effect] for eta in _grid(f)]
+            own = own_family(r, families[r.effect])
+            for fam, eta in grid + ([own] if own is not None else []):
+                k = _key(fam, eta)
+                if k in spans:
+                    continue
+                c = block.columns(fam, eta)
+                spans[k] = None if c is None else slice(at, at + c.shape[1])
+                if c is not None:
+                    parts.append(c)
+                    at += c.shape[1]
+        mu_at = {}
+        for r in rivals:
+            mu_at[r.effect] = at
+            parts.append(block.mu[r.effect][:, None])
+            at += 1
+        m = np.concatenate(parts, axis=1)
+        n = np.linalg.norm(m, axis=0)
+        scale = np.where(n > 0, n, 1.0)
+        r_ = np.asarray(np.linalg.qr(m / scale, mode="r"), dtype=np.float64) * scale
+        self.rows = r_.shape[0]
+        self.s = r_[:, 0]
+        self.off = r_[:, 1 : 1 + block.off.shape[1]]
+        self.mu = {e: r_[:, j] for e, j in mu_at.items()}
+        self._cols: dict[tuple[str, str], FloatArray | None] = {
+            k: None if sl is None else r_[:, sl] for k, sl in spans.items()
+        }
+
+    def columns(self, fam: Family, eta: dict[str, float]) -> FloatArray | None:
+        """The family's signature (compressed; None where it cannot act)."""
+        return self._cols[_key(fam, eta)]
 
 
 def rival_families(rig: Rig, vs: VisitSet, rivals: Sequence[Rival]) -> dict[str, list[Family]]:
@@ -150,10 +212,11 @@ def _grid(fam: Family) -> list[dict[str, float]]:
     return grid
 
 
-def _stack(blocks: Sequence[Block], parts: Sequence[FloatArray | None], k: int) -> FloatArray:
+def _stack(
+    blocks: Sequence[Block | Compact], parts: Sequence[FloatArray | None], k: int
+) -> FloatArray:
     rows = [
-        p if p is not None else np.zeros((2 * b.vs.n, k))
-        for b, p in zip(blocks, parts, strict=True)
+        p if p is not None else np.zeros((b.rows, k)) for b, p in zip(blocks, parts, strict=True)
     ]
     return np.concatenate(rows, axis=0)
 
@@ -166,23 +229,24 @@ def pair_z(
 ) -> dict[tuple[str, str], float]:
     """``z_AB = √λ_AB`` (see the module docstring) for every ordered pair of ``rivals`` on the
     visits of ``blocks`` taken together."""
-    s = np.concatenate([b.s for b in blocks])
-    off = scipy.linalg.block_diag(*[b.off for b in blocks])
+    cb = [b.compact(rivals, families) for b in blocks]
+    s = np.concatenate([b.s for b in cb])
+    off = scipy.linalg.block_diag(*[b.off for b in cb])
     q0 = _basis(np.column_stack([s, off]))
     mu = {}
     for a in rivals:
-        m = np.concatenate([b.mu[a.effect] for b in blocks])
+        m = np.concatenate([b.mu[a.effect] for b in cb])
         mu[a.effect] = m - q0 @ (q0.T @ m)
     bases: dict[str, list[FloatArray]] = {}
     for r in rivals:
         qs = []
         for fam in families[r.effect]:
             for eta in _grid(fam):
-                parts = [b.columns(fam, eta) for b in blocks]
+                parts = [b.columns(fam, eta) for b in cb]
                 have = [p for p in parts if p is not None]
                 if not have:
                     continue
-                cols = _stack(blocks, parts, have[0].shape[1])
+                cols = _stack(cb, parts, have[0].shape[1])
                 cols = cols - q0 @ (q0.T @ cols)
                 if np.linalg.norm(cols) > 0:
                     qs.append(_basis(cols))
@@ -225,19 +289,20 @@ def pair_cos(
     """The largest canonical correlation between the fitted families' signatures of every
     unordered pair of rivals, the nominal model (α, mountings) projected out, on the visits
     of ``blocks`` taken together (the diagnoser calls a pair confounded above 0.9)."""
-    s = np.concatenate([b.s for b in blocks])
-    off = scipy.linalg.block_diag(*[b.off for b in blocks])
+    cb = [b.compact(rivals, families) for b in blocks]
+    s = np.concatenate([b.s for b in cb])
+    off = scipy.linalg.block_diag(*[b.off for b in cb])
     q0 = _basis(np.column_stack([s, off]))
     res: dict[str, FloatArray] = {}
     for r in rivals:
         own = own_family(r, families[r.effect])
         if own is None:
             continue
-        parts = [b.columns(own[0], own[1]) for b in blocks]
+        parts = [b.columns(own[0], own[1]) for b in cb]
         have = [p for p in parts if p is not None]
         if not have:
             continue
-        cols = _stack(blocks, parts, have[0].shape[1])
+        cols = _stack(cb, parts, have[0].shape[1])
         res[r.effect] = _basis(cols - q0 @ (q0.T @ cols))
     out: dict[tuple[str, str], float] = {}
     for i, a in enumerate(rivals):
