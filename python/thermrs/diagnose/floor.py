@@ -35,7 +35,6 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import nnls
 
 from thermrs.errors import InputError
 from thermrs.heating import fit_curve
@@ -191,22 +190,64 @@ def thermal_time_scales(visits: VisitSet, temperatures: list[str]) -> tuple[dict
     )
 
 
-def _variogram(r: FloatArray, t: FloatArray, lags: npt.NDArray[np.intp]) -> FloatArray:
-    """Cressie–Hawkins robust semivariogram at the given visit lags."""
-    out = np.empty(len(lags))
+def _variogram(r: FloatArray, lags: npt.NDArray[np.intp]) -> FloatArray:
+    """Cressie–Hawkins robust semivariogram at the given visit lags, of every column of ``r``
+    (visits × series): lags × series."""
+    out = np.empty((len(lags), r.shape[1]))
     for i, k in enumerate(lags):
         d = np.abs(r[k:] - r[:-k])
-        n = len(d)
-        out[i] = (np.mean(np.sqrt(d)) ** 4) / (0.457 + 0.494 / n) / 2.0
+        out[i] = (np.mean(np.sqrt(d), axis=0) ** 4) / (0.457 + 0.494 / len(d)) / 2.0
     return out
 
 
-def series_noise(
-    r: FloatArray, t: FloatArray, tau_c_max_s: float
-) -> tuple[float, float, float] | None:
-    """(σ_w, σ_a, τ_c) of one series by the constrained variogram; None if too short."""
+#: The non-empty subsets of the variogram model's three terms (white, correlated, smooth).
+_SUBSETS = [s for m in range(1, 8) if (s := [j for j in range(3) if m >> j & 1])]
+
+
+def _nnls_many(a: FloatArray, g: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Non-negative least squares of every column of ``g`` (k × B) on the stacked designs
+    ``a`` (T × k × 3): coefficients (T × 3 × B) and residual norms (T × B).
+
+    The solution is the least-squares fit on one subset of the columns with every coefficient
+    ≥ 0 (the Karush–Kuhn–Tucker conditions), and that fit has the least residual among all such
+    feasible subset fits (each is a feasible point); with three columns, all seven subsets
+    (and none) are tried at once for every design and column."""
+    t_n, b_n = a.shape[0], g.shape[1]
+    best_err = np.broadcast_to(np.linalg.norm(g, axis=0), (t_n, b_n)).copy()
+    best = np.zeros((t_n, 3, b_n))
+    for sub in _SUBSETS:
+        c = np.linalg.pinv(a[:, :, sub]) @ g  # T × |S| × B
+        err = np.linalg.norm(a[:, :, sub] @ c - g, axis=1)
+        take = np.all(c >= 0.0, axis=1) & (err < best_err)
+        best_err = np.where(take, err, best_err)
+        for j in range(3):
+            now = c[:, sub.index(j)] if j in sub else 0.0
+            best[:, j] = np.where(take, now, best[:, j])
+    return best, best_err
+
+
+def series_noise_many(r: FloatArray, t: FloatArray, tau_c_max_s: float) -> FloatArray:
+    """(σ_w, σ_a, τ_c) of every column of ``r`` (visits × series, sampled at the times ``t``)
+    by the constrained variogram: series × 3, NaN where a series is too short. Columns with
+    the same missing visits are fitted together."""
+    r = np.asarray(r, dtype=np.float64)
+    out = np.full((r.shape[1], 3), np.nan)
+    if r.shape[1] == 0:
+        return out
     ok = np.isfinite(r)
-    r, t = r[ok], t[ok]
+    patterns: dict[bytes, list[int]] = {}
+    for b in range(r.shape[1]):
+        patterns.setdefault(ok[:, b].tobytes(), []).append(b)
+    for cols in patterns.values():
+        keep = ok[:, cols[0]]
+        got = _series_noise_same(r[keep][:, cols], t[keep], tau_c_max_s)
+        if got is not None:
+            out[cols] = got
+    return out
+
+
+def _series_noise_same(r: FloatArray, t: FloatArray, tau_c_max_s: float) -> FloatArray | None:
+    """:func:`series_noise_many` of series with no missing visit (None if too short)."""
     if len(r) < 12:
         return None
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
@@ -217,25 +258,42 @@ def series_noise(
     # levelled off, so that it cannot absorb a correlated part near its allowed limit.
     k_max = int(np.clip(np.ceil(SCALE_SEPARATION * tau_c_max_s / dt), 4, len(r) // 3))
     lags = np.arange(1, k_max + 1)
-    gam = _variogram(r, t, lags)
+    gam = _variogram(r, lags)
     h = lags * dt
-    best: tuple[float, float, float, float] | None = None
-    taus = [0.0, *list(np.geomspace(max(dt / 4.0, 1.0), max(tau_c_max_s, dt / 4.0 + 1), 24))]
-    for tau in taus:
-        if tau > tau_c_max_s and tau > 0:
-            continue
-        corr = np.zeros_like(h) if tau == 0 else 1.0 - np.exp(-h / tau)
-        a = np.column_stack([np.ones_like(h), corr, (h / h[-1]) ** 2])
-        coef, err = nnls(a, gam)
-        if tau == 0:
-            coef[1] = 0.0
-        if best is None or err < best[0] - 1e-12:
-            best = (float(err), float(coef[0]), float(coef[1]), float(tau))
-    assert best is not None
-    _, w2, a2, tau = best
-    if tau < dt:  # decorrelated within one cycle: white at this sampling
-        w2, a2, tau = w2 + a2, 0.0, 0.0
-    return float(np.sqrt(max(w2, 0.0))), float(np.sqrt(max(a2, 0.0))), tau
+    grid = np.geomspace(max(dt / 4.0, 1.0), max(tau_c_max_s, dt / 4.0 + 1), 24)
+    taus = np.array([0.0, *[x for x in grid if not (x > tau_c_max_s and x > 0)]])
+    corr = np.zeros((len(taus), len(h)))
+    corr[1:] = 1.0 - np.exp(-h[None, :] / taus[1:, None])
+    a = np.stack([np.ones_like(corr), corr, np.broadcast_to((h / h[-1]) ** 2, corr.shape)], axis=2)
+    coef, err = _nnls_many(a, gam)
+    coef[0, 1] = 0.0  # τ = 0: no correlated part
+    # The first τ whose fit is better than every earlier one by more than 1e-12.
+    pick = np.zeros(gam.shape[1], dtype=np.intp)
+    best = err[0].copy()
+    for i in range(1, len(taus)):
+        better = err[i] < best - 1e-12
+        pick = np.where(better, i, pick)
+        best = np.where(better, err[i], best)
+    cols = np.arange(gam.shape[1])
+    w2 = coef[pick, 0, cols]
+    a2 = coef[pick, 1, cols]
+    tau = taus[pick]
+    white = tau < dt  # decorrelated within one cycle: white at this sampling
+    w2 = np.where(white, w2 + a2, w2)
+    a2 = np.where(white, 0.0, a2)
+    tau = np.where(white, 0.0, tau)
+    return np.column_stack([np.sqrt(np.maximum(w2, 0.0)), np.sqrt(np.maximum(a2, 0.0)), tau])
+
+
+def series_noise(
+    r: FloatArray, t: FloatArray, tau_c_max_s: float
+) -> tuple[float, float, float] | None:
+    """(σ_w, σ_a, τ_c) of one series by the constrained variogram; None if too short
+    (:func:`series_noise_many` of one column)."""
+    got = series_noise_many(np.asarray(r, dtype=np.float64)[:, None], t, tau_c_max_s)[0]
+    if not np.isfinite(got[0]):
+        return None
+    return float(got[0]), float(got[1]), float(got[2])
 
 
 def holdout_floor_draws(
@@ -258,17 +316,16 @@ def holdout_floor_draws(
             if min(pos) < 0:
                 continue
             series.append((np.asarray(pos, dtype=np.intp), visits.t_s[g], len(g)))
-    out = np.full(residuals.shape[1], np.nan)
-    for b in range(residuals.shape[1]):
-        vals, wts = [], []
-        for idx, t, m in series:
-            got = series_noise(residuals[idx, b], t, tau_c_max_s)
-            if got is not None:
-                vals.append(float(np.hypot(got[0], got[1])))
-                wts.append(m)
-        if vals:
-            out[b] = _pool(vals, wts)
-    return out
+    # Per series, every replicate at once; pooled per replicate over the series it has.
+    num = np.zeros(residuals.shape[1])
+    den = np.zeros(residuals.shape[1])
+    for idx, t, m in series:
+        got = series_noise_many(residuals[idx], t, tau_c_max_s)
+        have = np.isfinite(got[:, 0])
+        num[have] += m * (got[have, 0] ** 2 + got[have, 1] ** 2)
+        den[have] += m
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, np.sqrt(num / np.where(den > 0, den, 1.0)), np.nan)
 
 
 def noise_floor(
