@@ -5,12 +5,29 @@
 use rand::rngs::StdRng;
 use rand::Rng;
 use rand_distr::{Distribution, Normal, Poisson, StandardNormal};
+use rand_xoshiro::Xoshiro256PlusPlus;
 
 use crate::rig::Rig;
 use crate::scenario::Scenario;
 
+/// The distribution of a CCD frame's background pixels (`bpp` bytes each): the background's
+/// Poisson noise as its Gaussian equivalent (mean ≥ 16 e⁻ by default) plus read noise,
+/// rounded and clipped (see [`RoundedNormal`]). It depends only on the camera model, so a
+/// simulation builds it once.
+pub(super) fn ccd_background(cam: &crate::scenario::CameraModel, bpp: usize) -> RoundedNormal {
+    let gain = cam.dn_per_electron;
+    let bg_e = cam.background_dn / gain;
+    let read_e = cam.read_noise_dn / gain;
+    let max = if bpp == 1 { 255.0 } else { 65535.0 };
+    RoundedNormal::new(
+        cam.background_dn,
+        (bg_e + read_e * read_e).sqrt() * gain,
+        max,
+    )
+}
+
 /// A CCD frame's pixels: spot at (x, y) px plus noise, written into `out` (row-major, `bpp`
-/// bytes per pixel little-endian).
+/// bytes per pixel little-endian). `bg` is [`ccd_background`] of the camera model.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn render_ccd(
     out: &mut [u8],
@@ -20,13 +37,13 @@ pub(super) fn render_ccd(
     path: &[(f64, f64)],
     weight: f64,
     cam: &crate::scenario::CameraModel,
-    rng: &mut StdRng,
+    bg: &RoundedNormal,
+    rng: &mut Xoshiro256PlusPlus,
 ) {
     let gain = cam.dn_per_electron;
     let bg_e = cam.background_dn / gain;
     let read_e = cam.read_noise_dn / gain;
     let max = if bpp == 1 { 255.0 } else { 65535.0 };
-    let sd_dn = (bg_e + read_e * read_e).sqrt() * gain;
     let put = |out: &mut [u8], i: usize, dn: f64| {
         let v = round_clamped(dn, max);
         if bpp == 1 {
@@ -36,15 +53,32 @@ pub(super) fn render_ccd(
         }
     };
     // The background: each pixel's rounded, clipped value drawn at once from its exact
-    // distribution (one 32-bit uniform a pixel), not as a Gaussian draw then rounded.
-    let bg = RoundedNormal::new(cam.background_dn, sd_dn, max);
+    // distribution (one 32-bit uniform a pixel, two from each 64-bit draw), not as a Gaussian
+    // draw then rounded.
+    let mut two = || {
+        let u = rng.next_u64();
+        (bg.draw(u as u32), bg.draw((u >> 32) as u32))
+    };
     if bpp == 1 {
-        for px in out[..w * h].iter_mut() {
-            *px = bg.draw(rng.next_u32()) as u8;
+        let mut px = out[..w * h].chunks_exact_mut(2);
+        for p in &mut px {
+            let (a, b) = two();
+            p[0] = a as u8;
+            p[1] = b as u8;
+        }
+        if let [last] = px.into_remainder() {
+            *last = two().0 as u8;
         }
     } else {
-        for px in out[..2 * w * h].chunks_exact_mut(2) {
-            px.copy_from_slice(&(bg.draw(rng.next_u32()) as u16).to_le_bytes());
+        let mut px = out[..2 * w * h].chunks_exact_mut(4);
+        for p in &mut px {
+            let (a, b) = two();
+            p[..2].copy_from_slice(&(a as u16).to_le_bytes());
+            p[2..].copy_from_slice(&(b as u16).to_le_bytes());
+        }
+        let rest = px.into_remainder();
+        if !rest.is_empty() {
+            rest.copy_from_slice(&(two().0 as u16).to_le_bytes());
         }
     }
     if path.is_empty() {
@@ -89,6 +123,10 @@ pub(crate) struct RoundedNormal {
     upper: Vec<u64>,
     /// `guide[g]`: the least `k` with `upper[k] > g·2²⁴`.
     guide: [u32; 256],
+    /// `fast[g]`: the `k` every `u` with `u >> 20 == g` gives, where they all give one
+    /// (`u16::MAX` where a threshold falls inside that range: then the search decides); 8 kB,
+    /// so that it stays in the first-level cache.
+    fast: Vec<u16>,
 }
 
 impl RoundedNormal {
@@ -100,6 +138,7 @@ impl RoundedNormal {
                 lo: v,
                 upper: vec![1 << 32],
                 guide: [0; 256],
+                fast: vec![0; 1 << 12],
             };
         }
         let lo = round_clamped(mean - 8.0 * sd, max);
@@ -121,12 +160,39 @@ impl RoundedNormal {
             }
             *slot = k as u32;
         }
-        RoundedNormal { lo, upper, guide }
+        let mut t = RoundedNormal {
+            lo,
+            upper,
+            guide,
+            fast: Vec::new(),
+        };
+        t.fast = (0..1u32 << 12)
+            .map(|g| {
+                let (a, b) = (t.search(g << 20), t.search((g << 20) | 0xF_FFFF));
+                if a == b && a - lo < u32::from(u16::MAX) {
+                    (a - lo) as u16
+                } else {
+                    u16::MAX
+                }
+            })
+            .collect();
+        t
     }
 
-    /// The value for the uniform `u`.
+    /// The value for the uniform `u`: one look-up, or the search where the look-up's range
+    /// holds a threshold (a few ranges in a hundred).
     #[inline]
     pub(crate) fn draw(&self, u: u32) -> u32 {
+        let f = self.fast[(u >> 20) as usize];
+        if f != u16::MAX {
+            return self.lo + u32::from(f);
+        }
+        self.search(u)
+    }
+
+    /// The value for the uniform `u`, by the guide table and a short search.
+    #[inline]
+    fn search(&self, u: u32) -> u32 {
         let u = u64::from(u);
         let mut k = self.guide[(u >> 24) as usize] as usize;
         while self.upper[k] <= u {
@@ -380,6 +446,13 @@ mod tests {
                 .position(|&u| u == 1 << 32)
                 .expect("ends at 2³²");
             assert_eq!(t.draw(u32::MAX), t.lo + top as u32);
+        }
+        // The look-up gives what the search gives, over the whole range of uniforms.
+        let t = RoundedNormal::new(10.0, 4.1, 255.0);
+        for u in (0..=u32::MAX).step_by(65_521) {
+            for v in [u, u.wrapping_add(1), u | 0xF_FFFF, u & !0xF_FFFF] {
+                assert_eq!(t.draw(v), t.search(v), "u {v}");
+            }
         }
         // No spread: the rounded mean.
         assert_eq!(RoundedNormal::new(7.6, 0.0, 255.0).draw(12345), 8);

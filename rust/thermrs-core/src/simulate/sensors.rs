@@ -178,7 +178,19 @@ pub(super) fn ccd_frames<W: Write + Seek>(
                 (tf + LOG_DELAY_NS) as u64,
                 &fields,
                 w * h * bpp,
-                |buf| render_ccd(buf, w, h, bpp, &path, weight, cam, rng),
+                |buf| {
+                    render_ccd(
+                        buf,
+                        w,
+                        h,
+                        bpp,
+                        &path,
+                        weight,
+                        cam,
+                        &setup.ccd_background,
+                        rng,
+                    )
+                },
             )
             .map_err(write_error)?;
         }

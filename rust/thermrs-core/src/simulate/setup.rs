@@ -37,6 +37,8 @@ pub(super) struct Setup<'a> {
     /// Per run, the idle (cooling) time before it (s): `idle_before_min` or up to its
     /// `start_time`.
     pub(super) idle_s: Vec<f64>,
+    /// The CCD frames' background distribution ([`super::render::ccd_background`]).
+    pub(super) ccd_background: super::render::RoundedNormal,
 }
 
 impl<'a> Setup<'a> {
@@ -75,6 +77,10 @@ impl<'a> Setup<'a> {
             temp_src,
             t0_ns: sc.start_time.unwrap_or(super::T0_NS),
             idle_s,
+            ccd_background: super::render::ccd_background(
+                &sc.camera,
+                if sc.camera.bits == 8 { 1 } else { 2 },
+            ),
         })
     }
 
