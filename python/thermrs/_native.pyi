@@ -124,7 +124,9 @@ def simulate(
     *,
     source_name: str = "<string>",
     seed: int | None = None,
+    cancel: Callable[[], bool] | None = None,
 ) -> tuple[dict[str, Any], str]:
     """Simulate; a failed write raises ``OSError`` naming ``out_path`` (not a ThermrsError).
-    ``out_path=None``: the truth alone, nothing rendered or written."""
+    ``out_path=None``: the truth alone, nothing rendered or written. ``cancel()`` true: stop
+    with ``KeyboardInterrupt``."""
     ...

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -61,6 +62,7 @@ def simulate(
     out: str | os.PathLike[str],
     *,
     seed: int | None = None,
+    cancel: Callable[[], bool] | None = None,
 ) -> Simulation:
     """Simulate ``scenario`` (a scenario file) on ``rig``, writing the recording to ``out``.
 
@@ -79,6 +81,9 @@ def simulate(
         beside it: ``OUT.truth.parquet``, ``OUT.truth-samples.parquet``, ``OUT.truth.json``.
     seed
         Overrides the scenario's seed (0 ≤ seed < 2⁶⁴); the same seed gives the same bytes.
+    cancel
+        Asked every few milliseconds; once it returns true the simulation stops as on Ctrl-C
+        (signals reach only the main thread: this stops a simulation in another thread).
 
     Returns
     -------
@@ -98,7 +103,7 @@ def simulate(
         The recording cannot be written (a read-only folder, a full disk): an ``OSError``
         naming ``out`` with the system's errno; nothing is left behind.
     KeyboardInterrupt
-        Ctrl-C (checked every few milliseconds); nothing is left behind.
+        Ctrl-C (checked every few milliseconds), or ``cancel()`` true; nothing is left behind.
 
     Examples
     --------
@@ -116,7 +121,9 @@ def simulate(
 
     def record(tmp: Path) -> None:  # a failed write names the file asked for, not the temporary
         result.extend(
-            _native.simulate(rig._native, text, str(tmp), source_name=str(scenario), seed=seed)
+            _native.simulate(
+                rig._native, text, str(tmp), source_name=str(scenario), seed=seed, cancel=cancel
+            )
         )
 
     write_atomic(out, record)
@@ -135,6 +142,7 @@ def simulate_truth(
     scenario: str | os.PathLike[str],
     *,
     seed: int | None = None,
+    cancel: Callable[[], bool] | None = None,
 ) -> SimulatedTruth:
     """The truth :func:`simulate` would give, without the recording: the same runs, motion
     and thermal state, so the same truth to the last bit (every sensor draws from its own
@@ -148,6 +156,8 @@ def simulate_truth(
         The scenario file (``format = "thermrs-scenario/1"``).
     seed
         Overrides the scenario's seed (0 ≤ seed < 2⁶⁴).
+    cancel
+        As for :func:`simulate`.
 
     Returns
     -------
@@ -162,7 +172,7 @@ def simulate_truth(
     InputError
         The scenario file cannot be read or does not fit the rig; ``seed`` is out of range.
     KeyboardInterrupt
-        Ctrl-C.
+        Ctrl-C, or ``cancel()`` true.
 
     Examples
     --------
@@ -176,7 +186,10 @@ def simulate_truth(
     scenario = Path(scenario)
     text = _read_scenario(rig, scenario, seed)
     return _truth(
-        rig, *_native.simulate(rig._native, text, None, source_name=str(scenario), seed=seed)
+        rig,
+        *_native.simulate(
+            rig._native, text, None, source_name=str(scenario), seed=seed, cancel=cancel
+        ),
     )
 
 

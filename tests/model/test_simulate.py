@@ -344,3 +344,46 @@ def test_without_nodes_a_rig_gets_the_calibrated_nodes_of_the_rois_it_has(
     assert "base_surface_c" in full.columns and "base_surface_c" not in part.columns
     for col in ("link2_surface_c", "link3_surface_c", "link2_structure_c", "ambient_c"):
         assert np.array_equal(part[col].to_numpy(), full[col].to_numpy()), col
+
+
+def test_a_simulation_in_another_thread_stops_when_cancelled(
+    tmp_path: Path, paper_rig: thermrs.Rig
+) -> None:
+    """Signals reach only the main thread: a simulation in a worker thread stops on its
+    ``cancel`` within a fraction of a second, with ``KeyboardInterrupt`` and no file left; an
+    extraction there stops on a progress callback that raises."""
+    import threading
+    import time
+
+    long = tmp_path / "long.toml"
+    long.write_text(
+        SHORT.format(compression="none").replace("duration_min = 60", "duration_min = 6000")
+    )
+    stop = threading.Event()
+    caught: list[BaseException] = []
+
+    def work() -> None:
+        try:
+            simulate(paper_rig, long, tmp_path / "long.mcap", cancel=stop.is_set)
+        except BaseException as e:  # what the thread raised is the result
+            caught.append(e)
+
+    th = threading.Thread(target=work)
+    th.start()
+    time.sleep(0.5)
+    assert th.is_alive()
+    t0 = time.perf_counter()
+    stop.set()
+    th.join(timeout=5)
+    assert not th.is_alive()
+    assert time.perf_counter() - t0 < 0.5
+    assert len(caught) == 1 and isinstance(caught[0], KeyboardInterrupt)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["long.toml"]
+
+    rec = simulate(paper_rig, short(tmp_path, "none"), tmp_path / "sim.mcap").recording
+
+    def refuse(done: int, total: int, frames: int) -> None:
+        raise KeyboardInterrupt("cancelled")
+
+    with pytest.raises(KeyboardInterrupt):
+        thermrs.extract(rec, paper_rig, progress=refuse)

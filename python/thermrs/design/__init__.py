@@ -240,6 +240,7 @@ def design(
     workdir: str | Path | None = None,
     diagnosis: Any | None = None,
     progress: Callable[[str], object] | None = None,
+    jobs: int | None = None,
 ) -> DesignResult:
     """Find and prove the measurement that separates the confounded effects.
 
@@ -271,6 +272,9 @@ def design(
         digit (default: the runs are diagnosed here).
     progress
         Called with a short message at each stage.
+    jobs
+        Threads the proof runs its truths on, side by side (default: the cores this process
+        may use); the result is the same whatever it is.
 
     Returns
     -------
@@ -357,7 +361,8 @@ def design(
         with tempfile.TemporaryDirectory(prefix="thermrs-design-") as tmp:
             wd = Path(workdir) if workdir is not None else Path(tmp)
             wd.mkdir(parents=True, exist_ok=True)
-            _search_and_prove(result, train, holdout, exclude, wd, seed, prove_it, say)
+            n_jobs = jobs if jobs is not None else len(os.sched_getaffinity(0))
+            _search_and_prove(result, train, holdout, exclude, wd, seed, prove_it, say, n_jobs)
     result.seconds = time.perf_counter() - t0
     return result
 
@@ -371,6 +376,7 @@ def _search_and_prove(
     seed: int,
     prove_it: bool,
     say: Callable[[str], object],
+    jobs: int,
 ) -> None:
     from threadpoolctl import threadpool_limits  # type: ignore[import-untyped]
 
@@ -397,7 +403,7 @@ def _search_and_prove(
     elif not prove_it:
         result.why_not = "not proved (the proof was not asked for): nothing recommended"
     else:
-        _prove(result, order, train, holdout, exclude, wd, seed, say)
+        _prove(result, order, train, holdout, exclude, wd, seed, say, jobs)
 
 
 def _prove(
@@ -409,6 +415,7 @@ def _prove(
     wd: Path,
     seed: int,
     say: Callable[[str], object],
+    jobs: int,
 ) -> None:
     from thermrs.design.proof import calibrate_noise, prove
 
@@ -430,6 +437,7 @@ def _prove(
             workdir=wd,
             seed=seed,
             progress=say,
+            jobs=jobs,
         )
         result.proofs.append(p)
         if p["all_right"]:

@@ -10,7 +10,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -95,10 +95,12 @@ def simulated_runs(
     workdir: Path,
     stem: str,
     seed: int,
+    cancel: Callable[[], bool] | None = None,
 ) -> list[pl.DataFrame]:
     """Simulate ``scenario_text`` on the rig ``sim_rig_text`` (the truth's rig), extract the
     recording with ``rig`` (the rig the user would analyse it with) and cut it into its runs;
-    run tables in the scenario's order."""
+    run tables in the scenario's order. ``cancel()`` true stops it with ``KeyboardInterrupt``
+    (as Ctrl-C does in the main thread)."""
     from thermrs.fit import run_table_from
     from thermrs.ingest import extract
     from thermrs.simulate import simulate
@@ -108,8 +110,14 @@ def simulated_runs(
     write_text_atomic(rig_path, sim_rig_text)
     write_text_atomic(sc_path, scenario_text)
     rec = workdir / f"{stem}.mcap"
-    sim = simulate(rig_path, sc_path, rec, seed=seed)
-    ex = extract(rec, rig)
+    sim = simulate(rig_path, sc_path, rec, seed=seed, cancel=cancel)
+
+    def check(done: int, total: int, frames: int) -> None:
+        del done, total, frames
+        if cancel is not None and cancel():
+            raise KeyboardInterrupt("cancelled")
+
+    ex = extract(rec, rig, progress=check)
     spans = (
         pl.concat([sim.frames.select("run", "t_ns"), sim.samples.select("run", "t_ns")])
         .group_by("run", maintain_order=True)

@@ -21,6 +21,7 @@ runs (joint repeatability, the dominant term, is scaled by their ratio).
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -122,65 +123,119 @@ def prove(
     workdir: Path,
     seed: int,
     progress: Callable[[str], object] | None = None,
+    jobs: int = 1,
 ) -> dict[str, Any]:
     """The proof matrix of ``cand``: per rival as the truth, the diagnoser's verdict on the
     user's runs (as that truth would have made them, from the rival that fits them best)
-    with the design's runs simulated under that truth."""
-    from thermrs.diagnose import diagnose
+    with the design's runs simulated under that truth.
 
+    The truths are proved side by side on ``jobs`` threads (the simulator and the extraction
+    run without the GIL, the diagnosis mostly in numpy); each has its own seed, so the matrix
+    is the same whatever ``jobs``. Ctrl-C stops every thread within a stage of the diagnosis.
+    """
     say = progress or (lambda _m: None)
-    _, new = rig_toml(rig, cand)
     # The world the user's runs come from: the rival that fits their held-out runs best.
     actual = min(rivals, key=lambda r: (not r.holdout_rms_um <= np.inf, r.holdout_rms_um))
-    rows = []
-    for k, truth in enumerate(rivals):
-        say(f"proof: {truth.effect} as the truth")
-        sim_text, _ = rig_toml(rig, cand, alpha_per_k=truth.alpha_per_k)
-        sc = scenario_toml(
-            cand,
-            cycle_s=cycle_s,
-            name=f"design proof, truth {truth.effect}",
-            effects=[truth.truth.to_dict()],
-            extra={**SIM_EXTRA, "motion": {"repeatability_urad": repeatability_urad}},
-        )
-        tables = simulated_runs(
-            new, sim_text, sc, workdir=workdir, stem=f"proof-{k}", seed=seed + 1 + k
-        )
-        tr, ho = _split(cand, tables)
-        u_tr = counterfactual(train, rig, actual, truth)
-        u_ho = counterfactual(holdout, rig, actual, truth)
-        d = diagnose([*u_tr, *tr], [*u_ho, *ho], new, exclude=list(exclude)).to_json()
-        v = d["verdict"]
-        rows.append(
-            {
-                "truth": truth.effect,
-                "truth_params": truth.truth.to_dict(),
-                "truth_alpha_per_k": truth.alpha_per_k,
-                "status": v["status"],
-                "effect": v["effect"],
-                "params": v["params"],
-                "confounded_with": v.get("confounded_with", []),
-                "reason": v.get("reason"),
-                "ranking": [
-                    {"effect": r["effect"], "holdout_rms_um": r["holdout_rms_um"]}
-                    for r in d.get("ranking", [])[:4]
-                ],
-                "pairs_cos": [
-                    {"effects": c.get("effects"), "cos": c.get("cos")}
-                    for c in d.get("confounded", [])
-                ],
-                "right": bool(v["status"] == "identified" and v["effect"] == truth.effect),
-                "choices_match": all(
-                    v["params"].get(k) == val
-                    for k, val in truth.truth.to_dict().items()
-                    if k != "name" and isinstance(val, str)
-                ),
-            }
-        )
+    stop = threading.Event()
+
+    def one(k: int, truth: Rival) -> dict[str, Any]:
+        return _prove_truth(
+            rig, cand, truth, actual, train, holdout,
+            repeatability_urad=repeatability_urad, exclude=exclude, cycle_s=cycle_s,
+            workdir=workdir, seed=seed + 1 + k, cancel=stop.is_set,
+        )  # fmt: skip
+
+    jobs = max(1, min(int(jobs), len(rivals)))
+    if jobs == 1:
+        rows = []
+        for k, truth in enumerate(rivals):
+            say(f"proof: {truth.effect} as the truth")
+            rows.append(one(k, truth))
+    else:
+        from concurrent.futures import ThreadPoolExecutor
+
+        from threadpoolctl import threadpool_limits  # type: ignore[import-untyped]
+
+        say(f"proof: {', '.join(r.effect for r in rivals)} as the truth, {jobs} at a time")
+        with threadpool_limits(limits=1, user_api="blas"), ThreadPoolExecutor(jobs) as pool:
+            futures = [pool.submit(one, k, truth) for k, truth in enumerate(rivals)]
+            try:
+                rows = [f.result() for f in futures]
+            except BaseException:
+                stop.set()  # the other threads stop at their next check
+                for f in futures:
+                    f.cancel()
+                raise
     return {
         "candidate": cand.label,
         "matrix": rows,
         "all_right": all(r["right"] for r in rows),
         "repeatability_urad": repeatability_urad,
         "seed": seed,
+    }
+
+
+def _prove_truth(
+    rig: Rig,
+    cand: Candidate,
+    truth: Rival,
+    actual: Rival,
+    train: Sequence[pl.DataFrame],
+    holdout: Sequence[pl.DataFrame],
+    *,
+    repeatability_urad: float,
+    exclude: Sequence[str],
+    cycle_s: float,
+    workdir: Path,
+    seed: int,
+    cancel: Callable[[], bool],
+) -> dict[str, Any]:
+    """One row of the proof matrix: ``truth`` simulated performing the design, diagnosed with
+    the user's runs as ``truth`` would have made them."""
+    from thermrs.diagnose import diagnose
+
+    def check(_stage: str) -> None:
+        if cancel():
+            raise KeyboardInterrupt("cancelled")
+
+    _, new = rig_toml(rig, cand)
+    sim_text, _ = rig_toml(rig, cand, alpha_per_k=truth.alpha_per_k)
+    sc = scenario_toml(
+        cand,
+        cycle_s=cycle_s,
+        name=f"design proof, truth {truth.effect}",
+        effects=[truth.truth.to_dict()],
+        extra={**SIM_EXTRA, "motion": {"repeatability_urad": repeatability_urad}},
+    )
+    tables = simulated_runs(
+        new, sim_text, sc, workdir=workdir, stem=f"proof-{truth.effect}", seed=seed,
+        cancel=cancel,
+    )  # fmt: skip
+    tr, ho = _split(cand, tables)
+    u_tr = counterfactual(train, rig, actual, truth)
+    u_ho = counterfactual(holdout, rig, actual, truth)
+    d = diagnose([*u_tr, *tr], [*u_ho, *ho], new, exclude=list(exclude), progress=check).to_json()
+    v = d["verdict"]
+    return {
+        "truth": truth.effect,
+        "truth_params": truth.truth.to_dict(),
+        "truth_alpha_per_k": truth.alpha_per_k,
+        "status": v["status"],
+        "effect": v["effect"],
+        "params": v["params"],
+        "confounded_with": v.get("confounded_with", []),
+        "reason": v.get("reason"),
+        "ranking": [
+            {"effect": r["effect"], "holdout_rms_um": r["holdout_rms_um"]}
+            for r in d.get("ranking", [])[:4]
+        ],
+        "pairs_cos": [
+            {"effects": c.get("effects"), "cos": c.get("cos")} for c in d.get("confounded", [])
+        ],
+        "right": bool(v["status"] == "identified" and v["effect"] == truth.effect),
+        "choices_match": all(
+            v["params"].get(k) == val
+            for k, val in truth.truth.to_dict().items()
+            if k != "name" and isinstance(val, str)
+        ),
     }

@@ -34,15 +34,29 @@ impl Pending {
 }
 
 /// A cancel callback for core loops that ask often: checks for signals at most every
-/// [`SIGNAL_EVERY`]; `true` (stop) once one raised.
-pub fn signal_checker(pending: &Pending) -> impl Fn() -> bool + '_ {
+/// [`SIGNAL_EVERY`], and asks `cancel` (a Python callable) too when one is given; `true`
+/// (stop) once a signal raised, or once `cancel()` is true (then a `KeyboardInterrupt` is
+/// pending). Signals reach only the main thread: `cancel` is how a call running in another
+/// thread learns that it should stop.
+pub fn signal_checker<'a>(
+    pending: &'a Pending,
+    cancel: Option<&'a Py<PyAny>>,
+) -> impl Fn() -> bool + 'a {
     let last = std::cell::Cell::new(Instant::now());
     move || {
         if last.get().elapsed() < SIGNAL_EVERY {
             return false;
         }
         last.set(Instant::now());
-        !pending.attach(|py| py.check_signals())
+        !pending.attach(|py| {
+            py.check_signals()?;
+            if let Some(c) = cancel {
+                if c.bind(py).call0()?.is_truthy()? {
+                    return Err(pyo3::exceptions::PyKeyboardInterrupt::new_err("cancelled"));
+                }
+            }
+            Ok(())
+        })
     }
 }
 

@@ -18,9 +18,10 @@ use crate::rig::PyRig;
 /// nothing: the truth alone, no pixel rendered); returns the truth as a dict of numpy columns
 /// and the parsed scenario as JSON. Runs without the GIL; Ctrl-C stops it (signals are checked
 /// every few milliseconds between cycles and frames). A failed write raises `OSError` naming
-/// `out_path`.
+/// `out_path`. `cancel`, a callable, is asked as often: once it returns true the call stops
+/// with `KeyboardInterrupt` (how a call in a worker thread, which signals never reach, stops).
 #[pyfunction]
-#[pyo3(signature = (rig, scenario_toml, out_path, *, source_name = "<string>", seed = None))]
+#[pyo3(signature = (rig, scenario_toml, out_path, *, source_name = "<string>", seed = None, cancel = None))]
 fn simulate<'py>(
     py: Python<'py>,
     rig: &PyRig,
@@ -28,6 +29,7 @@ fn simulate<'py>(
     out_path: Option<PathBuf>,
     source_name: &str,
     seed: Option<u64>,
+    cancel: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     let (sc, sc_json) = call("reading a scenario", || {
         let mut sc = Scenario::from_toml(scenario_toml, source_name)?;
@@ -43,7 +45,7 @@ fn simulate<'py>(
     let pending = Pending::default();
     let res = py.detach(|| {
         call("simulating", || {
-            let cancel = signal_checker(&pending);
+            let cancel = signal_checker(&pending, cancel.as_ref());
             let Some(out_path) = &out_path else {
                 return thermrs_core::simulate::simulate_truth(inner, &sc, &cancel);
             };
