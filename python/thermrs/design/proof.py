@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -138,12 +139,12 @@ def prove(
     actual = min(rivals, key=lambda r: (not r.holdout_rms_um <= np.inf, r.holdout_rms_um))
     stop = threading.Event()
 
+    setting = _Setting(
+        rig, cand, actual, train, holdout, repeatability_urad, exclude, cycle_s, workdir
+    )
+
     def one(k: int, truth: Rival) -> dict[str, Any]:
-        return _prove_truth(
-            rig, cand, truth, actual, train, holdout,
-            repeatability_urad=repeatability_urad, exclude=exclude, cycle_s=cycle_s,
-            workdir=workdir, seed=seed + 1 + k, cancel=stop.is_set,
-        )  # fmt: skip
+        return _prove_truth(setting, truth, seed=seed + 1 + k, cancel=stop.is_set)
 
     jobs = max(1, min(int(jobs), len(rivals)))
     if jobs == 1:
@@ -175,20 +176,23 @@ def prove(
     }
 
 
+@dataclass(frozen=True)
+class _Setting:
+    """What every truth of one candidate's proof shares."""
+
+    rig: Rig
+    cand: Candidate
+    actual: Rival  # the rival that fits the user's held-out runs best
+    train: Sequence[pl.DataFrame]
+    holdout: Sequence[pl.DataFrame]
+    repeatability_urad: float
+    exclude: Sequence[str]
+    cycle_s: float
+    workdir: Path
+
+
 def _prove_truth(
-    rig: Rig,
-    cand: Candidate,
-    truth: Rival,
-    actual: Rival,
-    train: Sequence[pl.DataFrame],
-    holdout: Sequence[pl.DataFrame],
-    *,
-    repeatability_urad: float,
-    exclude: Sequence[str],
-    cycle_s: float,
-    workdir: Path,
-    seed: int,
-    cancel: Callable[[], bool],
+    s: _Setting, truth: Rival, *, seed: int, cancel: Callable[[], bool]
 ) -> dict[str, Any]:
     """One row of the proof matrix: ``truth`` simulated performing the design, diagnosed with
     the user's runs as ``truth`` would have made them."""
@@ -198,23 +202,23 @@ def _prove_truth(
         if cancel():
             raise KeyboardInterrupt("cancelled")
 
-    _, new = rig_toml(rig, cand)
-    sim_text, _ = rig_toml(rig, cand, alpha_per_k=truth.alpha_per_k)
+    _, new = rig_toml(s.rig, s.cand)
+    sim_text, _ = rig_toml(s.rig, s.cand, alpha_per_k=truth.alpha_per_k)
     sc = scenario_toml(
-        cand,
-        cycle_s=cycle_s,
+        s.cand,
+        cycle_s=s.cycle_s,
         name=f"design proof, truth {truth.effect}",
         effects=[truth.truth.to_dict()],
-        extra={**SIM_EXTRA, "motion": {"repeatability_urad": repeatability_urad}},
+        extra={**SIM_EXTRA, "motion": {"repeatability_urad": s.repeatability_urad}},
     )
     tables = simulated_runs(
-        new, sim_text, sc, workdir=workdir, stem=f"proof-{truth.effect}", seed=seed,
+        new, sim_text, sc, workdir=s.workdir, stem=f"proof-{truth.effect}", seed=seed,
         cancel=cancel,
     )  # fmt: skip
-    tr, ho = _split(cand, tables)
-    u_tr = counterfactual(train, rig, actual, truth)
-    u_ho = counterfactual(holdout, rig, actual, truth)
-    d = diagnose([*u_tr, *tr], [*u_ho, *ho], new, exclude=list(exclude), progress=check).to_json()
+    tr, ho = _split(s.cand, tables)
+    u_tr = counterfactual(s.train, s.rig, s.actual, truth)
+    u_ho = counterfactual(s.holdout, s.rig, s.actual, truth)
+    d = diagnose([*u_tr, *tr], [*u_ho, *ho], new, exclude=list(s.exclude), progress=check).to_json()
     v = d["verdict"]
     return {
         "truth": truth.effect,
