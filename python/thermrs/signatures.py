@@ -10,6 +10,7 @@ began). Positions are returned as one vector of length 2n: every visit's u (µm)
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 
 import numpy as np
@@ -107,6 +108,24 @@ class VisitSet:
             self.t_since_start = self._shift(self.t_since_start)
             self.t_since_chain = self._shift(self.t_since_chain)
         self._cache: dict[str, FloatArray] = {}
+        self._geometry: dict[int, tuple[str, FloatArray, tuple[float, float], tuple[float, float]]]
+        self._geometry = {}
+        self._temps_by_group: dict[tuple[str, int], FloatArray] = {}
+
+    def replaced(
+        self, *, rig: Rig | None = None, temps: dict[str, FloatArray] | None = None
+    ) -> VisitSet:
+        """These visits on another rig or with other temperatures (nothing else recomputed;
+        the forward model's inputs kept per group are dropped with them)."""
+        out = copy.copy(self)
+        if rig is not None:
+            out.rig = rig
+        if temps is not None:
+            out.temps = temps
+        out._cache = {}
+        out._geometry = {}
+        out._temps_by_group = {}
+        return out
 
     def _shift(self, a: FloatArray) -> FloatArray:
         out = a.copy()
@@ -156,18 +175,16 @@ class VisitSet:
                         np.ascontiguousarray(self.temps[n][idx]),
                     )
                 lagged[n] = out
-        for g in self.groups:
-            cam = str(self.camera[g[0]])
-            temps = {}
-            for n in names:
-                x = np.ascontiguousarray((lagged[n] if n in lagged else self.temps[n])[g])
-                temps[n] = x
-            s = model.spots(cam, self.rig.camera_pose(cam).joints_rad, temperatures=temps)
-            su, sv = s.u_um, s.v_um
+        for j, g in enumerate(self.groups):
+            cam, q, centre, pitch = self._group_geometry(j)
+            cols = [lagged[n][g] if n in lagged else self._group_temperature(n, j) for n in names]
+            s = native.spots(cam, q, [np.ascontiguousarray(c) for c in cols], None)
+            su = (s[:, 0] - centre[0]) * pitch[0]
+            sv = (s[:, 1] - centre[1]) * pitch[1]
             if chips:
                 amb = self.temps.get("ambient")
                 a = (
-                    np.ascontiguousarray(amb[g])
+                    self._group_temperature("ambient", j)
                     if amb is not None
                     else np.full(len(g), self.rig.reference_c)
                 )
@@ -180,6 +197,34 @@ class VisitSet:
         if len(self._cache) < 256:
             self._cache[key] = out
         return out
+
+    def _group_geometry(
+        self, j: int
+    ) -> tuple[str, FloatArray, tuple[float, float], tuple[float, float]]:
+        """Group ``j``'s camera, its taught joints per visit (contiguous), and the chip's
+        centre (px) and pitch (µm): what :meth:`positions` hands the native model."""
+        hit = self._geometry.get(j)
+        if hit is None:
+            g = self.groups[j]
+            cam = str(self.camera[g[0]])
+            c = self.rig.camera(cam)
+            q = np.ascontiguousarray(
+                np.broadcast_to(np.asarray(self.rig.camera_pose(cam).joints_rad), (len(g), 6)),
+                dtype=np.float64,
+            )
+            centre = ((c.size_px[0] - 1) / 2, (c.size_px[1] - 1) / 2)
+            hit = (cam, q, centre, (float(c.pixel_pitch_um[0]), float(c.pixel_pitch_um[1])))
+            self._geometry[j] = hit
+        return hit
+
+    def _group_temperature(self, name: str, j: int) -> FloatArray:
+        """The temperature ``name`` over group ``j``'s visits (contiguous, kept)."""
+        key = (name, j)
+        hit = self._temps_by_group.get(key)
+        if hit is None:
+            hit = np.ascontiguousarray(self.temps[name][self.groups[j]], dtype=np.float64)
+            self._temps_by_group[key] = hit
+        return hit
 
     def alpha_column(self, *, only: str | None = None) -> FloatArray:
         """The spot's displacement per unit α from the reference temperature (u then v), from

@@ -42,13 +42,7 @@ def _with(
     vs: VisitSet, *, rig: Rig | None = None, temps: dict[str, FloatArray] | None = None
 ) -> VisitSet:
     """``vs`` with another rig or other temperatures (nothing else recomputed)."""
-    out = copy.copy(vs)
-    if rig is not None:
-        out.rig = rig
-    if temps is not None:
-        out.temps = temps
-    out._cache = {}
-    return out
+    return vs.replaced(rig=rig, temps=temps)
 
 
 def _rotation(axis: FloatArray, angle_rad: float) -> FloatArray:
