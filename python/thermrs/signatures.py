@@ -11,15 +11,16 @@ began). Positions are returned as one vector of length 2n: every visit's u (µm)
 from __future__ import annotations
 
 import copy
+import json
 from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
 import polars as pl
 
-from thermrs.effects import AlphaPerLink, Effect
+from thermrs import _native
+from thermrs.effects import EFFECT_NAMES, AlphaPerLink, Effect
 from thermrs.errors import InputError
-from thermrs.model import ForwardModel
 from thermrs.rig import Rig
 
 __all__ = ["CHAIN_GAP_S", "VisitSet"]
@@ -64,6 +65,7 @@ class VisitSet:
         self.run = table["run"].to_numpy().astype(str)
         self.camera = table["camera"].to_numpy().astype(str)
         t_ns = table["t_ns"].to_numpy()
+        self.t_ns = t_ns
         self.t_s = (t_ns - t_ns.min()).astype(np.float64) / 1e9
         self.y = np.concatenate([table["u_um"].to_numpy(), table["v_um"].to_numpy()])
         self.groups: list[np.ndarray] = []
@@ -148,13 +150,20 @@ class VisitSet:
             An effect needs a temperature the runs do not carry.
         """
         alpha = self.alpha0 if alpha_per_k is None else alpha_per_k
-        key = repr((alpha, [e.to_dict() for e in effects]))
+        dicts = [e.to_dict() for e in effects]
+        key = repr((alpha, dicts))
         hit = self._cache.get(key)
         if hit is not None:
             return hit
-        model = ForwardModel(self.rig, alpha_per_k=alpha, effects=effects)
-        native = model._native
-        names = model.temperature_names
+        # The native model straight from the effects' SPEC §6 dicts: it checks them against
+        # the rig as :class:`thermrs.model.ForwardModel` does, without a second round trip.
+        native = _native.ForwardModel(
+            self.rig._native,
+            alpha_per_k=alpha,
+            reference_c=None,
+            effects_json=json.dumps([d for d in dicts if d["name"] in EFFECT_NAMES]),
+        )
+        names = native.temperature_names()
         missing = [n for n in names if n not in self.temps]
         if missing:
             raise InputError(f"the runs carry no {missing} temperature the model needs")
