@@ -37,7 +37,8 @@ import numpy as np
 import numpy.typing as npt
 
 from thermrs.errors import InputError
-from thermrs.heating import fit_curve
+from thermrs.heating import Curve, fit_curve
+from thermrs.memo import ContentCache, content_key
 from thermrs.signatures import VisitSet
 
 __all__ = [
@@ -158,6 +159,18 @@ def _pool(values: list[float], weights: list[int]) -> float:
     return float(np.sqrt(np.sum(w * v**2) / w.sum()))
 
 
+#: Heating curves by the content of their samples (a proof diagnoses the user's runs again).
+_CURVES: ContentCache[Curve] = ContentCache(256)
+
+
+def _heating_curve(t_ns: npt.NDArray[np.int64], y: FloatArray, name: str) -> Curve:
+    """:func:`thermrs.heating.fit_curve` of a series, kept by its samples (times in seconds
+    from the first, as the fit takes them)."""
+    t = (t_ns - t_ns[0]).astype(np.float64) / 1e9 if len(t_ns) else np.zeros(0)
+    y = np.asarray(y, dtype=np.float64)
+    return _CURVES.get(content_key(t, y, name), lambda: fit_curve(t, y, name=name))
+
+
 def thermal_time_scales(visits: VisitSet, temperatures: list[str]) -> tuple[dict[str, float], str]:
     """The runs' own thermal time constants (minutes) by ``run/temperature``, and how they
     were found (module docs)."""
@@ -172,7 +185,7 @@ def thermal_time_scales(visits: VisitSet, temperatures: list[str]) -> tuple[dict
             continue
         for name in names:
             try:
-                c = fit_curve(visits.t_s[sel], visits.temps[name][sel], name=f"{r}/{name}")
+                c = _heating_curve(visits.t_ns[sel], visits.temps[name][sel], f"{r}/{name}")
             except InputError:
                 continue
             if c.phase == "flat" or not np.isfinite(c.tau_s_se):

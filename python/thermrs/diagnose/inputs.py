@@ -10,6 +10,7 @@ from scipy.linalg import solve_triangular
 
 from thermrs.effects import EFFECT_NAMES, Effect, effect_classes
 from thermrs.errors import InputError
+from thermrs.memo import ContentCache, content_key
 from thermrs.rig import Rig
 
 __all__ = ["check_inputs", "smooth_temperatures"]
@@ -128,10 +129,26 @@ def smooth_temperatures(tables: list[pl.DataFrame], half_width_s: float) -> list
         parts = []
         for _, g in t.sort("t_ns").group_by(["run", "camera"], maintain_order=True):
             ts = (g["t_ns"].to_numpy() - g["t_ns"].to_numpy()[0]).astype(np.float64) / 1e9
-            new = {c: loess2(ts, g[c].to_numpy().astype(np.float64), half_width_s) for c in cols}
+            new = {c: _smoothed(ts, g[c].to_numpy(), half_width_s) for c in cols}
             parts.append(g.with_columns(**{c: pl.Series(c, v) for c, v in new.items()}))
         out.append(pl.concat(parts).sort("__row").drop("__row"))
     return out
+
+
+#: Smoothed series by the content of their samples (a proof diagnoses the user's runs again).
+_SMOOTHED: ContentCache[np.ndarray] = ContentCache(256)
+
+
+def _smoothed(ts: np.ndarray, y: np.ndarray, half_width_s: float) -> np.ndarray:
+    """:func:`loess2` of one series, kept by its samples (the result is shared: read only)."""
+    y = np.asarray(y, dtype=np.float64)
+
+    def compute() -> np.ndarray:
+        out = loess2(ts, y, half_width_s)
+        out.setflags(write=False)
+        return out
+
+    return _SMOOTHED.get(content_key(ts, y, float(half_width_s)), compute)
 
 
 def loess2(t: np.ndarray, y: np.ndarray, h: float) -> np.ndarray:
