@@ -24,7 +24,8 @@ Column 0 of every statistic is the data itself; columns 1… are the replicates.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -33,19 +34,43 @@ from scipy.linalg import solve_triangular
 from thermrs.diagnose.engine import DesignMatrix
 from thermrs.diagnose.floor import NoiseFloor
 
-__all__ = ["Batch", "BatchFit", "Observations", "draw_noise", "format_p", "quantile_above"]
+__all__ = [
+    "Batch",
+    "BatchFit",
+    "Nested",
+    "Observations",
+    "draw_noise",
+    "format_p",
+    "quantile_above",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
 
 @dataclass
 class Observations:
-    """Observation vectors with their training (weighted) and held-out rows split out."""
+    """Observation vectors with their training (weighted) and held-out rows split out, and
+    the models already factored on them (:meth:`Batch.nested`)."""
 
     y: FloatArray
     yw: FloatArray
     yy: FloatArray
     y_ho: FloatArray
+    nested: dict[tuple[int, ...], tuple[object, Nested | None]] = field(default_factory=dict)
+
+
+@dataclass
+class Nested:
+    """A model fitted to many observation vectors, factored so that columns can be added to
+    it (:meth:`Batch.fit_added`): the QR of its training columns (unit-norm, offsets
+    included), their projections of the observations, and its centred held-out residual."""
+
+    q: FloatArray  # n_tr × p, orthonormal
+    r: FloatArray  # p × p, of the unit-norm columns
+    norms: FloatArray  # p
+    rss: FloatArray  # (B,)
+    x_ho: FloatArray  # n_ho × k: the model's own columns (α first) on the held-out rows
+    resid_ho: FloatArray  # n_ho × B, its held-out mounting means removed
 
 
 @dataclass
@@ -137,6 +162,78 @@ class Batch:
             hold_ms=np.mean(resid_ho**2, axis=0),
             hold_resid=resid_ho,
             fitted=fitted,
+        )
+
+    def _centre(self, resid_ho: FloatArray) -> FloatArray:
+        """Held-out residuals with each held-out mounting's weighted mean removed."""
+        means = (self.off_ho.T @ (self.w_ho[:, None] * resid_ho)) / self.wsum_ho[:, None]
+        out: FloatArray = resid_ho - self.off_ho @ means
+        return out
+
+    def nested(
+        self, model: Sequence[object], columns: FloatArray | None, obs: Observations
+    ) -> Nested | None:
+        """The model (its ``columns``, stacked from the objects ``model``) factored on
+        ``obs`` for :meth:`fit_added`, computed once per model and observations; None when
+        the design is rank-deficient."""
+        key = tuple(id(m) for m in model)
+        hit = obs.nested.get(key)
+        if hit is not None:
+            return hit[1]
+        out = self._nested(columns, obs)
+        obs.nested[key] = (list(model), out)  # the objects kept: their ids stay theirs
+        return out
+
+    def _nested(self, columns: FloatArray | None, obs: Observations) -> Nested | None:
+        d = self.d
+        x_all = d.s[:, None] if columns is None else np.column_stack([d.s[:, None], columns])
+        k = x_all.shape[1]
+        x = np.column_stack([x_all[self.tr], self.off_tr]) * self.sw[self.tr, None]
+        norms = np.linalg.norm(x, axis=0)
+        if np.any(norms == 0) or not np.all(np.isfinite(norms)):
+            return None
+        q, r = np.linalg.qr(x / norms)
+        dg = np.abs(np.diag(r))
+        if dg.min() < 1e-10 * dg.max():
+            return None
+        qty = q.T @ obs.yw
+        coef = solve_triangular(r, qty) / norms[:, None]
+        rss = obs.yy - np.sum(qty * qty, axis=0)
+        x_ho = x_all[self.ho]
+        resid_ho = self._centre(obs.y_ho - x_ho @ coef[:k])
+        return Nested(q=q, r=r, norms=norms, rss=rss, x_ho=x_ho, resid_ho=resid_ho)
+
+    def fit_added(self, nested: Nested, columns: FloatArray, obs: Observations) -> BatchFit | None:
+        """:meth:`fit` of the nested model with ``columns`` added, from its factorisation:
+        the columns orthogonalised against it (Gram–Schmidt, twice), so that only they meet
+        the observations. The same least squares as :meth:`fit`; None when rank-deficient."""
+        c = np.asarray(columns, dtype=np.float64)
+        if c.ndim == 1:
+            c = c[:, None]
+        cw = c[self.tr] * self.sw[self.tr, None]
+        cn = np.linalg.norm(cw, axis=0)
+        if np.any(cn == 0) or not np.all(np.isfinite(cn)):
+            return None
+        cw = cw / cn
+        p = nested.q.T @ cw
+        cp = cw - nested.q @ p
+        p2 = nested.q.T @ cp
+        cp -= nested.q @ p2
+        p += p2
+        q1, r1 = np.linalg.qr(cp)
+        if np.abs(np.diag(r1)).min() < 1e-10 * max(float(np.abs(np.diag(nested.r)).max()), 1.0):
+            return None
+        t = q1.T @ obs.yw
+        g = solve_triangular(r1, t)  # the added columns' coefficients (unit-norm columns)
+        m = solve_triangular(nested.r, p)  # how the model's coefficients move per unit of g
+        k = nested.x_ho.shape[1]
+        e = c[self.ho] / cn - nested.x_ho @ (m[:k] / nested.norms[:k, None])
+        resid_ho = nested.resid_ho - self._centre(e) @ g
+        return BatchFit(
+            train_rss=np.maximum(nested.rss - np.sum(t * t, axis=0), 0.0),
+            hold_ms=np.mean(resid_ho**2, axis=0),
+            hold_resid=resid_ho,
+            fitted=None,
         )
 
     def low(self, hold_resid: FloatArray) -> FloatArray:

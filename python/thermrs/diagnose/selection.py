@@ -149,8 +149,9 @@ def _profile(
     y = ys if isinstance(ys, Observations) else batch.prepare(ys)
     rss, hms = [], []
     width = y.y.shape[1]
+    nested = batch.nested(model, _stack(model), y)
     for c in fg.cols:
-        f = batch.fit(_stack(model, c), y)
+        f = None if nested is None else batch.fit_added(nested, c, y)
         if f is None:
             rss.append(np.full(width, np.inf))
             hms.append(np.full(width, np.nan))
