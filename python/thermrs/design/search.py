@@ -117,17 +117,23 @@ def search(
         cosines[id(cand)] = pair_cos([old, blk], rivals, fams)
         scored.append((min(z.values()), cand, z))
 
+    # A new chip's forecast visits: its base pose's visit times and temperatures, the same
+    # for every pose and chip at that base pose (computed once per protocol and base pose).
+    visits_of: dict[tuple[str, ...], list[pl.DataFrame]] = {}
+
     def score_pose(c: Candidate) -> None:
         vis, samp, blk = fc[c.protocol.label]
         assert c.camera is not None
         new = rig_toml(rig, c)[1]
         like = str(c.detail["from_camera"])
-        tabs = forecast_tables(
-            new, vis.filter(pl.col("camera") == like), samp, new_camera=c.camera["name"],
-            like_camera=like,
-        )  # fmt: skip
-        tabs = [t.filter(pl.col("camera") == c.camera["name"]) for t in tabs]
-        nb = Block(VisitSet(tabs, new), rivals)
+        key = (c.protocol.label, like, str(c.camera["name"]), *(r.name for r in new.rois))
+        if key not in visits_of:
+            tabs = forecast_tables(
+                new, vis.filter(pl.col("camera") == like), samp, new_camera=c.camera["name"],
+                like_camera=like,
+            )  # fmt: skip
+            visits_of[key] = [t.filter(pl.col("camera") == c.camera["name"]) for t in tabs]
+        nb = Block(VisitSet(visits_of[key], new), rivals)
         z = pair_z([old, blk, nb], rivals, fams, sigma_um)
         cosines[id(c)] = pair_cos([old, blk, nb], rivals, fams)
         scored.append((min(z.values()), c, z))

@@ -104,6 +104,13 @@ def _basis(x: FloatArray) -> FloatArray:
     columns that add less than 1e-9 of their norm are dropped)."""
     n = np.linalg.norm(x, axis=0)
     x = x[:, n > 0] / n[n > 0]
+    if x.shape[1] == 1:
+        return np.asarray(x, dtype=np.float64)
+    if x.shape[1] == 2:  # the same basis by hand (both unit columns: the first pivots)
+        b = x[:, 1] - x[:, 0] * (x[:, 0] @ x[:, 1])
+        b -= x[:, 0] * (x[:, 0] @ b)
+        nb = float(np.linalg.norm(b))
+        return x[:, :1] if nb <= 1e-9 else np.column_stack([x[:, 0], b / nb])
     q, r, _ = scipy.linalg.qr(x, mode="economic", pivoting=True)
     d = np.abs(np.diag(r))
     k = int(np.sum(d > 1e-9 * max(float(d[0]), 1e-300))) if len(d) else 0
