@@ -20,7 +20,7 @@ from thermrs.design.candidates import Candidate, Protocol
 from thermrs.design.files import scenario_toml, write_text_atomic
 from thermrs.rig import Rig
 
-__all__ = ["forecast_tables", "simulated_runs"]
+__all__ = ["forecast_tables", "simulated_runs", "truth_runs"]
 
 
 def _protocol_candidate(protocol: Protocol) -> Candidate:
@@ -56,9 +56,10 @@ def forecast_tables(
     new_camera: str | None = None,
     like_camera: str | None = None,
 ) -> list[pl.DataFrame]:
-    """Run tables of the forecast visits (``u_um``/``v_um`` zero: no spot), one per run, with a
-    ``<roi>_c`` column per ROI and ``ambient_c``; ``new_camera`` visited at ``like_camera``'s
-    times."""
+    """Run tables of the forecast visits, one per run, with a ``<roi>_c`` column per ROI (the
+    surface temperature) and ``ambient_c``; ``new_camera`` visited at ``like_camera``'s times.
+    ``u_um``/``v_um`` are the visits' true spots where ``visits`` has them (``x_px``,
+    ``y_px``), else zero (no spot)."""
     v = visits
     if new_camera is not None and like_camera is not None:
         extra = v.filter(pl.col("camera") == like_camera).with_columns(
@@ -71,12 +72,21 @@ def forecast_tables(
         rs = samples.filter(pl.col("run") == run).sort("t_ns")
         t = rv["t_ns"].to_numpy().astype(np.float64)
         ts = rs["t_ns"].to_numpy().astype(np.float64)
+        u_um, v_um = np.zeros(rv.height), np.zeros(rv.height)
+        if "x_px" in rv.columns:  # true spots: chip micrometres about the chip's centre
+            for cam in rv["camera"].unique().to_list():
+                chip = rig.camera(str(cam))
+                m = (rv["camera"] == cam).to_numpy()
+                w, h = chip.size_px
+                pu, pv = chip.pixel_pitch_um
+                u_um[m] = (rv["x_px"].to_numpy()[m] - (w - 1) / 2) * pu
+                v_um[m] = (rv["y_px"].to_numpy()[m] - (h - 1) / 2) * pv
         cols: dict[str, object] = {
             "run": rv["run"],
             "camera": rv["camera"],
             "t_ns": rv["t_ns"],
-            "u_um": np.zeros(rv.height),
-            "v_um": np.zeros(rv.height),
+            "u_um": u_um,
+            "v_um": v_um,
         }
         for roi in rig.rois:
             c = f"{roi.name}_surface_c"
@@ -85,6 +95,25 @@ def forecast_tables(
         cols["ambient_c"] = np.interp(t, ts, rs["ambient_c"].to_numpy())
         out.append(pl.DataFrame(cols))
     return out
+
+
+def truth_runs(
+    rig: Rig, sim_rig_text: str, scenario_text: str, *, workdir: Path, stem: str, seed: int
+) -> list[pl.DataFrame]:
+    """The runs of ``scenario_text`` on the rig ``sim_rig_text`` as the simulator's truth has
+    them (:func:`thermrs.simulate.simulate_truth`): every visit's true spot, where the laser
+    met the chip with the robot where it really stood (its pose error in, as in a recording),
+    and the links' true surface temperatures; no image rendered, so no centroid noise and no
+    reading noise of the temperatures. Run tables in the scenario's order."""
+    from thermrs.simulate import simulate_truth
+
+    rig_path = workdir / f"{stem}.rig.toml"
+    sc_path = workdir / f"{stem}.scenario.toml"
+    write_text_atomic(rig_path, sim_rig_text)
+    write_text_atomic(sc_path, scenario_text)
+    sim = simulate_truth(rig_path, sc_path, seed=seed)
+    frames = sim.frames.filter(pl.col("x_px").is_not_null() & pl.col("y_px").is_not_null())
+    return forecast_tables(rig, frames, sim.samples)
 
 
 def simulated_runs(
