@@ -74,3 +74,20 @@ def test_a_column_in_the_models_span_is_refused_as_the_full_fit_refuses_it(
     for col in (mounting, alpha_twice):
         assert batch.fit(col, obs) is None
         assert batch.fit_added(nested, col, obs) is None
+
+
+def test_the_correlated_part_is_a_stationary_ar1_in_time() -> None:
+    # Closed form: variance σ_a² at every visit, correlation exp(−Δt/τ) across any gap.
+    from thermrs.diagnose.floor import SeriesNoise
+    from thermrs.diagnose.null import _ar
+
+    t = np.array([0.0, 60.0, 400.0, 460.0, 2000.0])
+    s = SeriesNoise(
+        "r", "A", "u", 5, white_um=1.0, correlated_um=2.0, tau_c_s=300.0, centroid_um=None
+    )
+    z = np.random.default_rng(7).standard_normal((len(t), 40_000))
+    x = _ar(t, z, s)
+    np.testing.assert_allclose(np.var(x, axis=1), 4.0, rtol=0.03)
+    for i in range(1, len(t)):
+        r = np.corrcoef(x[i - 1], x[i])[0, 1]
+        assert abs(r - np.exp(-(t[i] - t[i - 1]) / 300.0)) < 0.02

@@ -266,13 +266,15 @@ def draw_noise(
     fallback = floor.holdout_um if np.isfinite(floor.holdout_um) else floor.train_um
     for run, chans, pos, chol in _plan(design):
         m = max(int(p.max()) for p in pos) + 1
-        zw = rng.standard_normal((m, draws, len(chans))) @ chol.T
-        za = rng.standard_normal((m, draws, len(chans))) @ chol.T
+        k = len(chans)
+        # Channel by channel, cycles × draws: one product with the correlation's factor.
+        zw = (chol @ rng.standard_normal((k, m * draws))).reshape(k, m, draws)
+        za = (chol @ rng.standard_normal((k, m * draws))).reshape(k, m, draws)
         for c, (rows, axis) in enumerate(chans):
             cam = str(vs.camera[rows[0] % n])
             s = noise.get((run, cam, axis))
             w = s.white_um if s is not None else fallback
-            out[rows] = w * zw[pos[c], :, c] + _ar(vs.t_s[rows % n], za[pos[c], :, c], s)
+            out[rows] = w * zw[c, pos[c]] + _ar(vs.t_s[rows % n], za[c, pos[c]], s)
     return out
 
 
@@ -326,12 +328,12 @@ def _ar(t: FloatArray, z: FloatArray, s: object) -> FloatArray:
 
     if not isinstance(s, SeriesNoise) or s.correlated_um <= 0 or s.tau_c_s <= 0:
         return np.zeros_like(z)
-    out = np.empty_like(z)
-    out[0] = z[0]
-    for i in range(1, len(t)):
-        phi = np.exp(-max(t[i] - t[i - 1], 0.0) / s.tau_c_s)
-        out[i] = phi * out[i - 1] + np.sqrt(1 - phi * phi) * z[i]
-    return out * s.correlated_um
+    phi = np.exp(-np.maximum(np.diff(t), 0.0) / s.tau_c_s)
+    out = z * s.correlated_um
+    out[1:] *= np.sqrt(1.0 - phi * phi)[:, None]
+    for i in range(1, len(t)):  # out[i] = φ_i·out[i−1] + √(1−φ_i²)·z_i, in place
+        out[i] += phi[i - 1] * out[i - 1]
+    return out
 
 
 def quantile_above(null: FloatArray, observed: float) -> float:
