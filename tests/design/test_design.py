@@ -252,6 +252,42 @@ def test_designed_experiment_identifies_the_truth(
 
 
 @pytest.mark.slow
+def test_a_proof_on_recordings_reaches_the_verdicts_of_the_proof_on_the_truth(
+    paper_rig: thermrs.Rig,
+    short_runs: dict[str, pl.DataFrame],
+    designed: tuple[DesignResult, Path],
+) -> None:
+    """The proof's runs as recordings, every image rendered and read back by the extraction
+    (the whole chain), against the default proof on the simulator's truth: the same verdict
+    for every truth, and held-out residuals within the centroids' noise of each other."""
+    from thermrs.design.proof import prove
+
+    res, tmp_path = designed
+    assert res.proof is not None and res.best is not None
+    assert res.proof["route"] == "truth"
+    cand = next(c for c in [res.best] if c.label == res.proof["candidate"])
+    (tmp_path / "recorded").mkdir()
+    rec = prove(
+        paper_rig,
+        cand,
+        res.rivals,
+        [short_runs["r1"]],
+        [short_runs["r2"]],
+        repeatability_urad=res.noise["repeatability_urad"],
+        exclude=[],
+        cycle_s=res.cycle_s,
+        workdir=tmp_path / "recorded",
+        seed=res.proof["seed"],
+        recorded=True,
+    )
+    assert rec["route"] == "recording"
+    for a, b in zip(res.proof["matrix"], rec["matrix"], strict=True):
+        assert (a["truth"], a["status"], a["effect"]) == (b["truth"], b["status"], b["effect"])
+        ra, rb = a["ranking"][0]["holdout_rms_um"], b["ranking"][0]["holdout_rms_um"]
+        assert rb == pytest.approx(ra, rel=0.05)
+
+
+@pytest.mark.slow
 def test_report_subsection_shows_the_experiment(designed: tuple[DesignResult, Path]) -> None:
     """The report's subsection: the recommendation (or why none), the rivals' predicted drift
     on the new chip (they must differ there: that is what the experiment reads) and the proof

@@ -124,6 +124,13 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
     help="Rank only; skip the proof (then nothing is recommended).",
 )
 @click.option(
+    "--recorded-proof",
+    "recorded_proof",
+    is_flag=True,
+    help="Simulate the proof's runs as recordings read back by the extraction (every image "
+    "rendered), not as the simulator's truth: slower, the whole chain.",
+)
+@click.option(
     "-o",
     "--out",
     "out_dir",
@@ -144,6 +151,7 @@ def design(
     diagnosis_path: Path | None,
     seed: int,
     no_proof: bool,
+    recorded_proof: bool,
     out_dir: Path,
     campaign_path: Path | None,
     query: str | None,
@@ -180,7 +188,7 @@ def design(
     with stages("design", verbose=verbose) as say:
         res = design_splits(sets, r, exclude=list(exclude), between=list(between) or None,
                             budget_h=budget_h, seed=seed, prove_it=not no_proof,
-                            diagnosis=given,
+                            recorded_proof=recorded_proof, diagnosis=given,
                             progress=say)  # fmt: skip
         for d, f in zip(dirs, res, strict=True):
             d.mkdir(parents=True, exist_ok=True)

@@ -80,6 +80,7 @@ class DesignResult:
     proofs: list[dict[str, Any]] = field(default_factory=list)
     now: list[dict[str, Any]] = field(default_factory=list)
     noise: dict[str, float] = field(default_factory=dict)
+    recorded_proof: bool = False
     seconds: float = 0.0
 
     @property
@@ -236,6 +237,7 @@ def design(
     cycle_s: float = 300.0,
     limits_deg: Sequence[tuple[float, float]] | None = None,
     prove_it: bool = True,
+    recorded_proof: bool = False,
     seed: int = 0,
     workdir: str | Path | None = None,
     diagnosis: Any | None = None,
@@ -262,6 +264,12 @@ def design(
         Joint ranges (degrees) for new poses; default :data:`DEFAULT_LIMITS_DEG`.
     prove_it
         Run the proof (simulations and diagnoses); without it nothing is recommended.
+    recorded_proof
+        Simulate the proof's runs as recordings (every image rendered, written and read back
+        by the extraction) instead of as the simulator's truth (the true spots with the
+        robot's pose error, :func:`thermrs.design.forecast.truth_runs`): the whole chain, at
+        about 2.5 s of CPU more per truth and 24 h (module docs of
+        :mod:`thermrs.design.proof`).
     seed
         Seed of the proof's simulations.
     workdir
@@ -350,6 +358,7 @@ def design(
         limits_source="given" if limits_deg is not None else "default (KUKA KR 15/2 axis ranges)",
         rig=rig,
         cycle_s=cycle_s,
+        recorded_proof=recorded_proof,
     )
     if not names:
         result.why_not = (
@@ -438,6 +447,7 @@ def _prove(
             seed=seed,
             progress=say,
             jobs=jobs,
+            recorded=result.recorded_proof,
         )
         result.proofs.append(p)
         if p["all_right"]:

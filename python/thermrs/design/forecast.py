@@ -98,20 +98,28 @@ def forecast_tables(
 
 
 def truth_runs(
-    rig: Rig, sim_rig_text: str, scenario_text: str, *, workdir: Path, stem: str, seed: int
+    rig: Rig,
+    sim_rig_text: str,
+    scenario_text: str,
+    *,
+    workdir: Path,
+    stem: str,
+    seed: int,
+    cancel: Callable[[], bool] | None = None,
 ) -> list[pl.DataFrame]:
     """The runs of ``scenario_text`` on the rig ``sim_rig_text`` as the simulator's truth has
     them (:func:`thermrs.simulate.simulate_truth`): every visit's true spot, where the laser
     met the chip with the robot where it really stood (its pose error in, as in a recording),
     and the links' true surface temperatures; no image rendered, so no centroid noise and no
-    reading noise of the temperatures. Run tables in the scenario's order."""
+    reading noise of the temperatures. Run tables in the scenario's order; ``cancel`` as for
+    :func:`simulated_runs`."""
     from thermrs.simulate import simulate_truth
 
     rig_path = workdir / f"{stem}.rig.toml"
     sc_path = workdir / f"{stem}.scenario.toml"
     write_text_atomic(rig_path, sim_rig_text)
     write_text_atomic(sc_path, scenario_text)
-    sim = simulate_truth(rig_path, sc_path, seed=seed)
+    sim = simulate_truth(rig_path, sc_path, seed=seed, cancel=cancel)
     frames = sim.frames.filter(pl.col("x_px").is_not_null() & pl.col("y_px").is_not_null())
     return forecast_tables(rig, frames, sim.samples)
 
