@@ -14,6 +14,7 @@ way with
         --holdout demo.mcap#run2 demo.mcap#run3 -o bench-out/design --verbose
 
     python benchmarks/bench_design.py [--workdir bench-out/design-demo] [--random-rig 7]
+        [--jobs J] [--recorded-proof]
 """
 
 from __future__ import annotations
@@ -68,6 +69,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--workdir", type=Path, default=Path("bench-out/design-demo"))
     ap.add_argument("--random-rig", type=int, default=None, metavar="SEED")
+    ap.add_argument("--jobs", type=int, default=None, help="design(jobs=): the proof's threads")
+    ap.add_argument("--recorded-proof", action="store_true", help="the proof's runs as recordings")
     args = ap.parse_args()
     between = None
     if args.random_rig is None:
@@ -77,7 +80,10 @@ def main() -> None:
         rig, runs = _random_rig_runs(args.workdir / f"random-{args.random_rig}", args.random_rig)
         between = ["joint_offset", "unmodelled_length"]
     t0, c0 = time.perf_counter(), time.process_time()
-    r = design(runs[:1], runs[1:], rig, budget_h=24.0, between=between)
+    r = design(
+        runs[:1], runs[1:], rig, budget_h=24.0, between=between, jobs=args.jobs,
+        recorded_proof=args.recorded_proof,
+    )  # fmt: skip
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     doc = r.to_json()
     rec = doc["recommended"]

@@ -75,11 +75,33 @@ def figure(height_in: float, width_in: float = 9.5) -> Figure:
 def svg(fig: Figure) -> str:
     """``fig`` as SVG text for inline HTML: no prolog or metadata, the same bytes every time,
     coordinates to 0.01 pt."""
-    from matplotlib.backends.backend_svg import FigureCanvasSVG
+    from matplotlib.backends.backend_mixed import MixedModeRenderer
+    from matplotlib.backends.backend_svg import FigureCanvasSVG, RendererSVG
 
-    FigureCanvasSVG(fig)
+    # What ``FigureCanvasSVG.print_svg`` does, with two savings (the same bytes): the figure is
+    # drawn once (savefig draws it twice when it has a layout engine: once without output to
+    # lay it out, then again to write it; here the constrained layout runs at the start of the
+    # one draw), and it is laid out with the renderer it is drawn with, so each text is
+    # measured once (matplotlib caches text sizes per renderer).
     buf = io.StringIO()
-    fig.savefig(buf, format="svg", metadata={"Date": None, "Creator": None})
+    dpi = fig.dpi
+    fig.dpi = 72  # SVG is in points
+    try:
+        w, h = fig.get_size_inches()
+        vector = RendererSVG(  # type: ignore[no-untyped-call]
+            w * 72, h * 72, buf, image_dpi=dpi, metadata={"Date": None, "Creator": None}
+        )
+        renderer: Any = MixedModeRenderer(fig, w, h, dpi, vector)  # type: ignore[no-untyped-call]
+
+        class Canvas(FigureCanvasSVG):
+            def get_renderer(self) -> Any:  # what the layout measures text with
+                return renderer
+
+        Canvas(fig)
+        fig.draw(renderer)
+        renderer.finalize()
+    finally:
+        fig.dpi = dpi
     text = buf.getvalue()
     # Inline in HTML: drop the XML prolog and the DOCTYPE.
     start = text.find("<svg")
