@@ -131,7 +131,13 @@ def design_section(doc: Mapping[str, Any], drift: pl.DataFrame | None = None) ->
         s.blocks.append(
             Table(
                 f"Proof before the robot ({proof['candidate']}): each rival simulated as the "
-                "truth, diagnosed with the given runs",
+                "truth, diagnosed with the given runs ("
+                + (
+                    "the design's runs recorded and read back by the extraction)"
+                    if proof.get("route") == "recording"
+                    else "the design's runs as the simulator's truth: true spots with the "
+                    "robot's pose error, no image rendered)"
+                ),
                 ["truth (simulated)", "verdict", "effect named", "right"],
                 [
                     [r["truth"], r["status"], str(r["effect"]), "yes" if r["right"] else "no"]
