@@ -97,6 +97,15 @@ def forecast_tables(
     return out
 
 
+def _inputs(workdir: Path, stem: str, rig_text: str, scenario_text: str) -> tuple[Path, Path]:
+    """The simulation's rig and scenario files, written in ``workdir``."""
+    rig_path = workdir / f"{stem}.rig.toml"
+    sc_path = workdir / f"{stem}.scenario.toml"
+    write_text_atomic(rig_path, rig_text)
+    write_text_atomic(sc_path, scenario_text)
+    return rig_path, sc_path
+
+
 def truth_runs(
     rig: Rig,
     sim_rig_text: str,
@@ -115,10 +124,7 @@ def truth_runs(
     :func:`simulated_runs`."""
     from thermrs.simulate import simulate_truth
 
-    rig_path = workdir / f"{stem}.rig.toml"
-    sc_path = workdir / f"{stem}.scenario.toml"
-    write_text_atomic(rig_path, sim_rig_text)
-    write_text_atomic(sc_path, scenario_text)
+    rig_path, sc_path = _inputs(workdir, stem, sim_rig_text, scenario_text)
     sim = simulate_truth(rig_path, sc_path, seed=seed, cancel=cancel)
     frames = sim.frames.filter(pl.col("x_px").is_not_null() & pl.col("y_px").is_not_null())
     return forecast_tables(rig, frames, sim.samples)
@@ -142,10 +148,7 @@ def simulated_runs(
     from thermrs.ingest import extract
     from thermrs.simulate import simulate
 
-    rig_path = workdir / f"{stem}.rig.toml"
-    sc_path = workdir / f"{stem}.scenario.toml"
-    write_text_atomic(rig_path, sim_rig_text)
-    write_text_atomic(sc_path, scenario_text)
+    rig_path, sc_path = _inputs(workdir, stem, sim_rig_text, scenario_text)
     rec = workdir / f"{stem}.mcap"
     sim = simulate(rig_path, sc_path, rec, seed=seed, cancel=cancel)
 

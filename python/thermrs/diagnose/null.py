@@ -68,6 +68,7 @@ class Nested:
     q: FloatArray  # n_tr × p, orthonormal
     r: FloatArray  # p × p, of the unit-norm columns
     norms: FloatArray  # p
+    coef: FloatArray  # p × B: α, the model's columns, then the training mountings
     rss: FloatArray  # (B,)
     x_ho: FloatArray  # n_ho × k: the model's own columns (α first) on the held-out rows
     resid_ho: FloatArray  # n_ho × B, its held-out mounting means removed
@@ -134,35 +135,26 @@ class Batch:
         """Fit α, the columns' amplitudes and the training offsets to every column of ``y``
         (2n × B, or prepared by :meth:`prepare`); None when the design is rank-deficient."""
         obs = y if isinstance(y, Observations) else self.prepare(y)
-        d = self.d
-        xs = [d.s[:, None]] if columns is None else [d.s[:, None], columns]
-        x_all = np.column_stack(xs)
-        k = x_all.shape[1]
-        x = np.column_stack([x_all[self.tr], self.off_tr]) * self.sw[self.tr, None]
-        norms = np.linalg.norm(x, axis=0)
-        if np.any(norms == 0) or not np.all(np.isfinite(norms)):
+        nest = self._nested(columns, obs)
+        if nest is None:
             return None
-        q, r = np.linalg.qr(x / norms)
-        dg = np.abs(np.diag(r))
-        if dg.min() < 1e-10 * dg.max():
-            return None
-        qty = q.T @ obs.yw
-        coef = solve_triangular(r, qty) / norms[:, None]
-        rss = obs.yy - np.sum(qty * qty, axis=0)
-        resid_ho = obs.y_ho - x_all[self.ho] @ coef[:k]
-        means = (self.off_ho.T @ (self.w_ho[:, None] * resid_ho)) / self.wsum_ho[:, None]
-        resid_ho = resid_ho - self.off_ho @ means
         fitted = None
         if keep:
-            fitted = x_all @ coef[:k]
-            fitted[self.tr] += self.off_tr @ coef[k:]
-            fitted[self.ho] += self.off_ho @ means
+            k = nest.x_ho.shape[1]
+            fitted = self._x_all(columns) @ nest.coef[:k]
+            fitted[self.tr] += self.off_tr @ nest.coef[k:]
+            fitted[self.ho] = obs.y_ho - nest.resid_ho  # the model and the held-out mountings
         return BatchFit(
-            train_rss=np.maximum(rss, 0.0),
-            hold_ms=np.mean(resid_ho**2, axis=0),
-            hold_resid=resid_ho,
+            train_rss=np.maximum(nest.rss, 0.0),
+            hold_ms=np.mean(nest.resid_ho**2, axis=0),
+            hold_resid=nest.resid_ho,
             fitted=fitted,
         )
+
+    def _x_all(self, columns: FloatArray | None) -> FloatArray:
+        """The α column and ``columns`` (every row)."""
+        d = self.d
+        return d.s[:, None] if columns is None else np.column_stack([d.s[:, None], columns])
 
     def _centre(self, resid_ho: FloatArray) -> FloatArray:
         """Held-out residuals with each held-out mounting's weighted mean removed."""
@@ -185,8 +177,7 @@ class Batch:
         return out
 
     def _nested(self, columns: FloatArray | None, obs: Observations) -> Nested | None:
-        d = self.d
-        x_all = d.s[:, None] if columns is None else np.column_stack([d.s[:, None], columns])
+        x_all = self._x_all(columns)
         k = x_all.shape[1]
         x = np.column_stack([x_all[self.tr], self.off_tr]) * self.sw[self.tr, None]
         norms = np.linalg.norm(x, axis=0)
@@ -201,7 +192,7 @@ class Batch:
         rss = obs.yy - np.sum(qty * qty, axis=0)
         x_ho = x_all[self.ho]
         resid_ho = self._centre(obs.y_ho - x_ho @ coef[:k])
-        return Nested(q=q, r=r, norms=norms, rss=rss, x_ho=x_ho, resid_ho=resid_ho)
+        return Nested(q=q, r=r, norms=norms, coef=coef, rss=rss, x_ho=x_ho, resid_ho=resid_ho)
 
     def fit_added(self, nested: Nested, columns: FloatArray, obs: Observations) -> BatchFit | None:
         """:meth:`fit` of the nested model with ``columns`` added, from its factorisation:
