@@ -21,7 +21,7 @@ import polars as pl
 from thermrs import _native
 from thermrs.effects import EFFECT_NAMES, AlphaPerLink, Effect
 from thermrs.errors import InputError
-from thermrs.rig import Rig
+from thermrs.rig import Camera, Rig
 
 __all__ = ["CHAIN_GAP_S", "VisitSet"]
 
@@ -110,8 +110,7 @@ class VisitSet:
             self.t_since_start = self._shift(self.t_since_start)
             self.t_since_chain = self._shift(self.t_since_chain)
         self._cache: dict[str, FloatArray] = {}
-        self._geometry: dict[int, tuple[str, FloatArray, tuple[float, float], tuple[float, float]]]
-        self._geometry = {}
+        self._geometry: dict[int, tuple[Camera, FloatArray]] = {}
         self._temps_by_group: dict[tuple[str, int], FloatArray] = {}
 
     def replaced(
@@ -185,11 +184,11 @@ class VisitSet:
                     )
                 lagged[n] = out
         for j, g in enumerate(self.groups):
-            cam, q, centre, pitch = self._group_geometry(j)
+            chip, q = self._group_geometry(j)
+            cam = chip.name
             cols = [lagged[n][g] if n in lagged else self._group_temperature(n, j) for n in names]
             s = native.spots(cam, q, [np.ascontiguousarray(c) for c in cols], None)
-            su = (s[:, 0] - centre[0]) * pitch[0]
-            sv = (s[:, 1] - centre[1]) * pitch[1]
+            su, sv = chip.px_to_um(s[:, 0], s[:, 1])
             if chips:
                 amb = self.temps.get("ambient")
                 a = (
@@ -207,22 +206,20 @@ class VisitSet:
             self._cache[key] = out
         return out
 
-    def _group_geometry(
-        self, j: int
-    ) -> tuple[str, FloatArray, tuple[float, float], tuple[float, float]]:
-        """Group ``j``'s camera, its taught joints per visit (contiguous), and the chip's
-        centre (px) and pitch (µm): what :meth:`positions` hands the native model."""
+    def _group_geometry(self, j: int) -> tuple[Camera, FloatArray]:
+        """Group ``j``'s chip and its taught joints per visit (contiguous): what
+        :meth:`positions` hands the native model."""
         hit = self._geometry.get(j)
         if hit is None:
             g = self.groups[j]
-            cam = str(self.camera[g[0]])
-            c = self.rig.camera(cam)
+            chip = self.rig.camera(str(self.camera[g[0]]))
             q = np.ascontiguousarray(
-                np.broadcast_to(np.asarray(self.rig.camera_pose(cam).joints_rad), (len(g), 6)),
+                np.broadcast_to(
+                    np.asarray(self.rig.camera_pose(chip.name).joints_rad), (len(g), 6)
+                ),
                 dtype=np.float64,
             )
-            centre = ((c.size_px[0] - 1) / 2, (c.size_px[1] - 1) / 2)
-            hit = (cam, q, centre, (float(c.pixel_pitch_um[0]), float(c.pixel_pitch_um[1])))
+            hit = (chip, q)
             self._geometry[j] = hit
         return hit
 

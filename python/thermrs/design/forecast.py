@@ -75,12 +75,9 @@ def forecast_tables(
         u_um, v_um = np.zeros(rv.height), np.zeros(rv.height)
         if "x_px" in rv.columns:  # true spots: chip micrometres about the chip's centre
             for cam in rv["camera"].unique().to_list():
-                chip = rig.camera(str(cam))
                 m = (rv["camera"] == cam).to_numpy()
-                w, h = chip.size_px
-                pu, pv = chip.pixel_pitch_um
-                u_um[m] = (rv["x_px"].to_numpy()[m] - (w - 1) / 2) * pu
-                v_um[m] = (rv["y_px"].to_numpy()[m] - (h - 1) / 2) * pv
+                xy = rv["x_px"].to_numpy()[m], rv["y_px"].to_numpy()[m]
+                u_um[m], v_um[m] = rig.camera(str(cam)).px_to_um(*xy)
         cols: dict[str, object] = {
             "run": rv["run"],
             "camera": rv["camera"],

@@ -38,13 +38,6 @@ __all__ = ["nuisance_signatures"]
 FloatArray = npt.NDArray[np.float64]
 
 
-def _with(
-    vs: VisitSet, *, rig: Rig | None = None, temps: dict[str, FloatArray] | None = None
-) -> VisitSet:
-    """``vs`` with another rig or other temperatures (nothing else recomputed)."""
-    return vs.replaced(rig=rig, temps=temps)
-
-
 def _rotation(axis: FloatArray, angle_rad: float) -> FloatArray:
     a = axis / np.linalg.norm(axis)
     k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
@@ -129,7 +122,7 @@ def _geometry(vs: VisitSet, rig: Rig, alpha: float) -> list[tuple[str, FloatArra
     for name, data in _geometry_variants(rig):
         try:
             moved = Rig.from_dict(data, source_name=f"{rig.source} ({name})")
-            s1 = _with(vs, rig=moved).alpha_column()
+            s1 = vs.replaced(rig=moved).alpha_column()
         except Exception:  # a variant the forward model cannot follow (the ray leaves a chip)
             continue
         col = alpha * (s1 - s0)
@@ -150,7 +143,7 @@ def _ir(vs: VisitSet, rig: Rig, alpha: float) -> list[tuple[str, FloatArray]]:
     for r in rois:
         temps = dict(vs.temps)
         temps[r] = temps[r] + 1.0
-        sens[r] = _with(vs, temps=temps).positions(alpha_per_k=alpha) - hot  # µm per K
+        sens[r] = vs.replaced(temps=temps).positions(alpha_per_k=alpha) - hot  # µm per K
     rise = {r: np.concatenate([vs.temps[r] - room] * 2) for r in rois}
     out: list[tuple[str, FloatArray]] = []
     if tol["ir_scale"] > 0:
