@@ -208,6 +208,11 @@ class Rig:
         """A rig from plain data (the keys of :meth:`to_dict`), validated as a file is."""
         return cls(_native.Rig.from_json(json.dumps(data), source_name), source_name)
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled as its validated JSON and source (for a campaign's Dask workers), and
+        validated again when unpickled."""
+        return (_from_json, (self._native.to_json(), self.source))
+
     # --- queries ----------------------------------------------------------------------------
     def camera(self, name: str) -> Camera:
         """The camera called ``name``."""
@@ -250,6 +255,11 @@ class Rig:
     def __repr__(self) -> str:
         cams = ", ".join(c.name for c in self.cameras)
         return f"Rig({self.source!r}, robot={self.model!r}, cameras=[{cams}])"
+
+
+def _from_json(text: str, source: str) -> Rig:
+    """A rig pickled by :meth:`Rig.__reduce__`."""
+    return Rig(_native.Rig.from_json(text, source), source)
 
 
 def load_rig(path: str | os.PathLike[str] | None = None) -> Rig:

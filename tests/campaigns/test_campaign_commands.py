@@ -21,6 +21,7 @@ from thermrs.runs import load_runs
 from thermrs.simulate import simulate
 
 from tests.campaigns.test_campaign import SCENARIO
+from tests.support.nested import assert_nested_close
 from tests.support.recordings import shift_days
 
 RIG = str(thermrs.default_rig_path())
@@ -281,12 +282,16 @@ def test_diagnose_by_rule_is_each_fold_diagnosed_and_predict_uses_a_diagnosis(
         "0",
         "--rule",
         "leave-one-run-out",
+        "--workers",
+        "2",
         *where,
         "--json",
         str(out),
     )
     assert p.returncode == 0, p.stderr
     assert "Diagnosis by fold (leave-one-run-out)" in p.stdout
+    # The folds ran side by side on two workers, each saying when it ended.
+    assert len(re.findall(r": without .*: done \(\d+\.\d s\)", p.stderr)) == 2, p.stderr
     doc = json.loads(out.read_text())
     assert doc["rule"] == "leave-one-run-out" and len(doc["folds"]) == 2
     first = doc["folds"][0]
@@ -294,8 +299,9 @@ def test_diagnose_by_rule_is_each_fold_diagnosed_and_predict_uses_a_diagnosis(
     truth = diagnose(
         file_tables(camp, first["train"]), file_tables(camp, first["holdout"]), rig, bootstrap=0
     ).to_json()
-    assert first["diagnosis"]["verdict"]["status"] == truth["verdict"]["status"]
-    assert first["diagnosis"]["verdict"]["effect"] == truth["verdict"]["effect"]
+    # The same diagnosis to the last digits, runs named by the catalog's id.
+    named = json.loads(json.dumps(first["diagnosis"]).replace(rec_id(camp, "r1"), "r1"))
+    assert_nested_close(named, truth, rel=1e-9)
     # The synthesis tallies what the folds' own documents say, and is printed.
     outcomes = [
         f["diagnosis"]["verdict"].get("outcome", f["diagnosis"]["verdict"]["status"])
@@ -396,6 +402,33 @@ def test_design_from_the_catalog_is_the_design_of_the_files(
     assert [c["min_z"] for c in da["candidates"]] == pytest.approx(
         [c["min_z"] for c in db["candidates"]], rel=1e-6
     )
+
+
+@pytest.mark.slow
+def test_design_by_rule_designs_each_fold_on_the_workers_as_here(
+    camp: dict[str, Path], tmp_path: Path
+) -> None:
+    from thermrs.design import design
+
+    rig = thermrs.load_rig()
+    out = tmp_path / "next"
+    where = ["--where", "recording=" + rec_id(camp, "r1")]
+    args = ["--no-proof", "--rule", "leave-one-run-out", "--workers", "2", "-o", str(out)]
+    p = on_campaign(camp, "design", *args, *where)
+    assert p.returncode == 0, p.stderr
+    assert len(re.findall(r": without .*: done \(\d+\.\d s\)", p.stderr)) == 2, p.stderr
+    folds = json.loads((out / "folds.json").read_text())["folds"]
+    assert [f["folder"] for f in folds] == ["fold-1", "fold-2"]
+    for f in folds:
+        got = json.loads((out / f["folder"] / "design.json").read_text())
+        truth = design(
+            file_tables(camp, f["train"]), file_tables(camp, f["holdout"]), rig, prove_it=False
+        ).to_json()
+        assert got["confounded"] == truth["confounded"]
+        assert [c["label"] for c in got["candidates"]] == [c["label"] for c in truth["candidates"]]
+        assert [c["min_z"] for c in got["candidates"]] == pytest.approx(
+            [c["min_z"] for c in truth["candidates"]], rel=1e-9
+        )
 
 
 @pytest.mark.parametrize(

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
-from thermrs.analyses.diagnose import Progress, prefixed
+from thermrs.analyses.diagnose import Progress
 from thermrs.analyses.inputs import DatasetLike, Split, splits
 
 __all__ = ["DesignFold", "design", "design_splits"]
@@ -22,16 +23,36 @@ class DesignFold:
 
 
 def design_splits(
-    sets: Sequence[Split], rig: Any, *, progress: Progress | None = None, **options: Any
+    sets: Sequence[Split],
+    rig: Any,
+    *,
+    progress: Progress | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    **options: Any,
 ) -> list[DesignFold]:
-    """A design per split; ``options`` are :func:`thermrs.design.design`'s keywords."""
+    """A design per split; ``options`` are :func:`thermrs.design.design`'s keywords.
+
+    Several splits are designed side by side on Dask workers (``client``, ``scheduler``,
+    ``workers``: :func:`thermrs.campaigns.fold_map.map_folds`)."""
+    from thermrs.campaigns.fold_map import map_folds
+
+    task = partial(_design_fold, rig=rig, **options)
+    return map_folds(
+        task, sets, client=client, scheduler=scheduler, workers=workers, progress=progress
+    )
+
+
+def _design_fold(
+    split: Split, progress: Progress | None, *, rig: Any, **options: Any
+) -> DesignFold:
+    """One split's design (a fold's task, :func:`design_splits`)."""
     from thermrs.design import design as design_runs
 
-    res = []
-    for s in sets:
-        say = None if progress is None else prefixed(progress, s.name)
-        res.append(DesignFold(s, design_runs(s.train, s.holdout, rig, progress=say, **options)))
-    return res
+    return DesignFold(
+        split, design_runs(split.train, split.holdout, rig, progress=progress, **options)
+    )
 
 
 def design(
@@ -43,6 +64,9 @@ def design(
     train: Sequence[str] = (),
     holdout: Sequence[str] = (),
     progress: Progress | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
     **options: Any,
 ) -> list[DesignFold]:
     """The measurement that separates confounded effects, designed on a campaign's runs as
@@ -58,6 +82,9 @@ def design(
         Else the runs named, as for :func:`thermrs.analyses.diagnose.diagnose`.
     progress
         Called with a short message (starting with the fold) as the work goes on.
+    client, scheduler, workers
+        Where several folds are designed side by side, as for
+        :func:`thermrs.analyses.diagnose.diagnose`.
     **options
         :func:`thermrs.design.design`'s keywords (``exclude``, ``between``, ``budget_h``,
         ``seed``, ``prove_it``, …).
@@ -79,4 +106,12 @@ def design(
     >>> d.result.write("next-experiment/")  # doctest: +SKIP
     """
     sets = splits(dataset, rig, where=where, rule=rule, train=train, holdout=holdout)
-    return design_splits(sets, rig, progress=progress, **options)
+    return design_splits(
+        sets,
+        rig,
+        progress=progress,
+        client=client,
+        scheduler=scheduler,
+        workers=workers,
+        **options,
+    )

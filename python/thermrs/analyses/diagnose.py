@@ -5,11 +5,20 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 from thermrs.analyses.inputs import DatasetLike, Split, splits
+from thermrs.campaigns.fold_map import prefixed
 
-__all__ = ["DiagnosisFold", "Progress", "diagnose", "diagnose_splits", "prefixed"]
+__all__ = [
+    "CLUSTER_FROM_VISITS",
+    "DiagnosisFold",
+    "Progress",
+    "diagnose",
+    "diagnose_splits",
+    "prefixed",
+]
 
 #: Called with a short message as the work goes on.
 Progress = Callable[[str], object]
@@ -32,6 +41,15 @@ class DiagnosisFold:
         }
 
 
+#: Visits (summed over the folds) from which :func:`diagnose_splits` starts a cluster of
+#: its own for the folds. Measured on 2 cores (``benchmarks/bench_folds.py``): a cluster
+#: takes about 4 s to start, and three folds of three 15-h runs (16,200 visits) took as long
+#: on it as one after another here (15.1 against 15.6 s, where folds after the first reuse
+#: the heating curves they share); six folds of six 8-h runs (34,560 visits) took 31 s
+#: against 50 s.
+CLUSTER_FROM_VISITS = 20_000
+
+
 def diagnose_splits(
     sets: Sequence[Split],
     rig: Any,
@@ -41,10 +59,18 @@ def diagnose_splits(
     seed: int = 0,
     margin_um: float | None = None,
     progress: Progress | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
 ) -> list[DiagnosisFold]:
     """A diagnosis per split: fitted on its training runs, scored on its held-out runs
-    (``margin_um``: the practical margin, :func:`thermrs.diagnose.diagnose`)."""
-    from thermrs.diagnose import diagnose as diagnose_runs
+    (``margin_um``: the practical margin, :func:`thermrs.diagnose.diagnose`).
+
+    Several splits are diagnosed side by side on Dask workers (``client``, ``scheduler``,
+    ``workers``: :func:`thermrs.campaigns.fold_map.map_folds`; with none of them given,
+    on a local cluster only from :data:`CLUSTER_FROM_VISITS` visits); the diagnoses are
+    the same as one after another in this process."""
+    from thermrs.campaigns.fold_map import map_folds
     from thermrs.diagnose.inputs import check_visits
     from thermrs.errors import InputError
 
@@ -53,26 +79,31 @@ def diagnose_splits(
         if not s.holdout:
             raise InputError("no held-out run: effects are scored on runs they were not fitted on")
         check_visits(s.train, s.holdout)
-    res = []
-    for s in sets:
-        say = None if progress is None else prefixed(progress, s.name)
-        d = diagnose_runs(
-            s.train,
-            s.holdout,
-            rig,
-            exclude=list(exclude),
-            bootstrap=bootstrap,
-            seed=seed,
-            margin_um=margin_um,
-            progress=say,
-        )
-        res.append(DiagnosisFold(s, d))
-    return res
+    if workers is None and client is None and scheduler is None:
+        if sum(t.height for s in sets for t in (*s.train, *s.holdout)) < CLUSTER_FROM_VISITS:
+            workers = 1
+    task = partial(
+        _diagnose_fold,
+        rig=rig,
+        exclude=list(exclude),
+        bootstrap=bootstrap,
+        seed=seed,
+        margin_um=margin_um,
+    )
+    return map_folds(
+        task, sets, client=client, scheduler=scheduler, workers=workers, progress=progress
+    )
 
 
-def prefixed(progress: Progress, name: str) -> Progress:
-    """``progress`` with each message prefixed by the fold's name (as is without one)."""
-    return progress if not name else lambda m: progress(f"{name}: {m}")
+def _diagnose_fold(
+    split: Split, progress: Progress | None, *, rig: Any, **options: Any
+) -> DiagnosisFold:
+    """One split's diagnosis (a fold's task, :func:`diagnose_splits`)."""
+    from thermrs.diagnose import diagnose as diagnose_runs
+
+    return DiagnosisFold(
+        split, diagnose_runs(split.train, split.holdout, rig, progress=progress, **options)
+    )
 
 
 def diagnose(
@@ -87,6 +118,9 @@ def diagnose(
     bootstrap: int = 30,
     seed: int = 0,
     progress: Progress | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
 ) -> list[DiagnosisFold]:
     """The sim-to-real gap diagnosed on a campaign's runs, as ``thermrs diagnose
     --campaign`` does.
@@ -101,6 +135,10 @@ def diagnose(
         Else the runs named (see :func:`~thermrs.analyses.inputs.splits`).
     exclude, bootstrap, seed, progress
         As :func:`thermrs.diagnose.diagnose` (``progress`` messages start with the fold).
+    client, scheduler, workers
+        Where several folds are diagnosed side by side (a ``distributed.Client``, a
+        scheduler's address, or the worker processes of the local cluster started:
+        :func:`thermrs.campaigns.fold_map.map_folds`; ``workers=1``: one after another here).
 
     Returns
     -------
@@ -120,5 +158,13 @@ def diagnose(
     """
     sets = splits(dataset, rig, where=where, rule=rule, train=train, holdout=holdout)
     return diagnose_splits(
-        sets, rig, exclude=exclude, bootstrap=bootstrap, seed=seed, progress=progress
+        sets,
+        rig,
+        exclude=exclude,
+        bootstrap=bootstrap,
+        seed=seed,
+        progress=progress,
+        client=client,
+        scheduler=scheduler,
+        workers=workers,
     )

@@ -375,6 +375,25 @@ def campaign_options(*, rule: str | None = None) -> Decorator:
     return deco
 
 
+def fold_options(f: Callable[..., Any]) -> Callable[..., Any]:
+    """``--workers N`` and ``--scheduler ADDRESS``: where a --rule's folds run side by side
+    (:func:`thermrs.campaigns.fold_map.map_folds`)."""
+    f = click.option(
+        "--workers",
+        type=click.IntRange(min=1),
+        default=None,
+        help="With --rule: worker processes of the local Dask cluster the folds run on side "
+        "by side (default: the cores, when the folds are worth a cluster's start; 1: one "
+        "after another in this process).",
+    )(f)
+    return click.option(
+        "--scheduler",
+        metavar="ADDRESS",
+        default=None,
+        help="With --rule: a Dask scheduler to run the folds on (tcp://host:8786).",
+    )(f)
+
+
 def no_campaign(campaign_path: Path | None, query: str | None, rule: str | None = None) -> None:
     """``--where`` and ``--rule`` only with ``--campaign``.
 

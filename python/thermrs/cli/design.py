@@ -13,6 +13,7 @@ from rich.table import Table
 from thermrs.cli.common import (
     campaign_options,
     exclude_option,
+    fold_options,
     input_file,
     out,
     runs_option,
@@ -140,6 +141,7 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
     "folder per fold inside it (fold-1, fold-2, …, listed in folds.json).",
 )
 @campaign_options(rule="With --campaign: a design per fold, each in its own folder under -o.")
+@fold_options
 @verbose_option
 def design(
     rig_path: Path,
@@ -156,6 +158,8 @@ def design(
     campaign_path: Path | None,
     query: str | None,
     rule: str | None,
+    workers: int | None,
+    scheduler: str | None,
     verbose: bool,
 ) -> None:
     """Design the measurement that separates confounded effects, and prove it by simulation.
@@ -189,7 +193,8 @@ def design(
         res = design_splits(sets, r, exclude=list(exclude), between=list(between) or None,
                             budget_h=budget_h, seed=seed, prove_it=not no_proof,
                             recorded_proof=recorded_proof, diagnosis=given,
-                            progress=say)  # fmt: skip
+                            progress=say, workers=workers,
+                            scheduler=scheduler)  # fmt: skip
         for d, f in zip(dirs, res, strict=True):
             d.mkdir(parents=True, exist_ok=True)
             f.result.write(d)

@@ -14,6 +14,7 @@ from rich.table import Table
 from thermrs.cli.common import (
     campaign_options,
     exclude_option,
+    fold_options,
     input_file,
     json_option,
     out,
@@ -247,6 +248,7 @@ def render_paper(doc: dict[str, Any]) -> None:
     rule="With --campaign: a diagnosis per fold (each rendered in turn, then the verdicts "
     "side by side and what the folds conclude together)."
 )
+@fold_options
 @verbose_option
 def diagnose(
     rig_path: Path | None,
@@ -261,6 +263,8 @@ def diagnose(
     campaign_path: Path | None,
     query: str | None,
     rule: str | None,
+    workers: int | None,
+    scheduler: str | None,
     verbose: bool,
 ) -> None:
     """Diagnose the sim-to-real gap: where the nominal model's residual lies, which SPEC §6
@@ -300,7 +304,8 @@ def diagnose(
     sets = chosen_splits(campaign_path, query, rule, train, holdout, r)
     with stages("diagnose", verbose=verbose) as say:
         folds = diagnose_splits(sets, r, exclude=exclude, bootstrap=bootstrap, seed=seed,
-                                margin_um=margin_um, progress=say)  # fmt: skip
+                                margin_um=margin_um, progress=say, workers=workers,
+                                scheduler=scheduler)  # fmt: skip
     synthesis = (
         fold_synthesis([(f.split.name, f.diagnosis.to_json()) for f in folds])
         if rule is not None
