@@ -20,6 +20,7 @@ way with
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -27,7 +28,11 @@ from pathlib import Path
 import polars as pl
 import thermrs
 from thermrs.design import design
+from thermrs.memo import CACHE_ENV
 from thermrs.report.demo import simulate_demo
+
+# Timed from scratch: no diagnosis is read from the on-disk cache (thermrs.memo).
+os.environ[CACHE_ENV] = "off"
 
 
 def _random_rig_runs(workdir: Path, seed: int) -> tuple[thermrs.Rig, list[pl.DataFrame]]:

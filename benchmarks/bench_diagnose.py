@@ -12,12 +12,17 @@ wall time of `thermrs.diagnose.diagnose` (best of --repeats) and the verdict.
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import thermrs
 from thermrs.diagnose import diagnose
 from thermrs.diagnose.bench import make_runs
 from thermrs.effects import ThermalLag
+from thermrs.memo import CACHE_ENV
+
+# Timed from scratch: no diagnosis is read from the on-disk cache (thermrs.memo).
+os.environ[CACHE_ENV] = "off"
 
 
 def main() -> None:

@@ -13,6 +13,7 @@ process, and its worker processes), and whether the diagnoses are the same.
 from __future__ import annotations
 
 import argparse
+import os
 import resource
 import time
 
@@ -22,6 +23,10 @@ from thermrs.analyses.diagnose import diagnose_splits
 from thermrs.analyses.inputs import Split
 from thermrs.diagnose.bench import make_runs
 from thermrs.effects import ThermalLag
+from thermrs.memo import CACHE_ENV
+
+# Timed from scratch: no diagnosis is read from the on-disk cache (thermrs.memo).
+os.environ[CACHE_ENV] = "off"
 
 
 def cpu(who: int) -> float:

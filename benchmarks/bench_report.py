@@ -26,6 +26,9 @@ import sys
 import time
 from pathlib import Path
 
+# Timed from scratch: no diagnosis is read from the on-disk cache (thermrs.memo).
+os.environ["THERMRS_CACHE_DIR"] = "off"  # thermrs.memo.CACHE_ENV
+
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

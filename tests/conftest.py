@@ -14,6 +14,10 @@ import thermrs
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
 
+# Every test computes what it checks: no diagnosis comes from the user's on-disk cache (the
+# cache's own tests give it a folder of their own).
+os.environ["THERMRS_CACHE_DIR"] = "off"
+
 # pytest-xdist's workers run with COLUMNS=80 and LINES=24 in their environment; the commands
 # the tests start would take that for a terminal's width. A test that wants a width sets it.
 if os.environ.get("PYTEST_XDIST_WORKER"):

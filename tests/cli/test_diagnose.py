@@ -71,3 +71,28 @@ def test_the_bench_says_which_effects_it_could_not_test() -> None:
                "--world", "white", "--snr", "1", "--nulls", "0"))  # fmt: skip
     lines = [ln for ln in p.stdout.splitlines() if ln.startswith("not run: white laser_tilt")]
     assert lines and all("reaches SNR" in ln for ln in lines)
+
+
+def test_a_diagnosis_is_made_once_for_diagnose_design_and_a_second_diagnose(
+    d: dict[str, Path], tmp_path: Path
+) -> None:
+    """The on-disk cache (thermrs.memo.DiskCache): the runs the session's diagnosis read,
+    diagnosed once in three commands; other runs are diagnosed anew."""
+    env = {"THERMRS_CACHE_DIR": str(tmp_path / "cache")}
+    rig, rec = str(d["rig"]), d["rec"]
+    runs = ["--train", f"{rec}#s30", "--holdout", f"{rec}#s75"]
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    first = ok(cli("diagnose", "--rig", rig, *runs, "--json", str(a), env=env))
+    assert "reused from the cache" not in first.stderr
+    again = ok(cli("diagnose", "--rig", rig, *runs, "--json", str(b), env=env))
+    assert "reused from the cache" in again.stderr
+    # The same document as the diagnosis made without a cache, at the session's start.
+    truth = json.loads(d["diag"].read_text())
+    assert json.loads(a.read_text()) == truth and json.loads(b.read_text()) == truth
+    out = tmp_path / "design"
+    design = ok(cli("design", "--rig", rig, *runs, "--no-proof", "-o", str(out), env=env))
+    assert "reused from the cache" in design.stderr
+    other = ["--train", f"{rec}#s30", "--holdout", f"{d['rep']}#s75"]
+    fresh = ok(cli("diagnose", "--rig", rig, *other, env=env))
+    assert "reused from the cache" not in fresh.stderr
+    assert len(list((tmp_path / "cache" / "diagnoses").glob("*.pickle"))) == 2

@@ -333,7 +333,13 @@ def design(
         raise InputError(f"joint limits: {len(lim)} ranges given, the robot has 6 joints")
     if diagnosis is None:
         say("diagnosing the given runs")
-        doc = run_diagnosis(train, holdout, rig, exclude=list(exclude)).to_json()
+        doc = run_diagnosis(
+            train,
+            holdout,
+            rig,
+            exclude=list(exclude),
+            progress=lambda m: say(f"diagnosing the given runs: {m}"),
+        ).to_json()
     else:
         from thermrs.diagnose import Diagnosis
 

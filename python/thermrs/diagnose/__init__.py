@@ -60,6 +60,7 @@ from thermrs.diagnose.selection import FamilyGrid, Step, build_grids, forward_se
 from thermrs.diagnose.tolerances import nuisance_signatures
 from thermrs.diagnose.verdict import decide
 from thermrs.effects import Effect, Family
+from thermrs.memo import DiskCache
 from thermrs.rig import Rig
 from thermrs.signatures import VisitSet
 from thermrs.stats import effective_sample_size
@@ -145,22 +146,60 @@ def diagnose(
         raise ValueError(f"level must be between 0 and 1, got {level}")
     if margin_um is not None and not (np.isfinite(margin_um) and margin_um >= 0):
         raise ValueError(f"margin_um must be a finite number of µm, 0 or more, got {margin_um}")
-    # Thousands of small least-squares problems: one BLAS thread each is several times faster
-    # than a pool that spins (and fights other processes for the cores).
-    with threadpool_limits(limits=1, user_api="blas"):
-        return _diagnose(
-            train,
-            holdout,
-            rig,
-            exclude=exclude,
-            library=library,
-            bootstrap=bootstrap,
-            seed=seed,
-            level=level,
-            null_draws=null_draws,
-            margin_um=margin_um,
-            say=progress or (lambda _m: None),
-        )
+    say = progress or (lambda _m: None)
+
+    def compute() -> Diagnosis:
+        # Thousands of small least-squares problems: one BLAS thread each is several times
+        # faster than a pool that spins (and fights other processes for the cores).
+        with threadpool_limits(limits=1, user_api="blas"):
+            return _diagnose(
+                train,
+                holdout,
+                rig,
+                exclude=exclude,
+                library=library,
+                bootstrap=bootstrap,
+                seed=seed,
+                level=level,
+                null_draws=null_draws,
+                margin_um=margin_um,
+                say=say,
+            )
+
+    if library is not None:  # classes of the caller's: not keyed by content
+        return compute()
+    options = (sorted(exclude), bootstrap, seed, level, null_draws, margin_um)
+    try:
+        key = _inputs_key(train, holdout, rig, options)
+    except Exception:  # inputs that are not tables: diagnose says what is wrong with them
+        return compute()
+    return _DIAGNOSES.get(key, compute, on_hit=lambda f: say(f"reused from the cache ({f.parent})"))
+
+
+#: Diagnoses kept on disk by the content of their runs, rig and options
+#: (:class:`thermrs.memo.DiskCache`): diagnose, design and report on the same runs diagnose
+#: them once.
+_DIAGNOSES: DiskCache[Diagnosis] = DiskCache("diagnoses")
+
+
+def _inputs_key(
+    train: Sequence[pl.DataFrame], holdout: Sequence[pl.DataFrame], rig: Rig, options: object
+) -> bytes:
+    """The digest of a diagnosis's inputs: the code, the rig, the options, every run table
+    (Arrow IPC bytes: columns, types and values)."""
+    from thermrs.memo import code_identity, content_key
+
+    def ipc(t: pl.DataFrame) -> bytes:
+        return t.write_ipc(None).getvalue()
+
+    return content_key(
+        code_identity(),
+        rig.source,
+        rig.to_dict(),
+        options,
+        len(train),
+        *(ipc(t) for t in (*train, *holdout)),
+    )
 
 
 def noise_floor_um(
