@@ -73,6 +73,7 @@ def test_the_bench_says_which_effects_it_could_not_test() -> None:
     assert lines and all("reaches SNR" in ln for ln in lines)
 
 
+@pytest.mark.slow
 def test_a_diagnosis_is_made_once_for_diagnose_design_and_a_second_diagnose(
     d: dict[str, Path], tmp_path: Path
 ) -> None:
