@@ -16,7 +16,8 @@ design`` and ``thermrs report`` on the same runs diagnose them once. Its folder 
 (``platformdirs.user_cache_dir("thermrs")``, ``~/.cache/thermrs`` on Linux). It holds the
 :data:`DISK_KEEP` results last used; a file it cannot read is computed again and replaced,
 and a folder it cannot write to only means nothing is kept: the cache never changes a result
-or fails a command.
+or fails a command. Its files are pickles, loaded as they are: the folder must be one that
+no one else writes to (the user's own cache folder is).
 """
 
 from __future__ import annotations

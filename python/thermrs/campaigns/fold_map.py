@@ -76,7 +76,8 @@ def map_folds(
     Raises
     ------
     Exception
-        What a fold's ``task`` raised (the first fold to fail, in the order of ``sets``).
+        What a fold's ``task`` raised (on workers, the first fold to fail as they end; the
+        others are cancelled).
     KeyboardInterrupt
         Ctrl-C: a cluster thermrs started is shut down at once.
     """
@@ -134,7 +135,8 @@ def _run(
             if f.status == "error":
                 f.result()  # raises the fold's own exception
             if progress is not None:
-                progress(f"{names[f.key]}: done ({time.perf_counter() - t0:.1f} s)")
+                name = names[f.key]
+                progress(f"{name + ': ' if name else ''}done ({time.perf_counter() - t0:.1f} s)")
         return [f.result() for f in futures]
     finally:
         for f in futures:

@@ -130,6 +130,9 @@ def diagnose(
     Returns
     -------
     Diagnosis
+        Kept on disk by the content of the runs, the rig, the options and thermrs's own
+        files (:class:`thermrs.memo.DiskCache`, ``THERMRS_CACHE_DIR``; not with a
+        ``library`` given): the same inputs again are read back, ``progress`` told so.
 
     Raises
     ------
