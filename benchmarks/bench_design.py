@@ -4,7 +4,7 @@ demo's three 15-h runs ≤ 60 s of CPU; on three 15-h runs of a random rig ≤ 2
 Time `thermrs design` on three 15-hour runs. By default the demo's: the paper's 30 %, 75 % and
 10 % runs with a joint offset, 300 s cycles, on the embedded rig, trained on run 1 and holding
 out runs 2 and 3, 24-hour budget. With ``--random-rig SEED`` the same scenario on a random
-KR 16-like rig (``tests/support/coverage.random_rig``, its link 2 and link 3 ROIs simulated with
+KR 16-like rig (``tests/support/random_demo.py``, its link 2 and link 3 ROIs simulated with
 the calibrated nodes), separating joint_offset from unmodelled_length. Prints the wall and CPU
 time of `thermrs.design.design` (the diagnosis, the search, the noise calibration and the
 proofs), the recommendation and its proof matrix. The whole command line is timed the same
@@ -25,7 +25,6 @@ import sys
 import time
 from pathlib import Path
 
-import polars as pl
 import thermrs
 from thermrs.design import design
 from thermrs.memo import CACHE_ENV
@@ -33,41 +32,6 @@ from thermrs.report.demo import simulate_demo
 
 # Timed from scratch: no diagnosis is read from the on-disk cache (thermrs.memo).
 os.environ[CACHE_ENV] = "off"
-
-
-def _random_rig_runs(workdir: Path, seed: int) -> tuple[thermrs.Rig, list[pl.DataFrame]]:
-    """The demo scenario's three runs on a random rig (its ROIs link2 and link3)."""
-    import numpy as np
-    import tomli_w
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from thermrs.design.files import rig_dict
-    from thermrs.report.demo import demo_scenario_path
-
-    from tests.support.coverage import random_rig
-    from tests.support.scenarios import FAST_NODES
-
-    rig = random_rig(np.random.default_rng(seed))
-    workdir.mkdir(parents=True, exist_ok=True)
-    rig_path = workdir / "rig.toml"
-    rig_path.write_text(tomli_w.dumps(rig_dict(rig, None)))
-    sc = demo_scenario_path().read_text()
-    sc = sc[: sc.index("\n[[effect]]")] + "\n"
-    sc += FAST_NODES[: FAST_NODES.index('[[node]]\nname = "base"')]
-    sc += '\n[[effect]]\nname = "joint_offset"\njoint = "a3"\ntemperature = "link3"\n'
-    sc += "urad_per_k = 12.8\n"
-    sc_path = workdir / "scenario.toml"
-    sc_path.write_text(sc)
-    rig = thermrs.Rig.from_path(rig_path)
-    rec = workdir / "random.mcap"
-    if not rec.exists():
-        thermrs.simulate.simulate(rig, sc_path, rec)
-    from thermrs.runs import load_runs
-
-    cache: dict[object, object] = {}
-    return rig, [
-        load_runs(f"{rec}#{k}", rig, cache=cache).tables[0] for k in ("run1", "run2", "run3")
-    ]
 
 
 def main() -> None:
@@ -82,7 +46,10 @@ def main() -> None:
         runs = [r.table for r in simulate_demo(args.workdir, reuse=True).runs]
         rig = thermrs.load_rig()
     else:
-        rig, runs = _random_rig_runs(args.workdir / f"random-{args.random_rig}", args.random_rig)
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+        from tests.support.random_demo import random_demo_runs
+
+        rig, runs = random_demo_runs(args.workdir / f"random-{args.random_rig}", args.random_rig)
         between = ["joint_offset", "unmodelled_length"]
     t0, c0 = time.perf_counter(), time.process_time()
     r = design(

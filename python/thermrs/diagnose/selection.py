@@ -505,10 +505,15 @@ def _revision(
 ) -> str | None:
     """A better last choice: among the families significant at the previous step (each at
     its best grid point there), the pair (A, B) of two effects, A in place of the last
-    choice, that leaves the least held-out mean square on the data; A's label if that pair
-    leaves less than the last choice with any of them. Forward selection's known failure:
-    two effects at once, the first step takes a family that mimics a part of both, and
-    with it neither is left to find."""
+    choice, that fits the *training* runs best; A's label if that pair fits them better than
+    the last choice with any of them and leaves less on the held-out runs too. Forward
+    selection's known failure: two effects at once, the first step takes a family that
+    mimics a part of both, and with it neither is left to find.
+
+    The pair is chosen on the training runs alone, so that the held-out runs still judge it:
+    chosen by the held-out mean square among hundreds of pairs, it would be the pair that
+    best fits the held-out runs' noise and whatever outside the library is left in them, and
+    every test after it would take that search's luck for evidence."""
     by_label = {g.family.label: g for g in grids if g.nameable}
     pool = [
         Choice(by_label[k], prev.best_index[k])
@@ -520,26 +525,26 @@ def _revision(
     base = model[:-1]
     ys = batch.prepare(design.y[:, None])
 
-    def leaves(a: Choice, b: Choice) -> float:
+    def fits(a: Choice, b: Choice) -> tuple[float, float]:
         f = batch.fit(_stack([*base, a, b]), ys)
-        return float(f.hold_ms[0]) if f is not None else np.inf
+        return (float(f.train_rss[0]), float(f.hold_ms[0])) if f is not None else (np.inf, np.inf)
 
     last = model[-1]
-    now = min(
-        (leaves(last, b) for b in pool if b.effect != last.effect),
-        default=np.inf,
-    )
-    best, best_ms = None, now
+    now = [fits(last, b) for b in pool if b.effect != last.effect]
+    now_train = min((t for t, _ in now), default=np.inf)
+    now_hold = min((h for _, h in now), default=np.inf)
+    best: str | None = None
+    best_train, best_hold = now_train, np.inf
     for i, a in enumerate(pool):
         if a.label == last.label:
             continue
-        for b in pool[i + 1 :] + pool[:i]:
+        for b in pool[i + 1 :]:
             if b.effect == a.effect or b.label == last.label:
                 continue
-            ms = leaves(a, b)
-            if ms < best_ms:
-                best, best_ms = a.label, ms
-    return best
+            train, hold = fits(a, b)
+            if train < best_train:
+                best, best_train, best_hold = a.label, train, hold
+    return best if best is not None and best_hold < now_hold else None
 
 
 def forward_selection(
