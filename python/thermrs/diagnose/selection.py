@@ -505,15 +505,16 @@ def _revision(
 ) -> str | None:
     """A better last choice: among the families significant at the previous step (each at
     its best grid point there), the pair (A, B) of two effects, A in place of the last
-    choice, that fits the *training* runs best; A's label if that pair fits them better than
-    the last choice with any of them and leaves less on the held-out runs too. Forward
-    selection's known failure: two effects at once, the first step takes a family that
-    mimics a part of both, and with it neither is left to find.
+    choice, that leaves the least held-out mean square on the data; A's label if that pair
+    leaves less than the last choice with any of them, on every held-out run when chosen
+    without it. Forward selection's known failure: two effects at once, the first step takes
+    a family that mimics a part of both, and with it neither is left to find.
 
-    The pair is chosen on the training runs alone, so that the held-out runs still judge it:
-    chosen by the held-out mean square among hundreds of pairs, it would be the pair that
-    best fits the held-out runs' noise and whatever outside the library is left in them, and
-    every test after it would take that search's luck for evidence."""
+    Chosen by the held-out runs among hundreds of pairs, a pair may only be the best fit to
+    what the library cannot explain in them, and every test after it would take that
+    search's luck for evidence. So each held-out run judges a choice made without it (on the
+    other held-out runs, or on the training runs where it is the only one): the pair is taken
+    only where every such choice leaves less on the run left out than the last choice does."""
     by_label = {g.family.label: g for g in grids if g.nameable}
     pool = [
         Choice(by_label[k], prev.best_index[k])
@@ -524,27 +525,54 @@ def _revision(
         return None
     base = model[:-1]
     ys = batch.prepare(design.y[:, None])
+    runs = design.cluster[batch.ho]
+    names = sorted(set(runs.tolist()))
+    masks = [runs == r for r in names]
 
-    def fits(a: Choice, b: Choice) -> tuple[float, float]:
-        f = batch.fit(_stack([*base, a, b]), ys)
-        return (float(f.train_rss[0]), float(f.hold_ms[0])) if f is not None else (np.inf, np.inf)
+    done: dict[frozenset[str], FloatArray] = {}
+
+    def scores(a: Choice, b: Choice) -> FloatArray:
+        """Training RSS, the held-out mean square, and each held-out run's mean square."""
+        key = frozenset((a.label, b.label))
+        if key not in done:
+            f = batch.fit(_stack([*base, a, b]), ys)
+            if f is None or f.hold_resid is None:
+                done[key] = np.full(2 + len(names), np.inf)
+            else:
+                r2 = f.hold_resid[:, 0] ** 2
+                done[key] = np.array(
+                    [f.train_rss[0], f.hold_ms[0], *(np.mean(r2[m]) for m in masks)]
+                )
+        return done[key]
 
     last = model[-1]
-    now = [fits(last, b) for b in pool if b.effect != last.effect]
-    now_train = min((t for t, _ in now), default=np.inf)
-    now_hold = min((h for _, h in now), default=np.inf)
-    best: str | None = None
-    best_train, best_hold = now_train, np.inf
+    now = np.array([scores(last, b) for b in pool if b.effect != last.effect])
+    pairs: list[tuple[Choice, FloatArray]] = []
     for i, a in enumerate(pool):
         if a.label == last.label:
             continue
-        for b in pool[i + 1 :]:
+        for b in pool[i + 1 :] + pool[:i]:
             if b.effect == a.effect or b.label == last.label:
                 continue
-            train, hold = fits(a, b)
-            if train < best_train:
-                best, best_train, best_hold = a.label, train, hold
-    return best if best is not None and best_hold < now_hold else None
+            pairs.append((a, scores(a, b)))
+    if not len(now) or not pairs:
+        return None
+    got = np.array([s for _, s in pairs])
+    best = int(np.argmin(got[:, 1]))
+    if got[best, 1] >= np.min(now[:, 1]):
+        return None
+    n_ho = np.array([np.sum(m) for m in masks], dtype=float)
+    for k in range(len(names)):
+        if len(names) > 1:
+            # The other held-out runs' mean square: their rows' share of the sum of squares.
+            rest = [j for j in range(len(names)) if j != k]
+            w = n_ho[rest] / n_ho[rest].sum()
+            pick, ref = got[:, 2 + np.array(rest)] @ w, now[:, 2 + np.array(rest)] @ w
+        else:
+            pick, ref = got[:, 0], now[:, 0]
+        if got[int(np.argmin(pick)), 2 + k] >= now[int(np.argmin(ref)), 2 + k]:
+            return None
+    return pairs[best][0].label
 
 
 def forward_selection(
