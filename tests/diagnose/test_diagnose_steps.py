@@ -152,21 +152,18 @@ def test_two_effects_at_once_are_both_named_or_the_rest_called_unexplained(
 ) -> None:
     # An independent world (its own kinematics and physics) with a lag and a fixture drift at
     # once: never one effect `identified` alone while the other leaves a gap.
-    from thermrs.diagnose.bench_world.cases import Case, run_case
     from thermrs.diagnose.bench_world.world import Campaign
 
-    case = Case(
-        kind="pair",
-        effects=("thermal_lag", "fixture_drift"),
-        target_snr=3.0,
-        lowest_snr=1.0,
-        world="white",
-        seed=4242,
+    from tests.support.pairs import run_pair
+
+    row = run_pair(
+        ("thermal_lag", "fixture_drift"),
         rig_path=str(rig.source),
+        snr=3.0,
+        lowest_snr=1.0,
+        seed=4242,
         campaign=Campaign(hours=12.0, cycle_s=600.0, sigma_um=2.0),
-        withheld=False,
     )
-    row = run_case(case)
     named = set(row["named"])
     assert row["status"] != "none"
     if row["status"] == "identified":

@@ -14,9 +14,10 @@ from pathlib import Path
 import pytest
 import thermrs
 from thermrs.diagnose import diagnose
-from thermrs.diagnose.bench_world.cases import Campaign, Case, run_case
+from thermrs.diagnose.bench_world.cases import Campaign
 from thermrs.diagnose.bench_world.score import outcome
 
+from tests.support.pairs import run_pair
 from tests.support.random_demo import TRUTH, random_demo_runs
 
 
@@ -45,17 +46,11 @@ def test_two_effects_whose_first_step_takes_a_mimic_are_both_named() -> None:
     # A joint offset and a drifting chip (SNR 2 each, white nuisances, 15-h runs) whose first
     # step takes the other chip's drift; the joint offset may come with its look-alikes (the
     # paper rig's joint-2/3 axes), named among the confounded effects.
-    row = run_case(
-        Case(
-            kind="pair",
-            effects=("joint_offset", "sensor_drift"),
-            target_snr=2.0,
-            lowest_snr=2.0,
-            world="white",
-            seed=4029,
-            rig_path=str(thermrs.rig.default_rig_path()),
-            campaign=Campaign(hours=15.0),
-            withheld=False,
-        )
+    row = run_pair(
+        ("joint_offset", "sensor_drift"),
+        rig_path=str(thermrs.rig.default_rig_path()),
+        snr=2.0,
+        seed=4029,
+        campaign=Campaign(hours=15.0),
     )
     assert outcome(row) == "right", row
