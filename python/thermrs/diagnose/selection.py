@@ -529,29 +529,22 @@ def _revision(
     names = sorted(set(runs.tolist()))
     masks = [runs == r for r in names]
 
-    done: dict[frozenset[str], FloatArray] = {}
-
     def scores(a: Choice, b: Choice) -> FloatArray:
         """Training RSS, the held-out mean square, and each held-out run's mean square."""
-        key = frozenset((a.label, b.label))
-        if key not in done:
-            f = batch.fit(_stack([*base, a, b]), ys)
-            if f is None or f.hold_resid is None:
-                done[key] = np.full(2 + len(names), np.inf)
-            else:
-                r2 = f.hold_resid[:, 0] ** 2
-                done[key] = np.array(
-                    [f.train_rss[0], f.hold_ms[0], *(np.mean(r2[m]) for m in masks)]
-                )
-        return done[key]
+        f = batch.fit(_stack([*base, a, b]), ys)
+        if f is None or f.hold_resid is None:
+            return np.full(2 + len(names), np.inf)
+        r2 = f.hold_resid[:, 0] ** 2
+        return np.array([f.train_rss[0], f.hold_ms[0], *(np.mean(r2[m]) for m in masks)])
 
     last = model[-1]
     now = np.array([scores(last, b) for b in pool if b.effect != last.effect])
     pairs: list[tuple[Choice, FloatArray]] = []
+    # Each pair once, A the one the previous step ranked first.
     for i, a in enumerate(pool):
         if a.label == last.label:
             continue
-        for b in pool[i + 1 :] + pool[:i]:
+        for b in pool[i + 1 :]:
             if b.effect == a.effect or b.label == last.label:
                 continue
             pairs.append((a, scores(a, b)))
