@@ -31,7 +31,7 @@ def one(args: tuple[str, str, int]) -> dict[str, Any]:
 
     effect, world, seed = args
     rig, wrig = case_rigs(str(thermrs.default_rig_path()))
-    scene = draw_scene(wrig, Campaign(), world, seed)
+    scene = draw_scene(wrig, Campaign(), world, seed, tolerances=rig.tolerances)
     truths, _, _ = case_truths(wrig, scene, (effect,), 2.0, seed)
     tables = render(scene, tuple(truths))
     doc = diagnose(tables[:1], tables[1:], rig, seed=seed, bootstrap=0).to_json()

@@ -32,7 +32,7 @@ CASES = [
 
 def _promise_kept(effect: str, world: str, seed: int) -> bool | None:
     rig, wrig = case_rigs(str(thermrs.default_rig_path()))
-    scene = draw_scene(wrig, Campaign(), world, seed)
+    scene = draw_scene(wrig, Campaign(), world, seed, tolerances=rig.tolerances)
     truths, _, _ = case_truths(wrig, scene, (effect,), 2.0, seed)
     tables = render(scene, tuple(truths))
     doc = diagnose(tables[:1], tables[1:], rig, seed=seed, bootstrap=0).to_json()

@@ -55,7 +55,9 @@ def test_noise_free_runs_are_the_forward_model_of_their_own_temperatures(path: P
     """A noise-free case rendered on the rig file's geometry: every visit's spot is
     ForwardModel's at the taught joints and the table's own temperature columns."""
     rig = thermrs.load_rig(path)
-    scene = draw_scene(read_rig(path), Campaign(hours=3, cycle_s=600), "white", 3)
+    scene = draw_scene(
+        read_rig(path), Campaign(hours=3, cycle_s=600), "white", 3, tolerances=rig.tolerances
+    )
     fm = thermrs.ForwardModel(rig, alpha_per_k=scene.alpha_per_k)
     for table in render(scene, noise=False, nominal=True):
         for cam in rig.cameras:
@@ -72,7 +74,8 @@ def test_noise_free_runs_are_the_forward_model_of_their_own_temperatures(path: P
 def _scene(world: str = "white", **campaign: float) -> tuple[WorldRig, Scene]:
     path = thermrs.rig.default_rig_path()
     w = read_rig(path)
-    return w, draw_scene(w, Campaign(**campaign), world, 21)
+    tol = thermrs.load_rig(path).tolerances
+    return w, draw_scene(w, Campaign(**campaign), world, 21, tolerances=tol)
 
 
 def test_snr_scaling_meets_its_definition_computed_independently() -> None:

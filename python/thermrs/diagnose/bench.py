@@ -291,6 +291,8 @@ def run_bench(
     nulls: int = 4,
     pairs: bool = True,
     jobs: int = 1,
+    first_seed: int | None = None,
+    tolerance_scale: float = 1.0,
     progress: Callable[[str], object] | None = None,
 ) -> dict[str, Any]:
     """Run the bench (module docs); returns the JSON document ``diagnose-bench`` writes.
@@ -316,6 +318,13 @@ def run_bench(
         Include two-effect cases.
     jobs
         Worker processes.
+    first_seed
+        The seed of the first case (default
+        :data:`thermrs.diagnose.bench_world.cases.FIRST_SEED`, the seeds the diagnoser's rules
+        were chosen on; give a fresh one, ≥ 100000, for a figure about unseen worlds).
+    tolerance_scale
+        The worlds' rig and IR nuisances at this multiple of the rig's stated tolerances
+        (1: as the rig states them, the diagnoser's null; 2, 3: a rig worse than it says).
     progress
         Called with a line per finished case.
     """
@@ -323,7 +332,7 @@ def run_bench(
     from multiprocessing import get_context
     from pathlib import Path
 
-    from thermrs.diagnose.bench_world.cases import plan, run_case, worker_init
+    from thermrs.diagnose.bench_world.cases import FIRST_SEED, plan, run_case, worker_init
     from thermrs.diagnose.bench_world.score import score
     from thermrs.diagnose.bench_world.truth import EFFECTS
     from thermrs.diagnose.bench_world.world import WORLDS, Campaign
@@ -348,6 +357,8 @@ def run_bench(
         campaign=campaign,
         nulls=nulls,
         pairs=pairs,
+        first_seed=FIRST_SEED if first_seed is None else first_seed,
+        tolerance_scale=tolerance_scale,
     )
     t0 = time.perf_counter()
     results: list[dict[str, Any]] = []
@@ -376,6 +387,10 @@ def run_bench(
         "sigma_um": sigma_um,
         "nulls": nulls,
         "jobs": jobs,
+        "first_seed": FIRST_SEED if first_seed is None else first_seed,
+        "tolerance_scale": tolerance_scale,
+        "tolerances": dict(rig.tolerances),
+        "tolerances_stated": rig.tolerances_stated,
     }
     return doc
 

@@ -230,37 +230,55 @@ def perturbed(
     rig: WorldRig,
     rng: np.random.Generator,
     *,
-    length_mm: float = 0.2,
-    angle_deg: float = 0.02,
-    chip_mm: float = 0.3,
-    chip_deg: float = 0.05,
-    laser_mm: float = 0.2,
+    length_mm: float,
+    angle_deg: float,
+    chip_mm: float,
+    chip_deg: float,
+    laser_mm: float,
+    laser_deg: float,
 ) -> WorldRig:
-    """The true rig: the nominal one with its geometry misspecified at the size a careful
-    calibration leaves (uniform within ± the given sizes): every DH length and angle, each
-    chip's centre and orientation, the laser's origin."""
+    """The true rig: the nominal one with its geometry misspecified, each quantity drawn
+    from a normal distribution of the given standard deviation (a rig's stated tolerances,
+    scaled): every non-zero DH length, every twist and joint zero, each chip's centre along
+    each axis and its orientation (a rotation whose three components are each drawn), the
+    laser's origin along each axis and its direction (tilted about two axes across it)."""
     nd = rig.a_mm.size
 
-    def jitter(size: float) -> FloatArray:
-        return rng.uniform(-size, size, nd)
+    def jitter(sd: float) -> FloatArray:
+        return rng.normal(0.0, sd, nd) if sd > 0 else np.zeros(nd)
 
     chips = []
     for c in rig.chips:
-        rot = _rotation(rng.normal(size=3), np.deg2rad(rng.uniform(-chip_deg, chip_deg)))
+        rotvec = rng.normal(0.0, np.deg2rad(chip_deg), 3) if chip_deg > 0 else np.zeros(3)
+        angle = float(np.linalg.norm(rotvec))
+        rot = _rotation(rotvec, angle) if angle > 0 else np.eye(3)
+        shift = rng.normal(0.0, chip_mm, 3) if chip_mm > 0 else np.zeros(3)
         chips.append(
             replace(
                 c,
-                centre_mm=c.centre_mm + rng.uniform(-chip_mm, chip_mm, 3),
+                centre_mm=c.centre_mm + shift,
                 x_axis=rot @ c.x_axis,
                 y_axis=rot @ c.y_axis,
             )
         )
+    direction = rig.laser_direction / np.linalg.norm(rig.laser_direction)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(direction[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(direction, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(direction, e1)
+    tilt = rng.normal(0.0, np.deg2rad(laser_deg), 2) if laser_deg > 0 else np.zeros(2)
+    tilt_vec = tilt[0] * e1 + tilt[1] * e2
+    tilt_angle = float(np.linalg.norm(tilt_vec))
+    if tilt_angle > 0:
+        direction = _rotation(tilt_vec, tilt_angle) @ direction
+    origin = rng.normal(0.0, laser_mm, 3) if laser_mm > 0 else np.zeros(3)
     return replace(
         rig,
         a_mm=rig.a_mm + np.where(rig.a_mm != 0, jitter(length_mm), 0.0),
         d_mm=rig.d_mm + np.where(rig.d_mm != 0, jitter(length_mm), 0.0),
         alpha_deg=rig.alpha_deg + jitter(angle_deg),
         theta_offset_deg=rig.theta_offset_deg + jitter(angle_deg),
-        laser_origin_mm=rig.laser_origin_mm + rng.uniform(-laser_mm, laser_mm, 3),
+        laser_origin_mm=rig.laser_origin_mm + origin,
+        laser_direction=direction * float(np.linalg.norm(rig.laser_direction)),
         chips=tuple(chips),
     )

@@ -16,6 +16,11 @@
   set or selected effects); ``false none``: ``none``; anything else is wrong (one of them
   named, or ``unexplained``).
 
+**Strict** (beside the lenient counts above): a case with effects is ``right`` only if it is
+``identified`` and names exactly its true effects (for one effect: the truth alone, no rival,
+no second effect); ``ambiguous`` with the truth among its names and ``partially explained``
+count as right above, not here.
+
 A case is binned by the SNR it reached (each effect's own, for a pair the smaller), at the
 nearest target on a log scale; the SNR ≥ 1 rates (``must_reach``) take every case that reached
 SNR ≥ 0.99.
@@ -27,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["outcome", "score"]
+__all__ = ["outcome", "score", "strict_outcome"]
 
 NAMING = ("identified", "ambiguous", "partially explained")
 
@@ -48,6 +53,18 @@ def outcome(row: dict[str, Any]) -> str:
     if status in NAMING:
         return "right" if truth <= named else "false attribution"
     return "unexplained"
+
+
+def strict_outcome(row: dict[str, Any]) -> str:
+    """The strict outcome of a case with effects: ``right`` only if ``identified`` with exactly
+    the true effects named (module docs); else the lenient class, ``right`` there becoming
+    ``named among others``."""
+    lenient = outcome(row)
+    if row["kind"] == "none":
+        return lenient
+    if row["status"] == "identified" and set(row["named"]) == set(row["truth"]):
+        return "right"
+    return "named among others" if lenient == "right" else lenient
 
 
 def withheld_outcome(row: dict[str, Any]) -> str:
@@ -79,6 +96,7 @@ def score(
     done = [r for r in results if "skipped" not in r]
     for r in done:
         r["outcome"] = outcome(r)
+        r["strict_outcome"] = strict_outcome(r)
         if "excluded" in r:
             r["excluded_outcome"] = withheld_outcome(r)
         r["bin"] = _bin(min(r["snr"]), targets) if r["snr"] else "-"
@@ -109,6 +127,13 @@ def score(
             b: _count(
                 [r for r in done if r["kind"] == "single" and r["truth"] == [e] and r["bin"] == b],
                 "outcome",
+            )
+            for b in bins
+        }
+        doc.setdefault("by_effect_strict", {})[e] = {
+            b: _count(
+                [r for r in done if r["kind"] == "single" and r["truth"] == [e] and r["bin"] == b],
+                "strict_outcome",
             )
             for b in bins
         }
@@ -146,6 +171,7 @@ def _must_reach(done: list[dict[str, Any]]) -> dict[str, Any]:
         held = [r for r in strong if "excluded" in r]
         out[w] = {
             "right_snr_ge_1": _rate(strong, "outcome", ("right",)),
+            "right_strict_snr_ge_1": _rate(strong, "strict_outcome", ("right",)),
             "false_none_snr_ge_1": _rate(strong, "outcome", ("false none",)),
             "false_attribution_on_none": _rate(
                 [r for r in here if r["kind"] == "none"], "outcome", ("false attribution",)
@@ -166,5 +192,8 @@ def _must_reach(done: list[dict[str, Any]]) -> dict[str, Any]:
             ),
             "withheld_none_snr_ge_1": _rate(held, "excluded_outcome", ("none",)),
             "pair_right": _rate([r for r in here if r["kind"] == "pair"], "outcome", ("right",)),
+            "pair_right_strict": _rate(
+                [r for r in here if r["kind"] == "pair"], "strict_outcome", ("right",)
+            ),
         }
     return out
