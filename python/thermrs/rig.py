@@ -181,8 +181,14 @@ class Rig:
         self.reference_c: float = exp["reference_c"]
         self.lengths: list[LengthMap] = [LengthMap(**m) for m in exp["length"]]
         #: ``[tolerances]``: standard uncertainties (1 σ) of the rig and its instruments
-        #: (SPEC §3), defaults filled in.
-        self.tolerances: dict[str, float] = {k: float(v) for k, v in d["tolerances"].items()}
+        #: (SPEC §3), defaults filled in (``docs/tolerances.md``: the published metrology
+        #: each default comes from).
+        self.tolerances: dict[str, float] = {
+            k: float(v) for k, v in json.loads(native.tolerances_json()).items()
+        }
+        #: Whether the file states its ``[tolerances]``; False: the defaults are in force,
+        #: and a diagnosis says so.
+        self.tolerances_stated: bool = native.tolerances_stated()
 
     # --- construction -----------------------------------------------------------------------
     @classmethod

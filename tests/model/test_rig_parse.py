@@ -7,7 +7,9 @@ variants (:mod:`tests.support.rig_mutations`)."""
 from __future__ import annotations
 
 import math
+import re
 import tomllib
+from pathlib import Path
 
 import pytest
 import thermrs
@@ -133,24 +135,31 @@ def test_rig_without_thermal_and_ambient_has_no_temperatures() -> None:
 # --------------------------------------------------------------------------------------------
 
 
-def test_tolerances_default_to_an_ordinary_rig_and_a_table_overrides_some() -> None:
-    # SPEC §3 [tolerances]: standard uncertainties; absent keys take the documented defaults.
+def _documented_defaults() -> dict[str, float]:
+    """The defaults docs/tolerances.md states, each beside its published source."""
+    doc = (Path(__file__).parents[2] / "docs" / "tolerances.md").read_text(encoding="utf-8")
+    rows = re.findall(r"^\| `(\w+)` \| ([0-9.]+) \|", doc, flags=re.M)
+    return {k: float(v) for k, v in rows}
+
+
+def test_tolerances_default_to_the_documented_values_and_a_table_overrides_some() -> None:
+    # SPEC §3 [tolerances]: standard uncertainties; a file without the section takes the
+    # defaults docs/tolerances.md sources, and knows it took them.
     r = thermrs.load_rig()
-    assert r.tolerances == {
-        "length_mm": 0.2,
-        "angle_deg": 0.02,
-        "chip_mm": 0.3,
-        "chip_deg": 0.05,
-        "laser_mm": 0.2,
-        "laser_deg": 0.05,
-        "ir_scale": 0.03,
-        "ir_gain": 0.01,
-        "ir_drift_k": 0.05,
-        "ir_clock_s": 30.0,
-    }
+    documented = _documented_defaults()
+    assert len(documented) == 10
+    assert r.tolerances == documented
+    assert r.tolerances_stated is False
+    assert "tolerances" not in r.to_dict()
     text = GOOD_TEXT + "\n[tolerances]\nir_gain = 0.02\nir_clock_s = 0\n"
-    t = thermrs.Rig.from_toml(text).tolerances
-    assert t["ir_gain"] == 0.02 and t["ir_clock_s"] == 0.0 and t["length_mm"] == 0.2
+    stated = thermrs.Rig.from_toml(text)
+    t = stated.tolerances
+    assert t["ir_gain"] == 0.02 and t["ir_clock_s"] == 0.0
+    assert t["length_mm"] == documented["length_mm"]
+    assert stated.tolerances_stated is True
+    # A stated section survives a round trip; an absent one stays absent.
+    assert thermrs.Rig.from_dict(stated.to_dict()).tolerances_stated is True
+    assert thermrs.Rig.from_dict(r.to_dict()).tolerances_stated is False
 
 
 def test_a_rig_from_its_own_data_is_the_same_rig() -> None:

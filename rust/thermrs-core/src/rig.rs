@@ -35,8 +35,11 @@ pub struct Rig {
     #[serde(default)]
     pub ambient: Option<Ambient>,
     pub expansion: Expansion,
-    #[serde(default)]
-    pub tolerances: Tolerances,
+    /// `[tolerances]` as the file states it; `None` where it has no such section (the
+    /// defaults apply, [`Rig::tolerances`], and a diagnosis says so). Keys a section leaves
+    /// out take their defaults.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerances: Option<Tolerances>,
 }
 
 /// `[tolerances]`: how well the rig and its instruments are known, as standard uncertainties
@@ -68,21 +71,23 @@ pub struct Tolerances {
 }
 
 impl Default for Tolerances {
-    /// An ordinary rig: geometry measured to a few tenths of a millimetre and a few
-    /// hundredths of a degree, an IR camera calibrated to a few per cent, clocks within
-    /// tens of seconds.
+    /// A rig of the kind thermrs is for, as the field's published metrology states it
+    /// (`docs/tolerances.md` gives each source): nominal DH geometry of an uncalibrated
+    /// six-axis industrial robot, chips located with the robot itself, a radiometric LWIR
+    /// camera to its data sheet's "±2 % of reading" with each ROI's emissivity known to about
+    /// ±0.03, clocks synchronised over the network (NTP/chrony) and stamped by the drivers.
     fn default() -> Tolerances {
         Tolerances {
-            length_mm: 0.2,
-            angle_deg: 0.02,
-            chip_mm: 0.3,
-            chip_deg: 0.05,
+            length_mm: 0.5,
+            angle_deg: 0.03,
+            chip_mm: 0.5,
+            chip_deg: 0.1,
             laser_mm: 0.2,
             laser_deg: 0.05,
-            ir_scale: 0.03,
-            ir_gain: 0.01,
-            ir_drift_k: 0.05,
-            ir_clock_s: 30.0,
+            ir_scale: 0.012,
+            ir_gain: 0.03,
+            ir_drift_k: 0.1,
+            ir_clock_s: 1.0,
         }
     }
 }
@@ -281,9 +286,19 @@ impl Rig {
         self.validate_tolerances()
     }
 
+    /// The tolerances in force: the file's `[tolerances]`, else the defaults.
+    pub fn tolerances(&self) -> Tolerances {
+        self.tolerances.unwrap_or_default()
+    }
+
+    /// Whether the file states its `[tolerances]` (else the defaults are in force).
+    pub fn tolerances_stated(&self) -> bool {
+        self.tolerances.is_some()
+    }
+
     /// `[tolerances]`: every value finite and not negative.
     fn validate_tolerances(&self) -> Result<(), KeyError> {
-        let t = &self.tolerances;
+        let t = &self.tolerances();
         for (name, v) in [
             ("length_mm", t.length_mm),
             ("angle_deg", t.angle_deg),

@@ -39,7 +39,8 @@ impl PyRig {
         Ok(PyRig { inner })
     }
 
-    /// The rig as a JSON string (all keys of the file, defaults filled in).
+    /// The rig as a JSON string (all keys of the file, defaults filled in; `tolerances` only
+    /// where the file states them).
     fn to_json(&self) -> PyResult<String> {
         call("writing a rig as JSON", || Ok(self.inner.to_json()))
     }
@@ -53,6 +54,17 @@ impl PyRig {
             v["problems"] = serde_json::json!(view.problems);
             Ok(v.to_string())
         })
+    }
+
+    /// The tolerances in force (the file's `[tolerances]`, else the defaults) as JSON.
+    fn tolerances_json(&self) -> PyResult<String> {
+        serde_json::to_string(&self.inner.tolerances())
+            .map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))
+    }
+
+    /// Whether the file states its `[tolerances]` (else the defaults are in force).
+    fn tolerances_stated(&self) -> bool {
+        self.inner.tolerances_stated()
     }
 
     /// The temperature names the nominal model maps lengths to, in column order.
