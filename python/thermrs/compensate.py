@@ -19,10 +19,13 @@ The compensation law (:func:`compensation_law`)
     ambient slope, a ``sensor_drift`` as an amplitude with its time constant and a
     ``thermal_lag`` as the time constant by which the structure lags the measured surface (a
     controller filters the temperatures with it first). Each coefficient carries a 95 %
-    interval: α's interval (the nominal fit's relative interval, applied to the diagnosed α)
-    and the effect parameter's (``params_ci95``) propagated through the slope; ``residual_um``
-    is the held-out RMS left after the effect (the diagnosis' ``how_far``), the uncertainty of
-    one compensated pose.
+    interval: α's interval from the joint fit of α with the effects (the diagnosis'
+    ``verdict.alpha_ci95``) and the effect parameters' (``params_ci95``: amplitudes from the
+    joint fit's covariance, time constants by profile likelihood) propagated through the
+    slope, and in quadrature the rig's stated tolerances: a ROI's reading (``ir_gain``, its
+    emissivity) and the geometry's (each length, angle, chip and laser tolerance moving the
+    slope); ``residual_um`` is the held-out RMS left after the effect (the
+    diagnosis' ``how_far``), the uncertainty of one compensated pose.
 """
 
 from __future__ import annotations
@@ -71,10 +74,17 @@ class DiagnosedModel:
     holdout_rms_after_um: float | None = None
     holdout_rms_after_ci95: tuple[float, float] | None = None
     note: str = ""
+    #: α's 95 % interval from the fit of α together with the effects (the diagnosis'
+    #: ``verdict.alpha_ci95``); None in a diagnosis written before it carried one.
+    joint_alpha_ci95: tuple[float, float] | None = None
 
     @property
     def alpha_ci95(self) -> tuple[float, float]:
-        """α's 95 % interval: the nominal fit's relative interval around the diagnosed α."""
+        """α's 95 % interval: the joint fit's (α with the effects, :attr:`joint_alpha_ci95`);
+        for a diagnosis without one, the nominal fit's relative interval around the diagnosed
+        α (which a misspecified nominal model makes wide)."""
+        if self.joint_alpha_ci95 is not None and all(np.isfinite(self.joint_alpha_ci95)):
+            return self.joint_alpha_ci95
         lo, hi = self.nominal_alpha_ci95
         a0 = self.nominal_alpha_per_k
         if not (np.isfinite(lo) and np.isfinite(hi)) or a0 == 0:
@@ -164,10 +174,15 @@ def diagnosed_model(
             "patterns like those of the diagnosis' runs"
         )
     ci_after = how.get("holdout_rms_after_ci95")
+    joint = verdict.get("alpha_ci95")
+    joint_alpha = verdict.get("alpha_per_k")
     return replace(
         model,
         holdout_rms_after_ci95=None if not ci_after else (float(ci_after[0]), float(ci_after[1])),
-        alpha_per_k=float(row["alpha_per_k"]),
+        alpha_per_k=float(
+            joint_alpha if isinstance(joint_alpha, int | float) else row["alpha_per_k"]
+        ),
+        joint_alpha_ci95=None if not joint else (float(joint[0]), float(joint[1])),
         effects=(effect,),
         params_ci95=dict(verdict.get("params_ci95", {})),
         promised_shrink=shrink,
@@ -376,6 +391,35 @@ def _slopes(
     return out, worst
 
 
+def _geometry_sd(
+    rig: Rig,
+    alpha: float,
+    effects: Sequence[Effect],
+    ref: float,
+    steps: np.ndarray,
+    slopes: dict[tuple[str, str], np.ndarray],
+) -> dict[tuple[str, str], np.ndarray]:
+    """Per (camera, temperature): the standard uncertainty (u, v, µm/K) of the slope from the
+    rig's stated geometric tolerances: the slope again on the rig with each DH length, twist,
+    joint zero, chip and laser quantity moved by its standard uncertainty
+    (:func:`thermrs.diagnose.tolerances.geometry_variants`, the null world's own), the moves
+    added in quadrature. A slope near zero is set by the geometry, not by α."""
+    from thermrs.diagnose.tolerances import geometry_variants
+
+    acc = {key: np.zeros(2) for key in slopes}
+    for name, data in geometry_variants(rig):
+        try:
+            moved = Rig.from_dict(data, source_name=f"{rig.source} ({name})")
+            got = _slopes(moved, alpha, effects, ref, steps)[0]
+        except Exception:  # a variant the forward model cannot follow (the ray leaves a chip)
+            continue
+        for key, s0 in slopes.items():
+            d = got.get(key, np.zeros(2)) - s0
+            if np.all(np.isfinite(d)):
+                acc[key] += d**2
+    return {key: np.sqrt(v) for key, v in acc.items()}
+
+
 def _param_corners(effects: Sequence[Effect], ci: dict[str, Any]) -> list[list[Effect]]:
     """The effects with each parameter that has an interval at its two ends: a scalar's, and
     each entry of a per-temperature one (``alpha_per_link``'s α of each temperature, whose
@@ -452,11 +496,21 @@ def compensation_law(
             if np.isfinite(a):
                 corners.append(_slopes(r, a, variant, ref, steps)[0])
     rows: list[dict[str, Any]] = []
+    # A coefficient per *measured* kelvin of one ROI is as uncertain as that ROI's reading:
+    # its own gain (emissivity) is known to the rig's stated `ir_gain`, which no fit of one α
+    # can see. Added in quadrature to the fit's interval.
+    roi_gain = float(r.tolerances.get("ir_gain", 0.0))
+    geometry_sd = _geometry_sd(r, model.alpha_per_k, geometric, ref, steps, slopes)
     for (cam, name), slope in slopes.items():
         pose = r.camera(cam).pose
         for k, axis in enumerate("uv"):
             ends = [c[(cam, name)][k] for c in corners]
             lo, hi = (min(ends), max(ends)) if ends else (float("nan"), float("nan"))
+            if np.isfinite(lo) and np.isfinite(hi):
+                gain = roi_gain if name != "ambient" else 0.0
+                extra = 1.96 * float(np.hypot(gain * float(slope[k]), geometry_sd[(cam, name)][k]))
+                lo = float(slope[k]) - float(np.hypot(float(slope[k]) - lo, extra))
+                hi = float(slope[k]) + float(np.hypot(hi - float(slope[k]), extra))
             rows.append(
                 {"camera": cam, "pose": pose, "axis": axis,
                  "term": f"{name} (T - reference_c)", "unit": "um/K",

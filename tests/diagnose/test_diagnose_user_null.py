@@ -40,26 +40,50 @@ def effect_free() -> list[dict[str, Any]]:
 def test_effect_free_rigs_within_their_tolerances_are_none(
     effect_free: list[dict[str, Any]],
 ) -> None:
-    # At a 5 % level, two or more of six wrong has probability 3 %.
+    # At a 5 % level, two or more wrong of six has probability 3 %.
     wrong = [d["verdict"]["outcome"] for d in effect_free if d["verdict"]["status"] != "none"]
     assert len(wrong) <= 1, wrong
     for d in effect_free:
         if d["verdict"]["status"] == "none":
-            # Said with the size of effect the data rule out.
-            assert d["verdict"]["reason"].startswith("no effect above ")
-            assert d["tests"]["detectable_um"] >= d["tests"]["margin_um"] > 0
+            # Said as what it is (held-out rms no effect took off), with the defaults named,
+            # and what the runs could have found, per effect, in µm of drift.
+            reason = d["verdict"]["reason"]
+            assert reason.startswith("no effect takes more than ")
+            assert "the default tolerances" in reason
+            assert d["tests"]["tolerances_stated"] is False
+            sizes = d["tests"]["detectable_rms_um_80"]
+            assert {"thermal_lag", "joint_offset", "sensor_drift"} <= set(sizes)
+            for got in sizes.values():
+                assert 0 < got["min_um"] <= got["max_um"]
 
 
-def test_the_floor_interval_covers_the_true_repeatability(
-    effect_free: list[dict[str, Any]],
-) -> None:
-    # A 95 % interval: two or more misses of six has probability 3 %.
-    miss = 0
-    for d in effect_free:
-        lo, hi = d["noise_floor"]["holdout_ci95"]
-        assert d["noise_floor"]["holdout_se_um"] > 0
-        miss += not lo <= TRUE_FLOOR_UM <= hi
-    assert miss <= 1
+#: Cases for the floor's coverage: effect-free and with one effect at SNR 2, both nuisance
+#: worlds, seeds nobody tuned on.
+FLOOR_CASES = [
+    (effects, world, seed)
+    for effects in ((), ("thermal_lag",), ("sensor_drift",), ("joint_offset",))
+    for world in ("white", "ar1")
+    for seed in (5301, 5302, 5303)
+]
+
+
+@pytest.mark.slow
+def test_the_floor_interval_covers_the_true_repeatability_with_and_without_an_effect() -> None:
+    """The held-out floor's 95 % interval against the world's visit repeatability, on 24
+    cases of which 18 carry an effect (the nominal residual's gap once made the floor read
+    high): four or more misses of 24 has probability 3 % at 95 % coverage."""
+    rig = thermrs.load_rig()
+    path = str(thermrs.default_rig_path())
+    misses = []
+    for effects, world, seed in FLOOR_CASES:
+        tables, _, _ = make_case(path, effects, 2.0, world=world, seed=seed, campaign=Campaign())
+        d = diagnose(tables[:1], tables[1:], rig, bootstrap=0, null_draws=DRAWS, seed=seed)
+        nf = d.to_json()["noise_floor"]
+        lo, hi = nf["holdout_ci95"]
+        assert nf["holdout_se_um"] > 0
+        if not lo <= TRUE_FLOOR_UM <= hi:
+            misses.append((effects, world, seed, round(nf["holdout_um"], 3)))
+    assert len(misses) <= 3, misses
 
 
 def test_p_values_never_go_below_what_the_draws_resolve(
@@ -90,20 +114,6 @@ def test_the_null_draws_the_rig_tolerances_the_file_states() -> None:
     assert any(n.startswith("IR gain") for n in names)
     assert any(n.startswith("IR clock") for n in names)
     assert any(n.startswith("camera[") for n in names)
-
-
-def test_an_effect_that_cannot_clear_the_practical_margin_is_not_named() -> None:
-    path = str(thermrs.default_rig_path())
-    rig = thermrs.load_rig()
-    tables, _, _ = make_case(path, ("thermal_lag",), 2.0, seed=5105, campaign=Campaign())
-    named = diagnose(tables[:1], tables[1:], rig, bootstrap=0, null_draws=DRAWS)
-    assert "thermal_lag" in named.to_json()["verdict"]["effects"]
-    removed = named.how_far["holdout_rms_before_um"] - named.how_far["holdout_rms_after_um"]
-    strict = diagnose(
-        tables[:1], tables[1:], rig, bootstrap=0, null_draws=DRAWS, margin_um=2.0 * removed
-    ).to_json()
-    assert strict["verdict"]["effects"] == []
-    assert strict["tests"]["margin_um"] == pytest.approx(2.0 * removed)
 
 
 def test_implausible_parameters_are_said_in_words_and_search_bounds_named() -> None:

@@ -47,7 +47,7 @@ import numpy as np
 import numpy.typing as npt
 import polars as pl
 
-from thermrs.diagnose.candidates import Candidate, plausibility, score
+from thermrs.diagnose.candidates import Candidate, plausibility, profile_interval, score
 from thermrs.diagnose.confounding import confounded_pairs
 from thermrs.diagnose.engine import DesignMatrix, Fit
 from thermrs.diagnose.floor import SCALE_SEPARATION, NoiseFloor, noise_floor, thermal_time_scales
@@ -72,9 +72,12 @@ FloatArray = npt.NDArray[np.float64]
 #: The level of the diagnoser's tests: a run without a gap is called otherwise at most this
 #: often (the four tests `none` must pass are each at a quarter of it).
 LEVEL = 0.05
-#: The default practical margin: an effect is named only if it takes at least this share of
-#: the held-out noise floor off the held-out rms.
-MARGIN_SHARE = 0.05
+#: The default practical margin as a share of the held-out noise floor: none. An effect is
+#: named when its held-out gain beats the null world's (the rig's tolerances and the noise);
+#: a fixed share of the floor kept nothing honest that null does not, and made every effect
+#: under a third of the floor unnameable at any run length. ``margin_um`` states a practical
+#: threshold of the user's own.
+MARGIN_SHARE = 0.0
 #: Replicates of the parametric bootstrap (the null world) per selection step.
 NULL_DRAWS = 199
 
@@ -122,8 +125,8 @@ def diagnose(
         Replicates of the parametric bootstrap per selection step.
     margin_um
         The practical margin: an effect is named only if it takes at least this much off the
-        held-out rms (µm), beyond being significant against the null (default: 5 % of the
-        held-out noise floor, :data:`MARGIN_SHARE`).
+        held-out rms (µm), beyond being significant against the null (default: none,
+        :data:`MARGIN_SHARE`).
     progress
         Called with a short message at each stage.
 
@@ -210,8 +213,10 @@ def noise_floor_um(
     holdout: Sequence[pl.DataFrame],
     rig: Rig | str | os.PathLike[str],
 ) -> float:
-    """The noise floor :func:`diagnose` reports for these runs (``noise_floor_um``), computed
-    the same way but without selecting effects: what calibrating a simulation's noise needs.
+    """The noise floor of the nominal model's residual on these runs, computed as
+    :func:`diagnose` does without selecting effects (its ``noise_floor_um`` where it names
+    none; with effects named it estimates the floor again on their model's residual): what
+    calibrating a simulation's noise needs.
 
     Parameters
     ----------
@@ -331,6 +336,9 @@ def _diagnose(
     cands, n_eff_train = _evidence(b, grids, steps, rig, bootstrap=bootstrap, rng=rng)
     say("confounding")
     confounded = _confounded(b, cands)
+    final, selected = _final_model(b.design, steps, rig, n_eff_train)
+    if final is not None:
+        _floor_of_final_model(b, final, rig)
     say("verdict")
     status, reason, rivals = decide(
         steps,
@@ -339,8 +347,8 @@ def _diagnose(
         floor_um=b.floor.holdout_um,
         margin_um=margin,
         floor_se_um=b.floor.holdout_se_um,
+        tolerances_stated=rig.tolerances_stated,
     )
-    final, selected = _final_model(b.design, steps, rig)
     alternatives = {s.chosen.label: s.alternatives for s in steps if s.chosen is not None}
     for sel in selected:
         sel["alternatives"] = alternatives.get(sel["family"], [])
@@ -360,7 +368,7 @@ def _diagnose(
         library=(sorted(classes), sorted(exclude)),
         n_eff_train=n_eff_train,
         margin_um=margin,
-        tolerances=(rig.tolerances, b.design.nuisance_names),
+        tolerances=(rig.tolerances, b.design.nuisance_names, rig.tolerances_stated),
     )
 
 
@@ -479,11 +487,43 @@ def _confounded(b: _Base, cands: list[Candidate]) -> list[dict[str, Any]]:
     )
 
 
+def _floor_of_final_model(b: _Base, final: Fit, rig: Rig) -> None:
+    """The noise floor estimated again on the residual of the model with its effects: a gap
+    left in the nominal residual leaks into its variogram (its slow increments read as noise),
+    so with effects named the floor of the nominal residual reads high. The held-out runs'
+    residual is the model's prediction error (α and the effects from the training runs), so
+    it is not fitted to them. The interval keeps the estimator's spread measured in the null
+    world (:func:`.selection._floor_uncertainty`), centred on the new estimate; the
+    nominal residual's floor is kept as ``nominal_holdout_um``."""
+    holdout_runs = set(b.vs.run.tolist()) - set(np.unique(b.vs.run[b.role_visit == "train"]))
+    new = noise_floor(b.vs, final.residual, holdout_runs, rig.mapped_temperatures)
+    if not np.isfinite(new.holdout_um):
+        return
+    fl = b.floor
+    fl.extra["nominal_holdout_um"] = fl.holdout_um
+    fl.extra["estimated_on"] = (
+        "the residual of the model with the effects named (the nominal residual's floor, "
+        "nominal_holdout_um, counts part of the gap as noise)"
+    )
+    fl.series = new.series
+    fl.per_run_um = new.per_run_um
+    fl.holdout_um = new.holdout_um
+    fl.train_um = new.train_um
+    if fl.holdout_se_um is not None:
+        se = fl.holdout_se_um
+        fl.holdout_ci95 = (max(fl.holdout_um - 1.96 * se, 0.0), fl.holdout_um + 1.96 * se)
+
+
 def _final_model(
-    design: DesignMatrix, steps: list[Step], rig: Rig
+    design: DesignMatrix, steps: list[Step], rig: Rig, n_eff_train: float
 ) -> tuple[Fit | None, list[dict[str, Any]]]:
     """The selected effects fitted together (non-linear parameters refined one by one), with
-    each effect's parameters from the joint fit."""
+    each effect's parameters from the joint fit: its amplitudes' intervals from the joint
+    fit's covariance (HAC) plus what the rig's stated tolerances move them by
+    (:meth:`.engine.DesignMatrix.tolerance_cov`), its time constant's by profile likelihood
+    with the other effects' amplitudes, α and the offsets fitted again at each value, and
+    α's from the joint fit and the tolerances likewise (``alpha_per_k``, ``alpha_ci95`` of
+    each entry)."""
     chosen = [s.chosen for s in steps if s.chosen is not None]
     if not chosen:
         return None, []
@@ -501,16 +541,35 @@ def _final_model(
         sel.append({"family": fam, "eta": use_eta, "width": c.shape[1]})
     x = np.column_stack(cols)
     f = design.fit(x, eta, label=" + ".join(s["family"].label for s in sel))
-    out = []
+    # The parameters' intervals carry the noise (the fit's HAC covariance) and the rig's
+    # stated tolerances (what they move the fitted coefficients by).
+    cov = f.cov + design.tolerance_cov(x)
+    out: list[dict[str, Any]] = []
     first = 0
     for s in sel:
         fam = s["family"]
         k = s["width"]
         idx = [0, *range(1 + first, 1 + first + k)]
-        params, ci = fam.params(
-            s["eta"], f.alpha, f.beta[first : first + k], f.cov[np.ix_(idx, idx)]
+        params, ci = fam.params(s["eta"], f.alpha, f.beta[first : first + k], cov[np.ix_(idx, idx)])
+        others = [c for j, c in enumerate(cols) if j != len(out)]
+        prefix = np.column_stack(others) if others else None
+        probe = Fit(fam.label, f.alpha, f.beta, f.cov, dict(s["eta"]), f.residual, 0.0,
+                    0.0, 0.0, 0.0, 0)  # fmt: skip
+        ci = {**ci, **profile_interval(design, fam, probe, n_eff_train, prefix=prefix)}
+        alpha_ci = f.lsq.interval(0) if f.lsq is not None else (np.nan, np.nan)
+        # Widened by the tolerances' share, in quadrature with the fit's own half-width.
+        half = np.hypot((alpha_ci[1] - alpha_ci[0]) / 2.0, 1.96 * np.sqrt(cov[0, 0] - f.cov[0, 0]))
+        alpha_ci = (f.alpha - half, f.alpha + half)
+        out.append(
+            {
+                "effect": fam.effect,
+                "family": fam.label,
+                "params": params,
+                "params_ci95": ci,
+                "alpha_per_k": f.alpha,
+                "alpha_ci95": [float(alpha_ci[0]), float(alpha_ci[1])],
+            }
         )
-        out.append({"effect": fam.effect, "family": fam.label, "params": params, "params_ci95": ci})
         first += k
     return f, out
 

@@ -36,7 +36,7 @@ from thermrs.rig import Rig
 from thermrs.signatures import VisitSet
 from thermrs.stats import moving_block_indices
 
-__all__ = ["Candidate", "is_plausible", "score"]
+__all__ = ["Candidate", "is_plausible", "profile_interval", "score"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -74,6 +74,21 @@ def _params(fam: Family, f: Fit, first: int) -> tuple[dict[str, Any], dict[str, 
     idx = [0, *range(1 + first, 1 + first + k)]
     cov = f.cov[np.ix_(idx, idx)]
     return fam.params(f.eta, f.alpha, f.beta[first:], cov)
+
+
+def profile_interval(
+    design: DesignMatrix,
+    fam: Family,
+    f: Fit,
+    n_eff: float,
+    prefix: FloatArray | None = None,
+) -> dict[str, list[float]]:
+    """The refined parameter's profile-likelihood interval (:meth:`DesignMatrix.profile_ci`),
+    as ``params_ci95`` holds it; empty for a family without one."""
+    if not fam.refine or fam.refine[0] not in f.eta:
+        return {}
+    got = design.profile_ci(fam, f.eta, n_eff, prefix=prefix)
+    return {} if got is None else {fam.refine[0]: [got[0], got[1]]}
 
 
 def is_plausible(rig: Rig, fam: Family, params: dict[str, Any], ci: dict[str, Any]) -> bool:
@@ -146,6 +161,7 @@ def score(
         d = base.residual[hold] ** 2 - f.residual[hold] ** 2
         se = cycle_se(d, hold, vs, units, rng, draws=200)
         params, ci = fam.params(f.eta, f.alpha, f.beta, f.cov)
+        ci = {**ci, **profile_interval(design, fam, f, n_eff_train)}
         k = f.n_params - base.n_params
         n = max(n_eff_train, k + 3.0)
         n_rows = float(design.train.sum())

@@ -160,6 +160,32 @@ class DesignMatrix:
             columns=columns,
         )
 
+    def tolerance_cov(self, columns: FloatArray | None) -> FloatArray:
+        """The covariance (α first, then the columns' amplitudes) the rig's stated tolerances
+        add to a fit on the training rows: each tolerance signature (:attr:`nuisance`, one
+        standard uncertainty of one quantity, independent standard normal in the null world)
+        moves the fitted coefficients by the weighted least-squares fit of that signature,
+        and those moves add as Σ Δ·Δᵀ. The statistical covariance of :meth:`fit` knows only
+        the noise; a rig known to its tolerances is uncertain by this much more."""
+        k = 0 if columns is None else columns.shape[1]
+        if self.nuisance.shape[1] == 0:
+            return np.zeros((1 + k, 1 + k))
+        tr = np.flatnonzero(self.train)
+        used = np.unique(self.group[tr])
+        xs = [self.s[tr, None]]
+        if columns is not None:
+            xs.append(columns[tr])
+        x = np.column_stack([*xs, self.offsets[np.ix_(tr, used)]])
+        sw = np.sqrt(self.weights[tr])
+        xw = x * sw[:, None]
+        scale = np.linalg.norm(xw, axis=0)
+        scale[scale == 0] = 1.0
+        q, r = np.linalg.qr(xw / scale)
+        moves = np.linalg.solve(r, q.T @ (self.nuisance[tr] * sw[:, None])) / scale[:, None]
+        d = moves[: 1 + k]
+        out: FloatArray = d @ d.T
+        return out
+
     def identifiable(self, columns: FloatArray) -> float:
         """How much of the columns is left once the nominal model (α, offsets) has taken what
         it can, on the training rows: the smallest such fraction over the columns (0: the
@@ -234,6 +260,68 @@ class DesignMatrix:
         f = self.fit(with_prefix(cols), eta, label=fam.label)
         f.extra["profile"] = scores
         return f
+
+    def profile_ci(
+        self,
+        fam: Family,
+        eta: dict[str, float],
+        n_eff: float,
+        *,
+        prefix: FloatArray | None = None,
+        level_chi2: float = 3.841458820694124,
+    ) -> tuple[float, float] | None:
+        """The profile-likelihood 95 % interval of the family's refined non-linear parameter
+        (its time constant) around ``eta``: every value whose weighted training residual,
+        the amplitudes (and α, the offsets, ``prefix``'s columns) fitted again at it, stays
+        within ``rss_min · (1 + χ²₁,₀.₉₅ / n_eff)`` — the likelihood-ratio test of that value
+        with the residual variance estimated from the best fit and the training rows counted
+        by their effective number ``n_eff`` (correlated visits). The ends are found by root
+        finding on log τ (never a bracket of the search grid); an end that does not close
+        within 1/10 … 10× the grid's span is that bound, which the JSON then shows. None for
+        a family without a refined parameter."""
+        if not fam.refine:
+            return None
+        from scipy.optimize import brentq
+
+        key = fam.refine[0]
+        vs = self.vs
+        grid = sorted(float(e[key]) for e in self.grid(fam)) or [float(eta[key])]
+        lo_bound = max(self.min_tau_min, grid[0] / 10.0) if key == "tau_min" else grid[0] / 10
+        hi_bound = grid[-1] * 10.0
+
+        def rss(logt: float) -> float:
+            e = {**eta, key: float(np.exp(logt))}
+            try:
+                c = fam.columns(vs, e)
+            except Exception:  # the effect cannot act at this value
+                return np.inf
+            if prefix is not None:
+                c = np.column_stack([prefix, c])
+            f = self._try(c, e, fam.label)
+            return np.inf if f is None else f.train_rss_w
+
+        x0 = float(np.log(eta[key]))
+        r0 = rss(x0)
+        if not np.isfinite(r0):
+            return None
+        lim = r0 * (1.0 + level_chi2 / max(n_eff, 1.0))
+
+        def excess(x: float) -> float:
+            r = rss(x)
+            return (r if np.isfinite(r) else 2.0 * lim) - lim
+
+        ends = []
+        for sign, bound in ((-1.0, np.log(lo_bound)), (1.0, np.log(hi_bound))):
+            inner, x = x0, x0
+            found = None
+            while sign * (bound - x) > 1e-9:
+                x = x0 + sign * min(abs(x - x0) * 1.6 + 0.05, abs(bound - x0))
+                if excess(x) > 0:
+                    found = brentq(excess, min(inner, x), max(inner, x), xtol=1e-3)
+                    break
+                inner = x
+            ends.append(float(np.exp(found if found is not None else bound)))
+        return (min(ends[0], float(eta[key])), max(ends[1], float(eta[key])))
 
     def grid(self, fam: Family) -> list[dict[str, float]]:
         """The family's grid without time constants below :attr:`min_tau_min`."""

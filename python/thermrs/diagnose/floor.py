@@ -115,6 +115,10 @@ class NoiseFloor:
             "± 1.96 of it",
             "train_um": self.train_um,
             "per_run_um": self.per_run_um,
+            "nominal_holdout_um": self.extra.get("nominal_holdout_um", self.holdout_um),
+            "estimated_on": self.extra.get(
+                "estimated_on", "the nominal model's residual (no effect named)"
+            ),
             "parts": {
                 "centroid_um": self.centroid_um,
                 "centroid": self.centroid_note,

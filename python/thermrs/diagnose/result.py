@@ -173,7 +173,9 @@ def _ranking_row(c: Candidate, base_rms: float, n_eff_train: float) -> dict[str,
     f = c.fit
     ci = dict(c.ci)
     prof = f.extra.get("profile") or []
-    if c.family.refine and prof:
+    if c.family.refine and prof and c.family.refine[0] not in ci:
+        # Only where the profile-likelihood interval could not be computed: the grid points
+        # the same criterion keeps.
         key = c.family.refine[0]
         best_rss = min(r for _, r in prof)
         lim = best_rss * (1.0 + 3.84 / max(n_eff_train, 1.0))
@@ -302,7 +304,7 @@ def assemble(
     library: tuple[list[str], list[str]],
     n_eff_train: float,
     margin_um: float = 0.0,
-    tolerances: tuple[dict[str, float], list[str]] = ({}, []),
+    tolerances: tuple[dict[str, float], list[str], bool] = ({}, [], True),
 ) -> Diagnosis:
     """The :class:`Diagnosis` from the steps' results."""
     status, reason, rivals = verdict
@@ -379,6 +381,10 @@ def assemble(
         # Excluded effects (never named) that explain the gap as well as the effects
         # selected and that the data cannot reject: those effects may only stand in for them.
         "stand_in_for": sorted({e for s in steps for e in s.outside}),
+        # α fitted together with the effects named (the joint fit; its interval from the joint
+        # fit's covariance), where the verdict names one: the α of the diagnosed model.
+        "alpha_per_k": None if first is None else first.get("alpha_per_k"),
+        "alpha_ci95": None if first is None else first.get("alpha_ci95"),
         "holdout_rms_um": after.holdout_rms_um,
         "reason": reason,
     }
@@ -404,7 +410,19 @@ def assemble(
         verdict=verdict_doc,
         how_far=how_far,
         selected=[
-            {k: s[k] for k in ("effect", "family", "params", "alternatives") if k in s}
+            {
+                k: s[k]
+                for k in (
+                    "effect",
+                    "family",
+                    "params",
+                    "params_ci95",
+                    "alpha_per_k",
+                    "alpha_ci95",
+                    "alternatives",
+                )
+                if k in s
+            }
             for s in selected
         ],
         library=classes,
@@ -416,12 +434,42 @@ def assemble(
             **_tests(steps, level),
             "margin_um": margin_um,
             "detectable_um": steps[0].detectable_um,
+            "detectable_um_note": "the held-out rms the null's threshold gain removes (or the "
+            "practical margin, if more): no effect of the library took more than this off the "
+            "held-out rms; it is not an effect size",
+            # Per effect: the rms of drift (µm) an effect must have to be named with 80 %
+            # power at the first step, over its families (which camera, joint, length).
+            "detectable_rms_um_80": _detectable_by_effect(steps[0], cands),
             "tolerances": tolerances[0],
+            # False: the rig file states no [tolerances]; the null drew the defaults
+            # (docs/tolerances.md: the published metrology each comes from).
+            "tolerances_stated": tolerances[2],
             "tolerance_signatures": tolerances[1],
         },
     )
     d.summary = summary(d)
     return d
+
+
+def _detectable_by_effect(step: Step, cands: list[Candidate]) -> dict[str, Any]:
+    """Per effect: the smallest and largest per-family detectable rms of drift at 80 % power
+    (:attr:`.selection.Step.detectable_by_family`), and the family of each end."""
+    effect_of = {c.family.label: c.effect for c in cands}
+    by: dict[str, list[tuple[float, str]]] = {}
+    for label, size in step.detectable_by_family.items():
+        effect = effect_of.get(label, label.split(" ")[0])
+        if np.isfinite(size):
+            by.setdefault(effect, []).append((size, label))
+    out = {}
+    for effect, sizes in sorted(by.items()):
+        sizes.sort()
+        out[effect] = {
+            "min_um": sizes[0][0],
+            "min_family": sizes[0][1],
+            "max_um": sizes[-1][0],
+            "max_family": sizes[-1][1],
+        }
+    return out
 
 
 def _per_run(

@@ -106,6 +106,11 @@ class Step:
     #: The held-out rms (µm) a family must remove to be named at this step: what the null's
     #: threshold gain removes, or the practical margin if that is more.
     detectable_um: float = 0.0
+    #: Per family (label): the rms of drift (µm) an effect of that family must have to be
+    #: named at this step with 80 % power: its held-out gain (≈ the effect's own mean square
+    #: once fitted) must clear the family's bar by the null's spread times z₀.₈ (a normal
+    #: approximation, the gain's spread under the effect taken as the null's).
+    detectable_by_family: dict[str, float] = field(default_factory=dict)
     draws: int = 0
     rival_draws: int = 0
     #: The null world's held-out mean squares with the model's last effect re-profiled on its
@@ -257,6 +262,9 @@ def run_step(
         low=float(low[0]),
         null_low=low[1:],
         detectable_um=max(detectable, margin_um),
+        detectable_by_family={
+            k: float(np.sqrt(max((z_cut + Z_POWER_80) * spread[k], 0.0))) for k in named
+        },
         draws=draws,
     )
     if not model and floor.holdout_se_um is None:
@@ -276,6 +284,9 @@ def run_step(
     _test_rivals(step, ok, outside, batch, design, floor, model, level=level, draws=draws, rng=rng)
     return step
 
+
+#: The standard normal quantile of 80 % power (per-family detectable sizes).
+Z_POWER_80 = 0.8416212335729143
 
 #: Null replicates the floor is re-estimated on for its uncertainty.
 FLOOR_DRAWS = 49

@@ -33,7 +33,7 @@ import numpy.typing as npt
 from thermrs.rig import Rig
 from thermrs.signatures import VisitSet
 
-__all__ = ["nuisance_signatures"]
+__all__ = ["geometry_variants", "nuisance_signatures"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -53,7 +53,7 @@ def _unit_perpendiculars(d: FloatArray) -> tuple[FloatArray, FloatArray]:
     return e1, np.cross(d, e1)
 
 
-def _geometry_variants(rig: Rig) -> list[tuple[str, dict[str, object]]]:
+def geometry_variants(rig: Rig) -> list[tuple[str, dict[str, object]]]:
     """(name, rig data) with one geometric quantity moved by its standard uncertainty."""
     tol = rig.tolerances
     base = rig.to_dict()
@@ -119,7 +119,7 @@ def _geometry_variants(rig: Rig) -> list[tuple[str, dict[str, object]]]:
 def _geometry(vs: VisitSet, rig: Rig, alpha: float) -> list[tuple[str, FloatArray]]:
     s0 = vs.alpha_column()
     out = []
-    for name, data in _geometry_variants(rig):
+    for name, data in geometry_variants(rig):
         try:
             moved = Rig.from_dict(data, source_name=f"{rig.source} ({name})")
             s1 = vs.replaced(rig=moved).alpha_column()

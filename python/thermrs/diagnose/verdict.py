@@ -35,6 +35,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from thermrs.diagnose.null import format_p, quantile_above
 from thermrs.diagnose.selection import Step
 
@@ -79,9 +81,17 @@ def decide(
     floor_um: float,
     margin_um: float = 0.0,
     floor_se_um: float | None = None,
+    tolerances_stated: bool = True,
 ) -> tuple[str, str, list[str]]:
-    """(status, reason, rivals) from the selection's steps (module docs)."""
+    """(status, reason, rivals) from the selection's steps (module docs);
+    ``tolerances_stated`` False: the rig file states no ``[tolerances]`` and the null drew the
+    defaults, which the reason says."""
     lvl = level / 4.0
+    tolerances = (
+        "the rig's stated tolerances"
+        if tolerances_stated
+        else "the default tolerances (the rig file states no [tolerances]; state yours)"
+    )
     b = steps[0].draws
 
     def fp(p: float) -> str:
@@ -100,14 +110,17 @@ def decide(
         if first.p_at_floor >= lvl and first.p_low >= lvl and not contradicted:
             return (
                 "none",
-                f"no effect above {first.detectable_um:.2f} µm at {1 - level:.0%}: the held-out "
+                f"no effect takes more than {first.detectable_um:.2f} µm off the held-out rms "
+                f"at {1 - level:.0%}: the held-out "
                 f"residual ({base_rms:.2f} µm) is within what noise (floor {floor_um:.2f} µm) "
-                "and the rig's stated tolerances leave "
+                f"and {tolerances} leave "
                 f"(p {fp(first.p_at_floor)}), white at the thermal time scales "
                 f"(p {fp(first.p_low)}), and no effect of the library takes more than "
                 f"{first.detectable_um:.2f} µm off it (the most any took: "
-                f"{_best_removal(first):.2f} µm; p {fp(first.p_gain)}; practical margin "
-                f"{margin_um:.2f} µm)",
+                f"{_best_removal(first):.2f} µm; p {fp(first.p_gain)}"
+                + (f"; practical margin {margin_um:.2f} µm" if margin_um > 0 else "")
+                + ")"
+                + _detectable_sizes(first),
                 [],
             )
         why = []
@@ -196,6 +209,27 @@ def decide(
         f"(p {fp(p_floor)}), white at the thermal time scales (p {fp(p_low)}); "
         f"{rivals_said}",
         [],
+    )
+
+
+def _detectable_sizes(step: Step) -> str:
+    """What these runs could have found: per effect, the rms of drift it needs to be named
+    with 80 % power (its easiest and hardest family), as a clause of the reason."""
+    by: dict[str, list[float]] = {}
+    for label, size in step.detectable_by_family.items():
+        if np.isfinite(size):
+            by.setdefault(label.split(" ")[0], []).append(size)
+    if not by:
+        return ""
+    parts = []
+    for effect, sizes in sorted(by.items(), key=lambda kv: min(kv[1])):
+        lo, hi = min(sizes), max(sizes)
+        parts.append(
+            f"{effect} {lo:.2f} µm" if hi < 1.05 * lo else f"{effect} {lo:.2f}–{hi:.2f} µm"
+        )
+    return (
+        "; an effect would have been named with 80 % power from an rms of drift of about "
+        + ", ".join(parts)
     )
 
 
