@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 import polars as pl
 
-from thermrs.effects import Effect, from_dict
+from thermrs.effects import Effect, IrGain, from_dict, is_instrument
 from thermrs.errors import InputError
 from thermrs.model import ForwardModel
 from thermrs.rig import Rig, as_rig
@@ -56,7 +56,7 @@ __all__ = [
 ]
 
 #: Effects that act on the chip or the time axis, not on the geometry at one instant.
-_TIME_EFFECTS = ("thermal_lag", "sensor_drift", "fixture_drift")
+_TIME_EFFECTS = ("thermal_lag", "sensor_drift", "fixture_drift", "ir_drift", "ir_clock")
 
 
 @dataclass(frozen=True)
@@ -361,6 +361,10 @@ def _wide_column(r: dict[str, Any]) -> str:
         return "chip_drift_um"
     if term.startswith("structure lag"):
         return "structure_lag_tau_min"
+    if " reading drift " in term:
+        return f"{term.split(' ')[0]}_reading_drift_k_per_h"
+    if term.startswith("thermal camera stamps late"):
+        return "ir_clock_late_s"
     return term
 
 
@@ -484,7 +488,10 @@ def compensation_law(
             "where these runs did not go; separate them first (thermrs design proposes the "
             "run that does) and compensate from a diagnosis that identifies one"
         )
-    geometric = [e for e in model.effects if e.name not in _TIME_EFFECTS]
+    geometric = [
+        e for e in model.effects if e.name not in _TIME_EFFECTS and not is_instrument(e.name)
+    ]
+    gains = {e.roi: e for e in model.effects if isinstance(e, IrGain)}
     ref = r.reference_c
     steps = np.linspace(0.0, span_k, 21)
     slopes, worst = _slopes(r, model.alpha_per_k, geometric, ref, steps)
@@ -506,8 +513,19 @@ def compensation_law(
         for k, axis in enumerate("uv"):
             ends = [c[(cam, name)][k] for c in corners]
             lo, hi = (min(ends), max(ends)) if ends else (float("nan"), float("nan"))
+            if name in gains:
+                # The ROI reads its rise (1 + g) too large: per measured kelvin the slope is
+                # 1/(1 + g) of the structure's, and as uncertain as g is.
+                g = gains[name].gain
+                g_ci = model.params_ci95.get("gain") or [g, g]
+                slope = slope / (1.0 + g)
+                lo, hi = lo / (1.0 + g), hi / (1.0 + g)
+                rel = (float(g_ci[1]) - float(g_ci[0])) / 2.0 / (1.0 + g)
+                extra_g = rel * abs(float(slope[k]))
+                lo = float(slope[k]) - float(np.hypot(float(slope[k]) - lo, extra_g))
+                hi = float(slope[k]) + float(np.hypot(hi - float(slope[k]), extra_g))
             if np.isfinite(lo) and np.isfinite(hi):
-                gain = roi_gain if name != "ambient" else 0.0
+                gain = roi_gain if name != "ambient" and name not in gains else 0.0
                 extra = 1.96 * float(np.hypot(gain * float(slope[k]), geometry_sd[(cam, name)][k]))
                 lo = float(slope[k]) - float(np.hypot(float(slope[k]) - lo, extra))
                 hi = float(slope[k]) + float(np.hypot(hi - float(slope[k]), extra))
@@ -559,6 +577,14 @@ def _chip_rows(e: Effect, cam: str, pose: str, ci: dict[str, Any]) -> list[dict[
             v = d["um_per_k"][k]
             row(axis, "ambient (T - reference_c), chip mount", "um/K", v,
                 *interval("um_per_k", k, v))  # fmt: skip
+    elif e.name == "ir_drift":
+        for axis in "uv":
+            row(axis, f"{d['roi']} reading drift (subtract from T: k * t_run_h)", "K/h",
+                d["k_per_h"], *interval("k_per_h", None, d["k_per_h"]))  # fmt: skip
+    elif e.name == "ir_clock":
+        for axis in "uv":
+            row(axis, "thermal camera stamps late (read every T at t + s)", "s",
+                d["s"], *interval("s", None, d["s"]))  # fmt: skip
     elif e.name == "sensor_drift" and d["camera"] == cam:
         for k, axis in enumerate("uv"):
             v = d["um"][k]

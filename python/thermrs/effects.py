@@ -50,10 +50,15 @@ if TYPE_CHECKING:
 
 __all__ = [
     "EFFECT_NAMES",
+    "INSTRUMENT_EFFECTS",
     "AlphaPerLink",
     "Effect",
     "Family",
     "FixtureDrift",
+    "InstrumentEffect",
+    "IrClock",
+    "IrDrift",
+    "IrGain",
     "JointOffset",
     "LaserTilt",
     "NonlinearAlpha",
@@ -63,6 +68,8 @@ __all__ = [
     "Visits",
     "effect_classes",
     "from_dict",
+    "instrument_advice",
+    "is_instrument",
     "register",
 ]
 
@@ -226,7 +233,11 @@ def from_dict(d: Mapping[str, Any], *, rig: Rig | None = None) -> Effect:
     for f in dataclasses.fields(cls):
         if isinstance(kwargs.get(f.name), list):
             kwargs[f.name] = tuple(kwargs[f.name])
-    return cls(**kwargs)
+    try:
+        out = cls(**kwargs)
+    except TypeError as e:
+        raise InputError(f"effect {name}: {e}") from None
+    return out.check(rig) if isinstance(out, InstrumentEffect) else out
 
 
 def to_json(effects: Iterable[Effect]) -> str:
@@ -573,6 +584,239 @@ class SensorDrift(Effect):
     def families(cls, rig: Rig, visits: Visits) -> list[Family]:
         grid = [{"tau_min": float(t)} for t in TAU_GRID_MIN]
         return [_chip_family(cls.name, rig, c.name, grid, "um", "time") for c in rig.cameras]
+
+
+# --- instrument effects ---------------------------------------------------------------------------
+
+
+class Readings(Protocol):
+    """What an instrument effect corrects: the visits' temperatures and their times."""
+
+    @property
+    def run(self) -> npt.NDArray[np.str_]:
+        """Every visit's run name."""
+        ...
+
+    @property
+    def t_s(self) -> FloatArray:
+        """Every visit's time (s, one clock for every run)."""
+        ...
+
+    @property
+    def t_since_start(self) -> FloatArray:
+        """Every visit's time since its run began (s)."""
+        ...
+
+
+@dataclass(frozen=True)
+class InstrumentEffect(Effect):
+    """An error of the thermal camera's readings, not of the robot: the forward model is
+    right and the temperatures it is given are not. Each corrects the readings
+    (:meth:`corrected`) before the forward model sees them; the diagnoser names it as the
+    instrument to check, never as a property of the robot. Not SPEC §6 effects: the
+    simulator does not write them (the independent bench world does)."""
+
+    #: An instrument's effect (the report and the verdict say "check the thermography").
+    instrument: ClassVar[bool] = True
+    #: The largest plausible size of the effect's parameter (beyond it, the readings are not
+    #: miscalibrated but wrong: a ROI on the wrong link, a clock set to another zone).
+    bound: ClassVar[float] = np.inf
+    #: The key of the parameter :attr:`bound` applies to.
+    size_key: ClassVar[str] = ""
+
+    def corrected(
+        self, temps: Mapping[str, FloatArray], visits: Readings, reference_c: float
+    ) -> dict[str, FloatArray]:
+        """The readings as they would have been without this error."""
+        raise NotImplementedError
+
+    def check(self, rig: Rig | None = None) -> Effect:
+        """Validate the size (and, with ``rig``, the ROI it names)."""
+        size = float(getattr(self, self.size_key))
+        if not np.isfinite(size) or abs(size) > self.bound:
+            raise InputError(
+                f"effect {self.name}: {self.size_key} = {size} is beyond ±{self.bound:g}, more "
+                "than a miscalibrated instrument"
+            )
+        roi = getattr(self, "roi", None)
+        if rig is not None and roi is not None and roi not in [r.name for r in rig.rois]:
+            raise InputError(f"effect {self.name}: the rig has no ROI {roi!r}")
+        return self
+
+    @classmethod
+    def _unit_family(
+        cls,
+        label: str,
+        choices: dict[str, Any],
+        make: Callable[[float], InstrumentEffect],
+        unit: float,
+        visits: Visits,
+        transform: Callable[[float], float] | None = None,
+    ) -> Family:
+        """A family whose one column is the spots' move per unit α when the effect is ``unit``
+        large, its parameter the amplitude over α, mapped by ``transform`` (increasing) where
+        the correction is not linear in the parameter."""
+
+        def columns(vs: Visits, eta: dict[str, float]) -> FloatArray:
+            moved = vs.positions(effects=[make(unit)])
+            return ((moved - vs.positions()) / (unit * vs.alpha0))[:, None]
+
+        def params(
+            eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
+        ) -> tuple[dict[str, Any], dict[str, Any]]:
+            k, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
+            ci = _ci(k, sd)
+            if transform is not None:
+                k, ci = transform(k), [transform(ci[0]), transform(ci[1])]
+            return {**choices, cls.size_key: k}, {cls.size_key: ci}
+
+        return Family(cls.name, label, choices, [{}], columns, params, driver="instrument")
+
+
+def _room(temps: Mapping[str, FloatArray], n: int, reference_c: float) -> FloatArray:
+    amb = temps.get("ambient")
+    return amb if amb is not None else np.full(n, reference_c)
+
+
+@register
+@dataclass(frozen=True)
+class IrGain(InstrumentEffect):
+    """One ROI reads its rise above the room ``1 + gain`` times too large (an emissivity set
+    wrong for that surface): ``T_read − room = (1 + gain)·(T − room)``."""
+
+    name: ClassVar[str] = "ir_gain"
+    bound: ClassVar[float] = 0.5
+    size_key: ClassVar[str] = "gain"
+    roi: str = ""
+    gain: float = 0.0
+
+    def corrected(
+        self, temps: Mapping[str, FloatArray], visits: Readings, reference_c: float
+    ) -> dict[str, FloatArray]:
+        out = dict(temps)
+        t = temps[self.roi]
+        room = _room(temps, len(t), reference_c)
+        out[self.roi] = room + (t - room) / (1.0 + self.gain)
+        return out
+
+    @classmethod
+    def families(cls, rig: Rig, visits: Visits) -> list[Family]:
+        def make(r: str) -> Callable[[float], InstrumentEffect]:
+            return lambda g: IrGain(roi=r, gain=g)
+
+        unit = 0.01
+
+        def gain(x: float) -> float:
+            # The column moves the reading by −rise·u/(1 + u) per unit u; the fit's share x of
+            # it corrects by −rise·x·u/(1 + u)/u, and a gain g corrects by −rise·g/(1 + g).
+            c = x / (1.0 + unit)
+            return c / (1.0 - c) if c < 1.0 else np.inf
+
+        return [
+            cls._unit_family(f"ir_gain roi={r}", {"roi": r}, make(r), unit, visits, gain)
+            for r in rig.mapped_temperatures
+            if r != "ambient" and visits.has(r)
+        ]
+
+
+@register
+@dataclass(frozen=True)
+class IrDrift(InstrumentEffect):
+    """One ROI's reading drifts by ``k_per_h`` kelvin per hour since its run began (an
+    uncorrected offset drift of the camera)."""
+
+    name: ClassVar[str] = "ir_drift"
+    bound: ClassVar[float] = 2.0
+    size_key: ClassVar[str] = "k_per_h"
+    roi: str = ""
+    k_per_h: float = 0.0
+
+    def corrected(
+        self, temps: Mapping[str, FloatArray], visits: Readings, reference_c: float
+    ) -> dict[str, FloatArray]:
+        out = dict(temps)
+        out[self.roi] = temps[self.roi] - self.k_per_h * visits.t_since_start / 3600.0
+        return out
+
+    @classmethod
+    def families(cls, rig: Rig, visits: Visits) -> list[Family]:
+        def make(r: str) -> Callable[[float], InstrumentEffect]:
+            return lambda k: IrDrift(roi=r, k_per_h=k)
+
+        return [
+            cls._unit_family(f"ir_drift roi={r}", {"roi": r}, make(r), 0.1, visits)
+            for r in rig.mapped_temperatures
+            if r != "ambient" and visits.has(r)
+        ]
+
+
+@register
+@dataclass(frozen=True)
+class IrClock(InstrumentEffect):
+    """The thermal camera's frames are stamped ``s`` seconds late against the CCD cameras'
+    (its reading at t was taken at t − s): every ROI's reading belongs ``s`` earlier."""
+
+    name: ClassVar[str] = "ir_clock"
+    bound: ClassVar[float] = 600.0
+    size_key: ClassVar[str] = "s"
+    s: float = 0.0
+
+    def corrected(
+        self, temps: Mapping[str, FloatArray], visits: Readings, reference_c: float
+    ) -> dict[str, FloatArray]:
+        out = dict(temps)
+        for name, t in temps.items():
+            if name == "ambient":
+                continue
+            fixed = t.copy()
+            for r in np.unique(visits.run):
+                m = np.flatnonzero(visits.run == r)
+                order = m[np.argsort(visits.t_s[m], kind="stable")]
+                ts = visits.t_s[order]
+                fixed[order] = np.interp(ts + self.s, ts, t[order])
+            out[name] = fixed
+        return out
+
+    @classmethod
+    def families(cls, rig: Rig, visits: Visits) -> list[Family]:
+        rois = [r for r in rig.mapped_temperatures if r != "ambient" and visits.has(r)]
+        if not rois:
+            return []
+        return [cls._unit_family("ir_clock", {}, lambda x: IrClock(s=x), 10.0, visits)]
+
+
+def instrument_advice(name: str, params: Mapping[str, Any]) -> str:
+    """What to check on the instrument an instrument effect names, in one clause."""
+    if name == "ir_gain":
+        g = float(params["gain"])
+        return (
+            f"check the emissivity of {params['roi']}: its reading of the rise above the room is "
+            f"{abs(g):.1%} {'high' if g > 0 else 'low'} — an instrument error, not the robot's"
+        )
+    if name == "ir_drift":
+        return (
+            f"check the thermal camera's offset on {params['roi']}: its reading drifts "
+            f"{float(params['k_per_h']):+.2f} K per hour of the run — an instrument error, not "
+            "the robot's"
+        )
+    if name == "ir_clock":
+        x = float(params["s"])
+        return (
+            f"check the thermal camera's clock: its frames are stamped {abs(x):.0f} s "
+            f"{'late' if x > 0 else 'early'} against the CCD cameras' — an instrument error, "
+            "not the robot's"
+        )
+    return ""
+
+
+#: The instrument effects' names (the thermal camera's, not the robot's).
+INSTRUMENT_EFFECTS: tuple[str, ...] = ("ir_gain", "ir_drift", "ir_clock")
+
+
+def is_instrument(name: str) -> bool:
+    """Whether ``name`` is an instrument's effect (module :class:`InstrumentEffect`)."""
+    cls = _REGISTRY.get(name)
+    return cls is not None and bool(getattr(cls, "instrument", False))
 
 
 def effects_from(

@@ -154,6 +154,17 @@ class VisitSet:
         hit = self._cache.get(key)
         if hit is not None:
             return hit
+        instruments = [e for e in effects if getattr(e, "instrument", False)]
+        if instruments:
+            # An instrument's error is in the readings: the model sees them corrected.
+            temps = dict(self.temps)
+            for e in instruments:
+                temps = e.corrected(temps, self, self.rig.reference_c)  # type: ignore[attr-defined]
+            rest = [e for e in effects if not getattr(e, "instrument", False)]
+            got = self.replaced(temps=temps).positions(effects=rest, alpha_per_k=alpha)
+            if len(self._cache) < 256:
+                self._cache[key] = got
+            return got
         # The native model straight from the effects' SPEC §6 dicts: it checks them against
         # the rig as :class:`thermrs.model.ForwardModel` does, without a second round trip.
         native = _native.ForwardModel(

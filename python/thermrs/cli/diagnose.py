@@ -35,10 +35,10 @@ def _f(x: Any, digits: int = 2) -> str:
     return str(x)
 
 
-def _params(p: dict[str, Any]) -> str:
+def _params(p: dict[str, Any], ci: dict[str, Any] | None = None) -> str:
     from thermrs.diagnose.verdict import format_params
 
-    return format_params(p)
+    return format_params(p, ci)
 
 
 def render_diagnosis(doc: dict[str, Any]) -> None:
@@ -157,7 +157,14 @@ def _say_verdict(doc: dict[str, Any]) -> None:
     hf = doc["how_far"]
     out.print(f"[bold]Verdict: {v['status']}[/bold] — {v['reason']}")
     if v["effect"]:
-        out.print(f"  {v['effect']}: {_params(v['params'])}")
+        out.print(f"  {v['effect']}: {_params(v['params'], v.get('params_ci95'))} (95 % intervals)")
+        a, aci = v.get("alpha_per_k"), v.get("alpha_ci95")
+        if a is not None and aci:
+            out.print(
+                f"  α with it: {a * 1e6:.3f}×10⁻⁶/K [{aci[0] * 1e6:.3f}, {aci[1] * 1e6:.3f}] "
+                "(the joint fit, the rig's tolerances counted; the baseline's interval is the "
+                "nominal model's)"
+            )
     from thermrs.numbers import gap_closed
 
     gap = hf.get("gap_closed_raw", hf["gap_closed"])  # uncapped: the display says why it caps
@@ -502,13 +509,19 @@ def render_bench(doc: dict[str, Any]) -> None:
                     t.add_row(world, b, str(n["cases"]), *[str(n.get(c, 0)) for c in cols])
         out.print(t)
     t = Table(title="No effect (rows: nuisance world, the gap its own nuisances leave ÷ σ)")
-    for c in ("world", "nuisance", "cases", "none", "false attribution", "false gap"):
+    for c in ("world", "nuisance", "cases", "none", "instrument named", "false attribution",
+              "false gap"):  # fmt: skip
         t.add_column(c, justify="left" if c in ("world", "nuisance") else "right")
     for world, n in doc["none"].items():
         parts = (doc.get("none_by_nuisance") or {}).get(world) or {"all": n}
         for label, m in parts.items():
             if m["cases"]:
-                counts = [m["cases"], m.get("right", 0), m.get("false attribution", 0)]
+                counts = [
+                    m["cases"],
+                    m.get("right", 0),
+                    m.get("instrument named", 0),
+                    m.get("false attribution", 0),
+                ]
                 t.add_row(world, label, *map(str, counts), str(m.get("false gap", 0)))
     out.print(t)
     for world, m in (doc.get("must_reach") or {}).items():

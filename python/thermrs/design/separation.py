@@ -29,7 +29,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg
 
-from thermrs.effects import Effect, Family, effect_classes, from_dict
+from thermrs.effects import Effect, Family, effect_classes, from_dict, is_instrument
 from thermrs.errors import InputError, ThermrsError
 from thermrs.rig import Rig
 from thermrs.signatures import VisitSet
@@ -77,6 +77,12 @@ def rivals_from(diagnosis: Mapping[str, Any], names: Sequence[str], rig: Rig) ->
     for name in names:
         if name not in known:
             raise InputError(f"--between {name!r}: not an effect (known: {', '.join(known)})")
+        if is_instrument(name):
+            raise InputError(
+                f"{name} is the thermal camera's error, not the robot's: no pose or run of the "
+                "robot separates it; check the instrument (its emissivity, offset or clock) "
+                "and diagnose again, or exclude it (--exclude)"
+            )
         rows = [r for r in diagnosis.get("ranking", []) if r.get("effect") == name]
         if not rows:
             raise InputError(

@@ -17,6 +17,7 @@ from thermrs.diagnose.engine import Fit
 from thermrs.diagnose.floor import NoiseFloor
 from thermrs.diagnose.selection import Step
 from thermrs.diagnose.verdict import summary
+from thermrs.effects import instrument_advice, is_instrument
 from thermrs.signatures import VisitSet
 
 __all__ = ["Diagnosis", "assemble"]
@@ -354,6 +355,13 @@ def assemble(
         "effect's time constant or choice profiled again)"
     )
     first = selected[0] if selected else None
+    advice = [
+        instrument_advice(sel["effect"], sel["params"])
+        for sel in selected
+        if is_instrument(sel["effect"])
+    ]
+    if advice and status != "none":
+        reason = f"{reason}; {'; '.join(advice)}"
     verdict_doc = {
         # SPEC §7's four statuses; a partial explanation is `unexplained` there (what is left
         # is still a gap) and says so in `outcome` and `partially_explained`.
@@ -366,6 +374,8 @@ def assemble(
         if first is None or status in ("unexplained", "partially explained")
         else first["effect"],
         "effects": [s["effect"] for s in selected],
+        # Those of them that are the thermal camera's errors, not the robot's.
+        "instruments": [s["effect"] for s in selected if is_instrument(s["effect"])],
         # SPEC §7: no parameters without their effect (a partial explanation's are in
         # `selected`).
         "params": {} if first is None or status == "partially explained" else first["params"],

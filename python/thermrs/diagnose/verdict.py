@@ -58,11 +58,16 @@ def english_list(items: Sequence[str], *, conj: str = "and") -> str:
     return f"{', '.join(items[:-1])} {conj} {items[-1]}"
 
 
-def format_params(p: dict[str, Any]) -> str:
-    """An effect's parameters as one short text."""
+def format_params(p: dict[str, Any], ci: dict[str, Any] | None = None) -> str:
+    """An effect's parameters as one short text, each scalar with its 95 % interval where
+    ``ci`` (``params_ci95``) gives one."""
     parts = []
+    ci = ci or {}
     for k, v in p.items():
-        if isinstance(v, float):
+        c = ci.get(k)
+        if isinstance(v, float) and isinstance(c, list | tuple) and len(c) == 2:
+            parts.append(f"{k} = {v:.4g} [{float(c[0]):.4g}, {float(c[1]):.4g}]")
+        elif isinstance(v, float):
             parts.append(f"{k} = {v:.4g}")
         elif isinstance(v, list):
             parts.append(f"{k} = [{', '.join(f'{x:.3g}' for x in v)}]")

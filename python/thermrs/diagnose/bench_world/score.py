@@ -10,7 +10,9 @@
   left is still a gap and that the effects named may stand in for one outside the library:
   ``stand-in``, honest. ``unexplained`` is honest; ``none`` is a failure (where the SNR ≥ 1).
 - **No effect**: ``none`` is right; ``identified``/``ambiguous``/``partially explained`` is a
-  false attribution; ``unexplained`` a false gap. The total rate of anything but ``none`` is
+  false attribution, unless every effect named is the thermal camera's (``ir_gain``,
+  ``ir_drift``, ``ir_clock``: ``instrument named``, the world's own instrument errors found);
+  ``unexplained`` a false gap. The total rate of anything but ``none`` is
   reported beside them.
 - **Two effects**: right only if the verdict names both (by name, among its effect, confounded
   set or selected effects); ``false none``: ``none``; anything else is wrong (one of them
@@ -35,6 +37,8 @@ import numpy as np
 __all__ = ["outcome", "score", "strict_outcome"]
 
 NAMING = ("identified", "ambiguous", "partially explained")
+#: The instrument effects' names (the diagnoser's library; the world draws such errors).
+INSTRUMENTS = frozenset(("ir_gain", "ir_drift", "ir_clock"))
 
 
 def outcome(row: dict[str, Any]) -> str:
@@ -45,7 +49,11 @@ def outcome(row: dict[str, Any]) -> str:
     if row["kind"] == "none":
         if status == "none":
             return "right"
-        return "false gap" if status == "unexplained" else "false attribution"
+        if status == "unexplained":
+            return "false gap"
+        # The world's own instrument errors (its IR gains, drifts and clock, drawn at a
+        # multiple of the rig's tolerances) named as the instrument's: not the robot blamed.
+        return "instrument named" if named and named <= INSTRUMENTS else "false attribution"
     if status == "none":
         return "false none"
     if row["kind"] == "pair":
@@ -179,7 +187,10 @@ def _must_reach(done: list[dict[str, Any]]) -> dict[str, Any]:
             "not_none_on_none": _rate(
                 [r for r in here if r["kind"] == "none"],
                 "outcome",
-                ("false attribution", "false gap"),
+                ("false attribution", "false gap", "instrument named"),
+            ),
+            "instrument_named_on_none": _rate(
+                [r for r in here if r["kind"] == "none"], "outcome", ("instrument named",)
             ),
             "false_attribution_on_none_nuisance_lt_0.25": _rate(
                 [r for r in here if r["kind"] == "none" and r.get("nuisance_snr", 0.0) < 0.25],

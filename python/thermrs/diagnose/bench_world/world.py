@@ -54,7 +54,16 @@ from thermrs.diagnose.bench_world.truth import Truth
 
 FloatArray = npt.NDArray[np.float64]
 
-__all__ = ["RUNS", "TOLERANCE_KEYS", "WORLDS", "Campaign", "Scene", "draw_scene", "render"]
+__all__ = [
+    "RUNS",
+    "TOLERANCE_KEYS",
+    "WORLDS",
+    "Campaign",
+    "Scene",
+    "draw_scene",
+    "measured_slopes",
+    "render",
+]
 
 #: The rig file's ``[tolerances]`` keys the world draws its nuisances from (module docs).
 TOLERANCE_KEYS = (
@@ -428,4 +437,30 @@ def nominal_prediction(scene: Scene, tables: list[pl.DataFrame]) -> list[FloatAr
             uv = laser_spots(rig, cam, q, a, d, laser)
             parts += [uv[:, 0], uv[:, 1]]
         out.append(np.concatenate(parts))
+    return out
+
+
+def measured_slopes(
+    scene: Scene, alpha_per_k: float, step_k: float = 20.0
+) -> dict[tuple[str, str], FloatArray]:
+    """Per (chip, link): the world's chip slope (u, v, µm) per *measured* kelvin of that
+    link, at the true rig, by the world's own kinematics: the link's lengths expanded by
+    α·ΔT_true, where the IR camera reads ΔT_measured = gain·ΔT_true (what a compensation law
+    applied to measured temperatures must use)."""
+    true = scene.true
+    out: dict[tuple[str, str], FloatArray] = {}
+    for chip in true.chips:
+        q = true.taught_rad(chip.name)[None, :]
+        base = laser_spots(true, chip.name, q)[0]
+        for link in true.rois:
+            a = true.a_mm.copy()[None, :]
+            d = true.d_mm.copy()[None, :]
+            for name, temp in true.expansion.items():
+                if temp != link:
+                    continue
+                kind, i = length_index(name)
+                arr = a if kind == "a" else d
+                arr[0, i] = arr[0, i] * (1.0 + alpha_per_k * step_k / scene.ir_gain[link])
+            moved = laser_spots(true, chip.name, q, a_mm=a, d_mm=d)[0]
+            out[(chip.name, link)] = np.asarray((moved - base) / step_k, dtype=np.float64)
     return out
