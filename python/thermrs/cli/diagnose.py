@@ -374,7 +374,7 @@ def render_folds(folds: list[DiagnosisFold], rule: str) -> None:
     "--hours",
     default=12.0,
     show_default=True,
-    type=click.FloatRange(1.0, 48.0),
+    type=click.FloatRange(1.0, 72.0),
     help="Length of each of the three runs.",
 )
 @click.option(
