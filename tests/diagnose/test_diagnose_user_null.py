@@ -49,8 +49,8 @@ def test_effect_free_rigs_within_their_tolerances_are_none(
             # and what the runs could have found, per effect, in µm of drift.
             reason = d["verdict"]["reason"]
             assert reason.startswith("no effect takes more than ")
-            assert "the default tolerances" in reason
-            assert d["tests"]["tolerances_stated"] is False
+            assert "the rig's stated tolerances" in reason
+            assert d["tests"]["tolerances_stated"] is True
             sizes = d["tests"]["detectable_rms_um_80"]
             assert {"thermal_lag", "joint_offset", "sensor_drift"} <= set(sizes)
             for got in sizes.values():
@@ -100,8 +100,9 @@ def test_the_null_draws_the_rig_tolerances_the_file_states() -> None:
     # A rig that claims to be exact (all tolerances 0) has no tolerance signatures; the
     # default rig has the geometry's and the IR camera's.
     path = thermrs.default_rig_path()
+    text = path.read_text(encoding="utf-8")
     exact = thermrs.Rig.from_toml(
-        path.read_text(encoding="utf-8")
+        text[: text.index("\n[tolerances]")]
         + "\n[tolerances]\n"
         + "\n".join(f"{k} = 0.0" for k in thermrs.load_rig().tolerances),
         source_name="exact rig",
@@ -149,19 +150,29 @@ def test_a_withheld_effect_is_not_stated_as_found() -> None:
         assert "outside the library" in v["reason"]
 
 
+@pytest.mark.slow
 def test_two_effects_are_both_named_with_the_choices_the_data_cannot_reject() -> None:
     """A joint zero drifting with a link's temperature and a chip drifting on its own, each
-    at SNR 2 under AR(1) pose errors: both effects are named, and the true joint and
-    temperature are the one named or among the alternatives the data cannot reject."""
+    at SNR 2 under AR(1) pose errors, on five worlds: both effects named in most (at a 90 %
+    rate, three or more of five fail to be named with probability under 1 %), and where the
+    joint offset is named, the true joint and temperature are the one named or among the
+    alternatives the data cannot reject — each alternative tested at 5 %, two or more
+    exclusions of the truth in five have probability about 2 %."""
     rig = thermrs.load_rig()
     path = str(thermrs.default_rig_path())
-    tables, injected, _ = make_case(
-        path, ("joint_offset", "sensor_drift"), 2.0, world="ar1", seed=5202, campaign=LONG
-    )
-    d = diagnose(tables[:1], tables[1:], rig, bootstrap=0, seed=5202)
-    named = {s["effect"] for s in d.selected}
-    assert {"joint_offset", "sensor_drift"} <= named, d.summary
-    truth = next(t for t in injected if t["name"] == "joint_offset")
-    sel = next(s for s in d.selected if s["effect"] == "joint_offset")
-    label = f"joint_offset joint={truth['joint']} temperature={truth['temperature']}"
-    assert label in [sel["family"], *sel["alternatives"]], d.summary
+    both, excluded, summaries = 0, 0, []
+    for seed in (5202, 5203, 5204, 5205, 5206):
+        tables, injected, _ = make_case(
+            path, ("joint_offset", "sensor_drift"), 2.0, world="ar1", seed=seed, campaign=LONG
+        )
+        d = diagnose(tables[:1], tables[1:], rig, bootstrap=0, seed=seed)
+        summaries.append(d.summary)
+        named = {s["effect"] for s in d.selected}
+        both += {"joint_offset", "sensor_drift"} <= named
+        truth = next(t for t in injected if t["name"] == "joint_offset")
+        sel = next((s for s in d.selected if s["effect"] == "joint_offset"), None)
+        if sel is not None:
+            label = f"joint_offset joint={truth['joint']} temperature={truth['temperature']}"
+            excluded += label not in [sel["family"], *sel["alternatives"]]
+    assert both >= 3, summaries
+    assert excluded <= 1, summaries

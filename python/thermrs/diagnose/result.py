@@ -360,6 +360,17 @@ def assemble(
         for sel in selected
         if is_instrument(sel["effect"])
     ]
+    if status == "ambiguous":
+        # An instrument among the confounded effects is the first thing to check: it costs an
+        # afternoon with a contact probe, not a designed run of the robot.
+        for name in rivals:
+            row = next((r for r in ranking if r["effect"] == name), None)
+            if is_instrument(name) and row is not None:
+                advice.append(
+                    "the thermal camera's error explains it as well — "
+                    + instrument_advice(name, row["params"])
+                    + "; check it before designing a run of the robot"
+                )
     if advice and status != "none":
         reason = f"{reason}; {'; '.join(advice)}"
     verdict_doc = {

@@ -58,6 +58,8 @@ class WorldRig:
     alpha_per_k: float
     reference_c: float
     expansion: dict[str, str]
+    #: The rig file it was read from.
+    source: str = ""
 
     def chip(self, name: str) -> Chip:
         """The chip called ``name``."""
@@ -129,6 +131,7 @@ def read_rig(path: str | Path) -> WorldRig:
         alpha_per_k=float(exp["alpha_per_k"]),
         reference_c=float(exp["reference_c"]),
         expansion={str(m["name"]): str(m["temperature"]) for m in lengths},
+        source=str(path),
     )
 
 

@@ -148,14 +148,19 @@ def draw_scene(
     world: str,
     seed: int,
     *,
-    tolerances: Mapping[str, float],
+    tolerances: Mapping[str, float] | None = None,
     scale: float = 1.0,
 ) -> Scene:
     """The world of one case (module docs): the rig and the IR camera drawn from normal
     distributions at ``scale`` times the rig's stated ``tolerances`` (standard uncertainties,
-    the keys of a rig file's ``[tolerances]``)."""
+    the keys of a rig file's ``[tolerances]``; default: those of the rig file ``nominal`` was
+    read from, its defaults where it states none)."""
     if world not in WORLDS:
         raise ValueError(f"world {world!r}: known {', '.join(WORLDS)}")
+    if tolerances is None:
+        from thermrs.rig import load_rig
+
+        tolerances = load_rig(nominal.source).tolerances
     rng = np.random.default_rng([seed, WORLDS.index(world)])
     tol = {k: scale * float(tolerances[k]) for k in TOLERANCE_KEYS}
     true = perturbed(
