@@ -1,0 +1,64 @@
+"""The baselines' table (``thermrs diagnose --baselines``): the physical models and each
+regression side by side on the held-out runs (:mod:`thermrs.analyses.baselines`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rich.table import Table
+
+from thermrs.cli.common import out
+
+
+def render_baselines(doc: dict[str, Any]) -> None:
+    """Print ``BaselineComparison.to_json()`` as a table, then what it says."""
+    comp = doc["baselines_comparison"]
+    rows = [comp["nominal"], *([comp["diagnosed"]] if comp["diagnosed"] else []), *doc["baselines"]]
+    runs = [r["run"] for r in rows[0]["per_run"]]
+    t = Table(title="Baselines: the physical models and regressions on the same held-out runs")
+    for c in ("model", "what", "params", "held-out rms µm [95 %]", *runs):
+        t.add_column(c, overflow="fold")
+    if comp["diagnosed"]:
+        t.add_column("− diagnosed µm [95 %]")
+    for r in rows:
+        lo, hi = r["holdout_rms_ci95"]
+        cells = [
+            r["name"],
+            r["description"],
+            str(r["n_params"]),
+            f"{r['holdout_rms_um']:.2f} [{lo:.2f}, {hi:.2f}]",
+            *(f"{p['rms_um']:.2f}" for p in r["per_run"]),
+        ]
+        if comp["diagnosed"]:
+            d = r["minus_diagnosed_ci95"]
+            cells.append("—" if r["name"] == "diagnosed" else f"[{d[0]:+.2f}, {d[1]:+.2f}]")
+        t.add_row(*cells)
+    out.print(t)
+    fl = comp["noise_floor_um"]
+    ci = comp["noise_floor_ci95"]
+    out.print(
+        f"Noise floor of the held-out runs: {fl:.2f} µm"
+        + (f" [{ci[0]:.2f}, {ci[1]:.2f}]" if ci else "")
+        + f". Penalties cross-validated {comp['cv'] or '—'}."
+    )
+    if comp["diagnosed"]:
+        out.print(_verdict(comp["diagnosed"], doc["baselines"]))
+
+
+def _verdict(diag: dict[str, Any], regs: list[dict[str, Any]]) -> str:
+    """Which regressions the diagnosed model beats, and which beat it (95 % intervals of the
+    difference on the same draws)."""
+    ahead = [r["name"] for r in regs if r["minus_diagnosed_ci95"][0] > 0]
+    behind = [r["name"] for r in regs if r["minus_diagnosed_ci95"][1] < 0]
+    same = [r["name"] for r in regs if r["name"] not in ahead and r["name"] not in behind]
+    parts = []
+    if ahead:
+        parts.append(f"the diagnosed model is ahead of {', '.join(ahead)}")
+    if behind:
+        parts.append(
+            f"{', '.join(behind)} {'is' if len(behind) == 1 else 'are'} ahead of the diagnosed "
+            "model (the drift holds something its library does not)"
+        )
+    if same:
+        parts.append(f"{', '.join(same)} cannot be told from it on these runs")
+    return "On these held-out runs " + "; ".join(parts) + "."
