@@ -145,7 +145,7 @@ def test_cross_validation_never_splits_a_run() -> None:
     # A single run: contiguous blocks of time, never single visits.
     one = np.array(["r1"] * 50)
     folds, how = cv_folds(one, t[:50])
-    assert len(folds) == 5 and "contiguous" in how
+    assert len(folds) == 5 and "contiguous blocks" in how
     order = np.argsort(t[:50])
     rank = np.empty(50, dtype=int)
     rank[order] = np.arange(50)

@@ -59,6 +59,7 @@ __all__ = [
     "features",
     "fit_baseline",
     "lowpass",
+    "said",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -248,8 +249,8 @@ def cv_folds(
         blocks[order] = np.arange(len(t)) * SINGLE_RUN_BLOCKS // max(len(t), 1)
         groups = blocks.astype(str)
         how = (
-            f"one training run: {SINGLE_RUN_BLOCKS} contiguous blocks of it, each left out in "
-            "turn (never single visits)"
+            f"by contiguous blocks of the one training run: {SINGLE_RUN_BLOCKS} blocks of "
+            "time, each left out in turn (never single visits)"
         )
     x = np.zeros((len(r), 1))
     folds = [
@@ -481,6 +482,11 @@ class BaselineComparison:
         The regressors of the temperature and of the low-pass models.
     fitted
         The fitted baselines (for predicting other runs).
+    series
+        Every visit's drift and each model's prediction of it, both centred per (run,
+        camera, axis) as the score centres them: ``run``, ``role`` (``train``/``holdout``),
+        ``camera``, ``axis``, ``t_h`` (hours since the run began), ``measured_um``, and a
+        ``<model>_um`` column per model (``nominal``, ``diagnosed``, the baselines).
     """
 
     baselines: list[ModelScore]
@@ -491,6 +497,7 @@ class BaselineComparison:
     cv: str | None
     features: dict[str, list[str]]
     fitted: list[FittedBaseline] = field(repr=False, default_factory=list)
+    series: pl.DataFrame = field(repr=False, default_factory=pl.DataFrame)
 
     def to_json(self) -> dict[str, Any]:
         """``{"baselines": [...], "baselines_comparison": {...}}``: the keys
@@ -523,6 +530,29 @@ class BaselineComparison:
                 "counted",
             },
         }
+
+
+def said(doc: dict[str, Any]) -> str:
+    """Which regressions the diagnosed model is ahead of, which are ahead of it, and which the
+    held-out runs cannot tell from it (the 95 % interval of the difference on the same draws),
+    in one sentence, from :meth:`BaselineComparison.to_json`."""
+    regs = doc["baselines"]
+    if doc["baselines_comparison"]["diagnosed"] is None:
+        return "No diagnosed model to compare with."
+    ahead = [r["name"] for r in regs if r["minus_diagnosed_ci95"][0] > 0]
+    behind = [r["name"] for r in regs if r["minus_diagnosed_ci95"][1] < 0]
+    same = [r["name"] for r in regs if r["name"] not in ahead and r["name"] not in behind]
+    parts = []
+    if ahead:
+        parts.append(f"the diagnosed physical model is ahead of {', '.join(ahead)}")
+    if behind:
+        parts.append(
+            f"{', '.join(behind)} {'is' if len(behind) == 1 else 'are'} ahead of the diagnosed "
+            "model (the drift holds something its effect library does not)"
+        )
+    if same:
+        parts.append(f"{', '.join(same)} cannot be told from it on these runs")
+    return "On these held-out runs " + "; ".join(parts) + " (95 % intervals of the difference)."
 
 
 def _centred(
@@ -745,7 +775,28 @@ def compare_baselines(
             "lowpass": feats.names("lowpass_ols"),
         },
         fitted=fitted,
+        series=_series(feats, resids, is_train),
     )
+
+
+def _series(
+    feats: Features, resids: dict[str, FloatArray], is_train: npt.NDArray[np.bool_]
+) -> pl.DataFrame:
+    """The drift and each model's prediction per visit and axis (:class:`BaselineComparison`)."""
+    vs = feats.visits
+    measured = _centred(feats.drift, vs)
+    cols: dict[str, Any] = {
+        "run": np.concatenate([vs.run, vs.run]),
+        "role": np.tile(np.where(is_train, "train", "holdout"), 2),
+        "camera": np.concatenate([vs.camera, vs.camera]),
+        "axis": np.repeat(["u", "v"], vs.n),
+        "t_h": np.tile(vs.t_since_start / 3600.0, 2),
+        "measured_um": np.concatenate([measured[:, 0], measured[:, 1]]),
+    }
+    for k, r in resids.items():
+        pred = measured - r
+        cols[f"{k}_um"] = np.concatenate([pred[:, 0], pred[:, 1]])
+    return pl.DataFrame(cols)
 
 
 def _diagnosed_residual(diagnosis: Any, vs: Any) -> FloatArray:

@@ -42,23 +42,6 @@ def render_baselines(doc: dict[str, Any]) -> None:
         + f". Penalties cross-validated {comp['cv'] or '—'}."
     )
     if comp["diagnosed"]:
-        out.print(_verdict(comp["diagnosed"], doc["baselines"]))
+        from thermrs.analyses.baselines import said
 
-
-def _verdict(diag: dict[str, Any], regs: list[dict[str, Any]]) -> str:
-    """Which regressions the diagnosed model beats, and which beat it (95 % intervals of the
-    difference on the same draws)."""
-    ahead = [r["name"] for r in regs if r["minus_diagnosed_ci95"][0] > 0]
-    behind = [r["name"] for r in regs if r["minus_diagnosed_ci95"][1] < 0]
-    same = [r["name"] for r in regs if r["name"] not in ahead and r["name"] not in behind]
-    parts = []
-    if ahead:
-        parts.append(f"the diagnosed model is ahead of {', '.join(ahead)}")
-    if behind:
-        parts.append(
-            f"{', '.join(behind)} {'is' if len(behind) == 1 else 'are'} ahead of the diagnosed "
-            "model (the drift holds something its library does not)"
-        )
-    if same:
-        parts.append(f"{', '.join(same)} cannot be told from it on these runs")
-    return "On these held-out runs " + "; ".join(parts) + "."
+        out.print(said(doc))
