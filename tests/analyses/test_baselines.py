@@ -248,3 +248,15 @@ def test_diagnose_baselines_json_on_a_simulated_recording(tmp_path: Path) -> Non
     assert "Baselines" in p.stdout and "lowpass_lasso" in p.stdout
     # With a rule that is not --train/--holdout, refused in one line.
     bad(cli("diagnose", "--rig", rig, "--paper", "--baselines"), "--baselines")
+    # The report's subsection shows the command's numbers (the diagnosis passed on, so that
+    # both are of one diagnosis), with its figure.
+    html = tmp_path / "rep.html"
+    ok(cli("report", "--rig", rig, "--run", str(rec), "--train", f"{rec}#s30", "--diagnosis",
+           str(out), "--baselines", "-o", str(html), "--quiet"))  # fmt: skip
+    md = (tmp_path / "rep.md").read_text()
+    assert "### Beside regressions on the temperatures" in md
+    assert (tmp_path / "rep_files" / "baselines.svg").exists()
+    for b in [comp["nominal"], comp["diagnosed"], *doc["baselines"]]:
+        lo, hi = b["holdout_rms_ci95"]
+        cell = f"{b['holdout_rms_um']:.2f} [{lo:.2f}, {hi:.2f}]"
+        assert any(ln.startswith(f"| {b['name']} |") and cell in ln for ln in md.splitlines())
