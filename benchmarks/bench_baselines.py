@@ -17,7 +17,7 @@ the diagnosed model and each baseline is printed per held-out run, then the medi
 model's rms over the diagnosed model's per kind of held-out run.
 
     python benchmarks/bench_baselines.py [--effects thermal_lag joint_offset ...] \\
-        [--snr 1 2] [--seeds 1] [--first-seed 4900] [--hours 12] [--json OUT.json]
+        [--snr 1 2] [--seeds 1] [--first-seed 4900] [--hours 12] [--withheld] [--json OUT.json]
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import replace
 from typing import Any
 from unittest import mock
 
@@ -57,7 +58,9 @@ EFFECTS = (
 )
 
 
-def one_case(rig: Any, effect: str, snr: float, seed: int, campaign: Campaign) -> dict[str, Any]:
+def one_case(
+    rig: Any, effect: str, snr: float, seed: int, campaign: Campaign, *, withheld: bool = False
+) -> dict[str, Any]:
     wrig = read_rig(rig.source)
     scene = draw_scene(wrig, campaign, "white", seed)
     truths, reached, _ = case_truths(wrig, scene, (effect,), snr, seed)
@@ -77,7 +80,16 @@ def one_case(rig: Any, effect: str, snr: float, seed: int, campaign: Campaign) -
     for tables, hold in ((interp, interp[1:2]), (ext, ext[1:])):
         d = diagnose(tables[:1], hold, rig, seed=seed)
         c = compare_baselines(tables[:1], hold, rig, diagnosis=d, seed=seed, draws=499)
-        for m in [c.nominal, c.diagnosed, *c.baselines]:
+        scored = [c.nominal, c.diagnosed, *c.baselines]
+        if withheld:
+            # The effect withheld from the library: the physical model as the diagnoser makes
+            # it without the truth (what a baseline competes with when the effect is outside
+            # the library).
+            dx = diagnose(tables[:1], hold, rig, seed=seed, exclude=[effect])
+            cx = compare_baselines(tables[:1], hold, rig, diagnosis=dx, seed=seed, models=())
+            assert cx.diagnosed is not None
+            scored.append(replace(cx.diagnosed, name="withheld"))
+        for m in scored:
             assert m is not None
             for pr in m.per_run:
                 row = out["runs"].setdefault(
@@ -100,10 +112,15 @@ def main() -> None:
     ap.add_argument("--first-seed", type=int, default=4900)
     ap.add_argument("--hours", type=float, default=12.0)
     ap.add_argument("--json", default=None)
+    ap.add_argument(
+        "--withheld",
+        action="store_true",
+        help="Also diagnose with the true effect excluded from the library (column withheld).",
+    )
     args = ap.parse_args()
     rig = thermrs.load_rig()
     campaign = Campaign(hours=args.hours, cycle_s=600.0, sigma_um=2.0)
-    cols = ["nominal", "diagnosed", *MODELS]
+    cols = ["nominal", "diagnosed", *(["withheld"] if args.withheld else []), *MODELS]
     print(
         f"{'effect':17s} {'SNR':>4s} {'seed':>5s} {'held-out run':12s} {'verdict':19s}"
         + "".join(f"{c[:13]:>14s}" for c in cols),
@@ -115,7 +132,7 @@ def main() -> None:
         for snr in args.snr:
             for s in range(args.seeds):
                 seed = args.first_seed + s
-                c = one_case(rig, effect, snr, seed, campaign)
+                c = one_case(rig, effect, snr, seed, campaign, withheld=args.withheld)
                 cases.append(c)
                 for run, row in c["runs"].items():
                     print(

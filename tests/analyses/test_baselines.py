@@ -260,3 +260,74 @@ def test_diagnose_baselines_json_on_a_simulated_recording(tmp_path: Path) -> Non
         lo, hi = b["holdout_rms_ci95"]
         cell = f"{b['holdout_rms_um']:.2f} [{lo:.2f}, {hi:.2f}]"
         assert any(ln.startswith(f"| {b['name']} |") and cell in ln for ln in md.splitlines())
+    # The best linear regression exported as a law, applied to the held-out run it was scored
+    # on: it leaves what the comparison said.
+    linear = [b for b in doc["baselines"] if b["name"] != "gbt"]
+    best = min(linear, key=lambda b: b["holdout_rms_um"])
+    assert comp["law"]["model"] == best["name"]
+    law = tmp_path / "law.csv"
+    p = ok(cli("compensate", "--rig", rig, "--diagnosis", str(out), "--model", "baseline",
+               "-o", str(law), "--check", f"{rec}#s75"))  # fmt: skip
+    t = pl.read_csv(law)
+    assert t.height == 4 and set(t["model"]) == {best["name"]}
+    assert f"Check on r#s75: {best['holdout_rms_um']:.2f} µm rms compensated." in p.stdout
+    plain = tmp_path / "plain.json"
+    plain.write_text(json.dumps({k: v for k, v in doc.items() if not k.startswith("baselines")}))
+    bad(cli("compensate", "--rig", rig, "--diagnosis", str(plain), "--model", "baseline",
+            "-o", str(tmp_path / "law2.csv")), "no baselines")  # fmt: skip
+
+
+def test_the_exported_law_is_least_squares_with_intervals_that_hold_the_truth() -> None:
+    from thermrs.analyses.baselines import BaselineLaw
+
+    rng = np.random.default_rng(11)
+    train = [_run("a", speed=0.3, day=0, noise_um=0.5, rng=rng),
+             _run("b", speed=0.75, day=1, noise_um=0.5, rng=rng)]  # fmt: skip
+    hold = [_run("c", speed=0.5, day=2, noise_um=0.5, rng=rng)]
+    c = compare_baselines(train, hold, RIG, models=("ols", "lowpass_ridge"), draws=99,
+                          smooth=False)  # fmt: skip
+    doc = c.to_json()
+    law = BaselineLaw.from_diagnosis(doc)
+    assert law.model == "ols"  # the truth is linear in the temperatures
+    covered = 0
+    for row in law.doc["rows"]:
+        cam, ax = row["camera"], row["axis"]
+        # numpy's least squares on the same differences from the first visit, independently.
+        xs, ys = [], []
+        for t in train:
+            p = t.filter(pl.col("camera") == cam).sort("t_ns")
+            x = np.column_stack([p[f"{k}_c"].to_numpy() for k in sorted(TEMPS)])
+            y = p[f"{ax}_um"].to_numpy()
+            xs.append(x - x[0])
+            ys.append(y - y[0])
+        a = np.column_stack([np.ones(sum(len(v) for v in xs)), np.vstack(xs)])
+        coef, *_ = np.linalg.lstsq(a, np.concatenate(ys), rcond=None)
+        got = [row["coefficients"][f"d_{k}"] for k in sorted(TEMPS)]
+        np.testing.assert_allclose([row["intercept_um"], *got], coef, rtol=1e-7, atol=1e-9)
+        truth = dict(zip(TEMPS, COEF[(cam, ax)], strict=True))
+        for k in TEMPS:
+            lo, hi = row["coefficients_ci95"][f"d_{k}"]
+            covered += lo <= truth[k] <= hi
+    # 16 coefficients, each interval at 95 %: nearly all hold the truth.
+    assert covered >= 13
+    # Applied to the held-out run, the law leaves what the comparison scored.
+    checked = law.check(hold, RIG)
+    ols = next(b for b in c.baselines if b.name == "ols")
+    assert checked["all_rms_um"] == pytest.approx(ols.holdout_rms_um, rel=1e-9)
+    # Run c (50 %) heats the links within the 30–75 % runs' range; a 100 % run beyond it.
+    assert not [w for w in checked["outside"] if "link" in w]
+    hot = _run("h", speed=1.0, day=5, noise_um=0.5, rng=rng)
+    said = law.check([hot], RIG)["outside"]
+    assert any(w.startswith("run h: link2 spans 22.00–") for w in said), said
+    assert any(w.startswith("run h: link3 spans 22.50–") for w in said), said
+    # A standardised ridge's law, unfolded to the features' own units, predicts what the
+    # fitted scikit-learn pipeline predicts.
+    f = features([*train, *hold], RIG, smooth=False)
+    fb = next(b for b in c.fitted if b.name == "lowpass_ridge")
+    from thermrs.analyses.baselines import _best_law
+
+    one = _best_law([fb], {"lowpass_ridge": np.zeros((f.visits.n, 2))},
+                    np.ones(f.visits.n, dtype=bool), f, np.isin(f.visits.run, ["a", "b"]),
+                    seed=0)  # fmt: skip
+    assert one is not None
+    np.testing.assert_allclose(BaselineLaw(one, {}).predict(f), fb.predict(f), rtol=1e-9, atol=1e-9)
