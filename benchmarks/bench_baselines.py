@@ -140,32 +140,34 @@ def main() -> None:
                         f"{row['verdict'][:19]:19s}" + "".join(f"{row[m]:14.2f}" for m in cols),
                         flush=True,
                     )
-    print(
-        f"\n{len(cases)} cases in {time.perf_counter() - t0:.0f} s. Median over cases of each "
-        "model's held-out rms ÷ the diagnosed model's (and cases where it is lower):"
-    )
+    print(f"\n{len(cases)} cases in {time.perf_counter() - t0:.0f} s.")
     summary: dict[str, Any] = {}
-    for run, kind in KIND.items():
-        rows = [c["runs"][run] for c in cases if run in c["runs"]]
-        if not rows:
-            continue
-        line = {}
-        for m in cols:
-            ratio = np.array([r[m] / r["diagnosed"] for r in rows])
-            line[m] = {
-                "median_ratio": float(np.median(ratio)),
-                "lower_than_diagnosed": int(np.sum(ratio < 1.0)),
-                "cases": len(rows),
-            }
-        summary[kind] = line
+    for ref in ["diagnosed", *(["withheld"] if args.withheld else [])]:
         print(
-            f"  {kind:28s}"
-            + "".join(
-                f"  {m}: {v['median_ratio']:.2f} ({v['lower_than_diagnosed']}/{v['cases']})"
-                for m, v in line.items()
-                if m != "diagnosed"
-            )
+            f"Median over cases of each model's held-out rms ÷ the {ref} model's (and the "
+            "cases where it is lower):"
         )
+        for run, kind in KIND.items():
+            rows = [c["runs"][run] for c in cases if run in c["runs"]]
+            if not rows:
+                continue
+            line = {}
+            for m in cols:
+                ratio = np.array([r[m] / r[ref] for r in rows])
+                line[m] = {
+                    "median_ratio": float(np.median(ratio)),
+                    "lower": int(np.sum(ratio < 1.0)),
+                    "cases": len(rows),
+                }
+            summary.setdefault(ref, {})[kind] = line
+            print(
+                f"  {kind:28s}"
+                + "".join(
+                    f"  {m}: {v['median_ratio']:.2f} ({v['lower']}/{v['cases']})"
+                    for m, v in line.items()
+                    if m != ref
+                )
+            )
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump({"cases": cases, "summary": summary, "hours": args.hours}, fh, indent=1)
