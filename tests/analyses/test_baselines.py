@@ -244,6 +244,12 @@ def test_diagnose_baselines_json_on_a_simulated_recording(tmp_path: Path) -> Non
         doc["how_far"]["holdout_rms_after_um"], rel=1e-9
     )
     assert comp["noise_floor_um"] == doc["noise_floor_um"]
+    # By phase: the nominal model's, pooled from the diagnosis's own location table.
+    for ph, got in comp["nominal"]["per_run"][0]["by_phase"].items():
+        rows = [x for x in doc["location"] if x["run"] == "r#s75" and x["phase"] == ph]
+        n = sum(x["n"] for x in rows)
+        want = (sum(x["n"] * x["rms_um"] ** 2 for x in rows) / n) ** 0.5
+        assert got == pytest.approx(want, rel=1e-9)
     # The table is rendered after the diagnosis.
     assert "Baselines" in p.stdout and "lowpass_lasso" in p.stdout
     # With a rule that is not --train/--holdout, refused in one line.

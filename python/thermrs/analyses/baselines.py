@@ -436,7 +436,9 @@ class ModelScore:
         The 95 % interval of its held-out rms minus the diagnosed model's, on the same
         bootstrap draws (``None`` without a diagnosis).
     per_run
-        Per held-out run: ``run``, ``rms_um``, ``by_camera`` (``{camera: rms_um}``).
+        Per held-out run: ``run``, ``rms_um``, ``by_camera`` (``{camera: rms_um}``) and
+        ``by_phase`` (``{phase: rms_um}``, the diagnosis's ``warm-up``, ``plateau`` and
+        ``cool-down``).
     """
 
     name: str
@@ -574,7 +576,9 @@ def _rms(r: FloatArray) -> float:
     return float(np.sqrt(np.mean(r**2))) if r.size else float("nan")
 
 
-def _per_run(r: FloatArray, vs: Any, hold: npt.NDArray[np.bool_]) -> list[dict[str, Any]]:
+def _per_run(
+    r: FloatArray, vs: Any, hold: npt.NDArray[np.bool_], phase: npt.NDArray[np.str_]
+) -> list[dict[str, Any]]:
     out = []
     for run in dict.fromkeys(vs.run[hold].tolist()):
         m = hold & (vs.run == run)
@@ -584,6 +588,9 @@ def _per_run(r: FloatArray, vs: Any, hold: npt.NDArray[np.bool_]) -> list[dict[s
                 "rms_um": _rms(r[m]),
                 "by_camera": {
                     c: _rms(r[m & (vs.camera == c)]) for c in dict.fromkeys(vs.camera[m].tolist())
+                },
+                "by_phase": {
+                    p: _rms(r[m & (phase == p)]) for p in dict.fromkeys(phase[m].tolist())
                 },
             }
         )
@@ -687,6 +694,7 @@ def compare_baselines(
     """
     from thermrs.diagnose.engine import DesignMatrix
     from thermrs.diagnose.floor import noise_floor
+    from thermrs.diagnose.location import phases
     from thermrs.rig import as_rig
 
     r = as_rig(rig)
@@ -742,6 +750,8 @@ def compare_baselines(
         n_par[m] = fb.n_params
 
     boot = _bootstrap(resids, vs, hold, draws=draws, rng=np.random.default_rng(seed))
+    # The diagnosis's phases (warm-up, plateau, cool-down) of every visit.
+    phase = phases(vs, r.mapped_temperatures)
     nominal_rms = _rms(resids["nominal"][hold])
 
     def score(name: str, kind: str, description: str) -> ModelScore:
@@ -759,7 +769,7 @@ def compare_baselines(
             minus_diagnosed_ci95=_ci(boot[name] - boot["diagnosed"])
             if "diagnosed" in boot
             else None,
-            per_run=_per_run(rr, vs, hold),
+            per_run=_per_run(rr, vs, hold, phase),
         )
 
     eff = [s.get("effect") for s in diagnosis.selected] if diagnosis is not None else []
