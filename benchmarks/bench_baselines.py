@@ -9,6 +9,8 @@ of one world (same rig, α, thermal links, rooms, instruments and effect):
 - interpolation: training at 30 % from the room; held out, another 30 % run on the next day;
 - extrapolation: the same training run; held out, a 75 % run on the next day (another speed)
   and a 10 % run straight after it (a cool-down).
+- with ``--two-train``, trained on both speeds: the 30 % and the 75 % run trained on, the
+  cool-down held out.
 
 Each campaign is diagnosed (:func:`thermrs.diagnose.diagnose`) and its baselines fitted on the
 same training run and scored on the same held-out runs
@@ -17,7 +19,8 @@ the diagnosed model and each baseline is printed per held-out run, then the medi
 model's rms over the diagnosed model's per kind of held-out run.
 
     python benchmarks/bench_baselines.py [--effects thermal_lag joint_offset ...] \\
-        [--snr 1 2] [--seeds 1] [--first-seed 4900] [--hours 12] [--withheld] [--json OUT.json]
+        [--snr 1 2] [--seeds 1] [--first-seed 4900] [--hours 12] [--withheld] [--two-train] \\
+        [--json OUT.json]
 """
 
 from __future__ import annotations
@@ -42,10 +45,13 @@ from thermrs.diagnose.bench_world.world import Campaign, draw_scene, render
 #: another 30 % run (three runs, so that the world's draws are the same as the default's).
 RUNS_INTERP = (("train", 0.30, 0), ("hold_same", 0.30, 1), ("hold_cool_after_30", 0.10, 1))
 #: What each held-out run tests.
+#: The key of a held-out run of the campaign trained on two runs.
+TWO = " (trained on 30+75 %)"
 KIND = {
     "hold_same": "interpolation (same speed)",
     "hold_fast": "extrapolation (75 %)",
     "hold_cool": "extrapolation (cool-down)",
+    "hold_cool" + TWO: "cool-down, trained on 30+75 %",
 }
 EFFECTS = (
     "thermal_lag",
@@ -59,7 +65,14 @@ EFFECTS = (
 
 
 def one_case(
-    rig: Any, effect: str, snr: float, seed: int, campaign: Campaign, *, withheld: bool = False
+    rig: Any,
+    effect: str,
+    snr: float,
+    seed: int,
+    campaign: Campaign,
+    *,
+    withheld: bool = False,
+    two_train: bool = False,
 ) -> dict[str, Any]:
     wrig = read_rig(rig.source)
     scene = draw_scene(wrig, campaign, "white", seed)
@@ -77,23 +90,27 @@ def one_case(
     with mock.patch.object(bw, "RUNS", RUNS_INTERP):
         scene_i = draw_scene(wrig, campaign, "white", seed)
         interp = render(scene_i, tuple(truths))
-    for tables, hold in ((interp, interp[1:2]), (ext, ext[1:])):
-        d = diagnose(tables[:1], hold, rig, seed=seed)
-        c = compare_baselines(tables[:1], hold, rig, diagnosis=d, seed=seed, draws=499)
+    splits = [(interp[:1], interp[1:2], ""), (ext[:1], ext[1:], "")]
+    if two_train:
+        # Trained on both speeds (30 % and 75 %), the cool-down held out.
+        splits.append((ext[:2], ext[2:], TWO))
+    for train, hold, tag in splits:
+        d = diagnose(train, hold, rig, seed=seed)
+        c = compare_baselines(train, hold, rig, diagnosis=d, seed=seed, draws=499)
         scored = [c.nominal, c.diagnosed, *c.baselines]
         if withheld:
             # The effect withheld from the library: the physical model as the diagnoser makes
             # it without the truth (what a baseline competes with when the effect is outside
             # the library).
-            dx = diagnose(tables[:1], hold, rig, seed=seed, exclude=[effect])
-            cx = compare_baselines(tables[:1], hold, rig, diagnosis=dx, seed=seed, models=())
+            dx = diagnose(train, hold, rig, seed=seed, exclude=[effect])
+            cx = compare_baselines(train, hold, rig, diagnosis=dx, seed=seed, models=())
             assert cx.diagnosed is not None
             scored.append(replace(cx.diagnosed, name="withheld"))
         for m in scored:
             assert m is not None
             for pr in m.per_run:
                 row = out["runs"].setdefault(
-                    pr["run"],
+                    pr["run"] + tag,
                     {
                         "floor_um": c.noise_floor_um,
                         "verdict": d.outcome,
@@ -112,6 +129,11 @@ def main() -> None:
     ap.add_argument("--first-seed", type=int, default=4900)
     ap.add_argument("--hours", type=float, default=12.0)
     ap.add_argument("--json", default=None)
+    ap.add_argument(
+        "--two-train",
+        action="store_true",
+        help="Also train on the 30 % and 75 % runs and hold out the cool-down.",
+    )
     ap.add_argument(
         "--withheld",
         action="store_true",
@@ -132,7 +154,15 @@ def main() -> None:
         for snr in args.snr:
             for s in range(args.seeds):
                 seed = args.first_seed + s
-                c = one_case(rig, effect, snr, seed, campaign, withheld=args.withheld)
+                c = one_case(
+                    rig,
+                    effect,
+                    snr,
+                    seed,
+                    campaign,
+                    withheld=args.withheld,
+                    two_train=args.two_train,
+                )
                 cases.append(c)
                 for run, row in c["runs"].items():
                     print(

@@ -32,6 +32,12 @@ Parameters counted
     run, as it refits the physical model's offsets) is not counted. The nominal model has one
     (α), the diagnosed model α and its effects' numeric parameters (a discrete choice — which
     joint, which temperature — is not counted, as LASSO's choice of features is not).
+The law
+    The linear baseline with the least held-out rms, per camera and axis an intercept and a
+    coefficient per feature in the features' own units, each with a 95 % interval from a
+    moving-block bootstrap of whole training cycles (the penalty kept at the one
+    cross-validation chose), and the range of temperatures it was fitted on
+    (:class:`BaselineLaw`, ``thermrs compensate --model baseline``).
 """
 
 from __future__ import annotations
