@@ -848,6 +848,10 @@ def _best_law(
     intercept and coefficients in the features' units, each with a 95 % interval from a
     moving-block bootstrap of whole training cycles within each training run, refitted with
     the penalty cross-validation chose (``thermrs compensate --model baseline``)."""
+    import warnings
+
+    from sklearn.exceptions import ConvergenceWarning
+
     from thermrs.diagnose.resample import block_length, cycle_units
     from thermrs.stats import moving_block_indices
 
@@ -876,7 +880,9 @@ def _best_law(
         members = [np.flatnonzero(inv == k) for k in range(len(uniq))]
         for b in range(LAW_DRAWS):
             pick = np.concatenate([members[k] for k in next(gen)])
-            e = _fixed(best.name, est).fit(x[rows[pick]], feats.drift[rows[pick], j])
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", ConvergenceWarning)
+                e = _fixed(best.name, est).fit(x[rows[pick]], feats.drift[rows[pick], j])
             i0, wi = _effective(e)
             draws[b] = np.r_[i0, wi]
         lo, hi = np.quantile(draws, [0.025, 0.975], axis=0)
