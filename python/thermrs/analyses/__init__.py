@@ -14,6 +14,8 @@ functions; a number in the report is the number the command prints.
 - :mod:`thermrs.analyses.drift`: heating curves and ISO 9283-style figures (:func:`drift`);
 - :mod:`thermrs.analyses.diagnose`: a diagnosis per split (:func:`diagnose`);
 - :mod:`thermrs.analyses.design`: a design per split (:func:`design`);
+- :mod:`thermrs.analyses.baselines`: regressions of the drift on the temperatures beside the
+  physical models on the same held-out runs (:func:`compare_baselines`);
 - :mod:`thermrs.analyses.report`: the report of a campaign's runs (:func:`report`).
 
 Each analysis has two forms: ``*_splits`` takes splits however they were made (from a dataset
@@ -31,6 +33,7 @@ Example
 
 from __future__ import annotations
 
+from thermrs.analyses.baselines import BaselineComparison, baselines_folds, compare_baselines
 from thermrs.analyses.design import DesignFold, design, design_splits
 from thermrs.analyses.diagnose import DiagnosisFold, diagnose, diagnose_splits
 from thermrs.analyses.drift import DriftResult, drift, drift_tables
@@ -40,12 +43,15 @@ from thermrs.analyses.predict import Prediction, predict, predict_splits, read_f
 from thermrs.analyses.report import report
 
 __all__ = [
+    "BaselineComparison",
     "DesignFold",
     "DiagnosisFold",
     "DriftResult",
     "FitResult",
     "Prediction",
     "Split",
+    "baselines_folds",
+    "compare_baselines",
     "design",
     "design_splits",
     "diagnose",

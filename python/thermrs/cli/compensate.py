@@ -62,8 +62,22 @@ __all__ = ["compensate"]
     help="Temperature rise above the rig's reference over which slopes are taken and "
     "linearity checked (K).",
 )
+@click.option(
+    "--model",
+    type=click.Choice(["diagnosed", "baseline"]),
+    default="diagnosed",
+    show_default=True,
+    help="baseline: export instead the linear regression of `diagnose --baselines` with the "
+    "least held-out rms (its coefficients with 95 % intervals and the temperature range it was "
+    "fitted on; --check warns where a run leaves that range).",
+)
 def compensate(
-    rig_path: Path, diagnosis: Path, out_path: Path, check: tuple[Path, ...], span_k: float
+    rig_path: Path,
+    diagnosis: Path,
+    out_path: Path,
+    check: tuple[Path, ...],
+    span_k: float,
+    model: str,
 ) -> None:
     """Export the diagnosed model as a compensation law: per taught pose (camera) and chip
     axis, the drift as a function of the measured temperatures, µm per kelvin above the rig's
@@ -76,9 +90,14 @@ def compensate(
 
     writable(out_path, "-o", suffixes=(".csv", ".json"))
     r = load_rig(rig_path)
-    model = load_diagnosis(diagnosis, r)
-    say_model(model)
-    law = compensation_law(r, model, span_k=span_k)
+    if model == "baseline":
+        from thermrs.cli.baselines import compensate_baseline
+
+        compensate_baseline(r, diagnosis, out_path, check)
+        return
+    dm = load_diagnosis(diagnosis, r)
+    say_model(dm)
+    law = compensation_law(r, dm, span_k=span_k)
     checked = None
     if check:
         held, _ = file_tables(check, r, "--check")

@@ -245,6 +245,14 @@ def render_paper(doc: dict[str, Any]) -> None:
     help="Practical margin: name an effect only if it takes at least this much (µm) off the "
     "held-out rms, beyond being significant [default: none].",
 )
+@click.option(
+    "--baselines",
+    "baselines",
+    is_flag=True,
+    help="Also fit regressions of the drift on the temperatures (least squares, ridge, LASSO, "
+    "boosted trees) on the training runs and score them on the held-out runs beside the "
+    "physical models (--json: `baselines`).",
+)
 @seed_option("Seed of the resampling.")
 @json_option(
     "Write the SPEC §7 JSON here (atomically); with --rule, one document per fold and what "
@@ -265,6 +273,7 @@ def diagnose(
     paper: bool,
     bootstrap: int,
     margin_um: float | None,
+    baselines: bool,
     seed: int,
     json_path: Path | None,
     campaign_path: Path | None,
@@ -293,6 +302,8 @@ def diagnose(
             raise click.UsageError(
                 "--paper diagnoses the paper's numbers; give no --train/--holdout/--campaign"
             )
+        if baselines:
+            raise click.UsageError("--baselines needs runs: --paper has only Table 4's numbers")
         from thermrs.diagnose.paper import paper_diagnosis
 
         pdoc = paper_diagnosis(rig=load_rig(rig_path))
@@ -313,6 +324,12 @@ def diagnose(
         folds = diagnose_splits(sets, r, exclude=exclude, bootstrap=bootstrap, seed=seed,
                                 margin_um=margin_um, progress=say, workers=workers,
                                 scheduler=scheduler)  # fmt: skip
+        extra: list[dict[str, Any]] = [{} for _ in folds]
+        if baselines:
+            from thermrs.analyses.baselines import baselines_folds
+
+            say("baselines")
+            extra = [c.to_json() for c in baselines_folds(folds, r, seed=seed)]
     synthesis = (
         fold_synthesis([(f.split.name, f.diagnosis.to_json()) for f in folds])
         if rule is not None
@@ -320,16 +337,20 @@ def diagnose(
     )
     if json_path is not None:
         if rule is None:
-            write_json(json_path, folds[0].diagnosis.to_json())
+            write_json(json_path, {**folds[0].diagnosis.to_json(), **extra[0]})
         else:
-            write_json(
-                json_path,
-                {"rule": rule, "folds": [f.to_json() for f in folds], "synthesis": synthesis},
-            )
-    for f in folds:
+            docs = [f.to_json() for f in folds]
+            for d, e in zip(docs, extra, strict=True):
+                d["diagnosis"].update(e)
+            write_json(json_path, {"rule": rule, "folds": docs, "synthesis": synthesis})
+    for f, e in zip(folds, extra, strict=True):
         if f.split.name:
             out.rule(f"[bold]{f.split.name}[/bold]")
         render_diagnosis(f.diagnosis.to_json())
+        if e:
+            from thermrs.cli.baselines import render_baselines
+
+            render_baselines(e)
     if rule is not None:
         render_folds(folds, rule)
         assert synthesis is not None

@@ -91,6 +91,13 @@ class _Stage(Protocol):
     help="A `thermrs diagnose --json` file of the same runs: the report shows it (and designs "
     "from it) instead of diagnosing the runs again, so its numbers are the file's.",
 )
+@click.option(
+    "--baselines",
+    is_flag=True,
+    help="Add regressions of the drift on the temperatures, fitted on the training runs and "
+    "scored on the held-out runs beside the physical models, with a figure (a subsection of "
+    "the diagnosis).",
+)
 @click.option("--quiet", is_flag=True, help="No progress.")
 @click.option("--verbose", is_flag=True, help="Print the seconds each stage took (stderr).")
 @campaign_options()
@@ -105,6 +112,7 @@ def report(
     title: str | None,
     workdir: Path | None,
     diagnosis_path: Path | None,
+    baselines: bool,
     quiet: bool,
     verbose: bool,
     campaign_path: Path | None,
@@ -125,6 +133,8 @@ def report(
     _check_options(demo, rig_path, runs, train, campaign_path, query)
     if demo and diagnosis_path is not None:
         raise click.UsageError("--demo takes no --diagnosis (it diagnoses the runs it simulates)")
+    if demo and baselines:
+        raise click.UsageError("--baselines needs runs: the demo's report is written as it is")
     given = None
     if diagnosis_path is not None:
         from thermrs.diagnose.result import Diagnosis
@@ -162,6 +172,7 @@ def report(
                 markdown=not no_markdown,
                 pdf=pdf,
                 step=stage,
+                baselines=baselines,
             )
     if not quiet:
         _say_written(err, written, time.perf_counter() - t_start)

@@ -158,6 +158,7 @@ def write_report(
     pdf: bool = False,
     paper_reference: bool = False,
     step: Step | None = None,
+    baselines: bool = False,
 ) -> Written:
     """Write the report of ``runs``: every number computed
     (:func:`thermrs.report.data.gather`), then the document rendered and written
@@ -190,6 +191,9 @@ def write_report(
         Show the paper's printed Table 4 beside the runs' (for the paper's runs).
     step
         Called with a short description before each stage.
+    baselines
+        Also show regressions of the drift on the temperatures beside the physical models
+        (:func:`thermrs.report.data.gather`).
 
     Returns
     -------
@@ -221,6 +225,7 @@ def write_report(
         title=title,
         paper_reference=paper_reference,
         step=step,
+        baselines=baselines,
     )
     return write_document(data, out, intro=intro, markdown=markdown, pdf=pdf, step=step)
 

@@ -288,6 +288,9 @@ class ReportData:
     design_drift: pl.DataFrame | None = None
     design_note: str | None = None
     notes: list[str] = field(default_factory=list)
+    #: With ``gather(baselines=True)`` and a diagnosis: the regressions beside the physical
+    #: models (:class:`thermrs.analyses.baselines.BaselineComparison`), else None.
+    baselines: Any | None = None
 
     def run(self, name: str) -> RunInput:
         """The run called ``name``."""
@@ -345,6 +348,7 @@ def gather(
     title: str | None = None,
     paper_reference: bool = False,
     step: Step | None = None,
+    baselines: bool = False,
 ) -> ReportData:
     """Compute every number of a report, with the functions the commands call (α and the
     prediction by :func:`thermrs.predict.predict_held_out`, as ``thermrs predict``; the
@@ -369,6 +373,9 @@ def gather(
         Show the paper's printed Table 4 beside the runs' (the simulated paper runs).
     step
         Called with a short description before each stage (progress).
+    baselines
+        Also fit regressions of the drift on the temperatures on the training runs and score
+        them beside the diagnosis (:func:`thermrs.analyses.baselines.compare_baselines`).
     """
     from thermrs.heating import heating_curves
     from thermrs.iso9283 import iso9283
@@ -404,6 +411,12 @@ def gather(
     from thermrs.design import rival_drift
 
     design_drift = rival_drift(designed) if designed is not None else None
+    compared = None
+    if baselines and diag is not None and ho and hasattr(diag, "residuals"):
+        from thermrs.analyses.baselines import compare_baselines
+
+        say("fitting the regressions beside the physical model")
+        compared = compare_baselines(tr, ho, rig, diagnosis=diag)
 
     return ReportData(
         rig=rig,
@@ -429,6 +442,7 @@ def gather(
         design_note=design_note,
         title=title or f"Thermal drift of {rig.name or rig.model}",
         paper_reference=paper_reference,
+        baselines=compared,
     )
 
 

@@ -41,6 +41,10 @@ def section(d: ReportData, colours: Mapping[str, str]) -> Section:
     s.blocks += _ranking(doc)
     s.blocks.append(_confounded(doc))
     s.blocks.append(_residual_figure(d, colours))
+    if d.baselines is not None:
+        from thermrs.report.sections.baselines import subsection
+
+        s.subsections.append(subsection(d.baselines))
     if d.design is not None:
         from thermrs.report.sections.design import design_section
 
