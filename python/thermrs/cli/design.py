@@ -186,6 +186,8 @@ def design(
         from thermrs.diagnose.result import Diagnosis
 
         given = Diagnosis.read(diagnosis_path)
+        if given.unverified:
+            click.echo(f"thermrs: warning: {diagnosis_path}: {given.unverified}", err=True)
     r = load_rig(rig_path)
     sets = chosen_splits(campaign_path, query, rule, train, holdout, r)
     dirs = [out_dir] if rule is None else [out_dir / f"fold-{i + 1}" for i in range(len(sets))]

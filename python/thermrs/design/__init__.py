@@ -347,6 +347,8 @@ def design(
         given.check_runs(
             [str(n) for t in train for n in t["run"].unique().to_list()],
             [str(n) for t in holdout for n in t["run"].unique().to_list()],
+            tables=[*train, *holdout],
+            rig=rig,
         )
         if exclude and sorted(exclude) != sorted(given.excluded):
             raise InputError(

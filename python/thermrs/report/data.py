@@ -383,7 +383,7 @@ def gather(
     ho = [by[n].table for n in holdout_names]
     if diagnosis is not None and hasattr(diagnosis, "check_runs"):
         # A diagnosis of other runs cannot be passed on (one line, InputError).
-        diagnosis.check_runs(train_names, holdout_names)
+        diagnosis.check_runs(train_names, holdout_names, tables=[*tr, *ho], rig=rig)
 
     say("checking the rig")
     rig_view = rig.check()
