@@ -23,49 +23,6 @@ import tomli_w
 
 from tests.support.cli import cli, ok
 from tests.support.rigs import UR5
-from tests.support.scenarios import FAST_NODES
-
-#: Two one-hour runs in one recording (run markers ``a`` and ``b``).
-TWO_RUNS = (
-    """format = "thermrs-scenario/1"
-seed = 3
-[[run]]
-name = "a"
-speed_pct = 30
-duration_min = 60
-cycle_s = 120
-start = "ambient"
-[[run]]
-name = "b"
-speed_pct = 75
-duration_min = 60
-cycle_s = 120
-start = "continue"
-idle_before_min = 30
-"""
-    + FAST_NODES
-)
-
-
-@pytest.fixture(scope="module")
-def w(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """A recording's tables and diagnosis on the paper rig; the same protocol recorded again
-    with other noise, its tables under the same name in another folder."""
-    root = tmp_path_factory.mktemp("identity")
-    rig = thermrs.default_rig_path()
-    sc = root / "two.toml"
-    sc.write_text(TWO_RUNS)
-    (root / "other").mkdir()
-    for rec, tables, seed in ((root / "rec.mcap", root / "rec.parquet", "3"),
-                              (root / "o.mcap", root / "other" / "rec.parquet", "9")):  # fmt: skip
-        ok(cli("simulate", "--rig", str(rig), "--scenario", str(sc), "-o", str(rec),
-               "--seed", seed))  # fmt: skip
-        ok(cli("extract", str(rec), "--rig", str(rig), "-o", str(tables), "--quiet"))
-    diag = root / "diag.json"
-    ok(cli("diagnose", "--rig", str(rig), "--train", f"{root / 'rec.parquet'}#a",
-           "--holdout", f"{root / 'rec.parquet'}#b", "--json", str(diag)))  # fmt: skip
-    return {"root": root, "rig": rig, "tables": root / "rec.parquet", "diag": diag,
-            "other": root / "other" / "rec.parquet"}  # fmt: skip
 
 
 def rig_file(path: Path, edit: Any, text_before: str = "") -> Path:
@@ -76,9 +33,9 @@ def rig_file(path: Path, edit: Any, text_before: str = "") -> Path:
     return path
 
 
-def test_tables_carry_the_rig_they_were_extracted_with(w: dict[str, Path]) -> None:
-    rig = tomllib.loads(Path(w["rig"]).read_text())
-    stem = w["tables"].with_suffix("")
+def test_tables_carry_the_rig_they_were_extracted_with(two_runs: dict[str, Path]) -> None:
+    rig = tomllib.loads(Path(two_runs["rig"]).read_text())
+    stem = two_runs["tables"].with_suffix("")
     for part in ("", ".visits", ".temperatures", ".joints", ".runs"):
         meta = pq.read_metadata(f"{stem}{part}.parquet").metadata
         ident = json.loads(meta[b"thermrs.rig"])
@@ -92,11 +49,11 @@ def test_tables_carry_the_rig_they_were_extracted_with(w: dict[str, Path]) -> No
     # The digest a campaign catalog keeps for the same rig file.
     from thermrs.campaigns.engine import rig_identity
 
-    assert ident["digest"] == rig_identity(w["rig"])[2]
+    assert ident["digest"] == rig_identity(two_runs["rig"])[2]
 
 
-def commands(w: dict[str, Path], rig: Path, out: Path) -> dict[str, list[str]]:
-    t, r = str(w["tables"]), str(rig)
+def commands(two_runs: dict[str, Path], rig: Path, out: Path) -> dict[str, list[str]]:
+    t, r, dg = str(two_runs["tables"]), str(rig), str(two_runs["diag"])
     return {
         "fit": ["fit", "--rig", r, "--train", f"{t}#a", "--json", str(out)],
         "predict": ["predict", "--rig", r, "--alpha", "23.2u", "--run", f"{t}#b", "--json",
@@ -105,9 +62,9 @@ def commands(w: dict[str, Path], rig: Path, out: Path) -> dict[str, list[str]]:
         "diagnose": ["diagnose", "--rig", r, "--train", f"{t}#a", "--holdout", f"{t}#b",
                      "--json", str(out)],
         "report": ["report", "--rig", r, "--run", t, "-o", str(out)],
-        "compensate": ["compensate", "--rig", r, "--diagnosis", str(w["diag"]), "-o", str(out)],
-        "predict --diagnosis": ["predict", "--rig", r, "--diagnosis", str(w["diag"]), "--run",
-                                f"{t}#b", "--json", str(out)],
+        "compensate": ["compensate", "--rig", r, "--diagnosis", dg, "-o", str(out)],
+        "predict --diagnosis": ["predict", "--rig", r, "--diagnosis", dg, "--run", f"{t}#b",
+                                "--json", str(out)],
     }  # fmt: skip
 
 
@@ -124,18 +81,18 @@ def error_line(p: subprocess.CompletedProcess[str]) -> str:
     ["fit", "predict", "drift", "diagnose", "report", "compensate", "predict --diagnosis"],
 )
 def test_another_robots_rig_is_refused_and_nothing_written(
-    w: dict[str, Path], tmp_path: Path, command: str
+    two_runs: dict[str, Path], tmp_path: Path, command: str
 ) -> None:
     """The UR5's cameras are ``near`` and ``far``; the tables and the diagnosis are of the KR
     15's A and B."""
     out = tmp_path / ("out.html" if command == "report" else "out.json")
-    line = error_line(cli(*commands(w, UR5, out)[command]))
+    line = error_line(cli(*commands(two_runs, UR5, out)[command]))
     assert "cameras A, B, where the rig has near, far" in line, line
     assert not out.exists() and list(tmp_path.iterdir()) == []
 
 
 def test_another_roi_is_refused_and_comments_tolerances_and_lengths_are_not(
-    w: dict[str, Path], tmp_path: Path
+    two_runs: dict[str, Path], tmp_path: Path
 ) -> None:
     def roi(d: dict[str, Any]) -> None:
         d["thermal"]["roi"][0]["rect_px"] = [44, 60, 120, 110]
@@ -147,7 +104,7 @@ def test_another_roi_is_refused_and_comments_tolerances_and_lengths_are_not(
         d["robot"]["dh"][1]["a_mm"] += 0.3
         d["tolerances"] = {"length_mm": 0.5, "chip_mm": 0.5}
 
-    t = f"{w['tables']}#a"
+    t = f"{two_runs['tables']}#a"
     line = error_line(cli("fit", "--rig", str(rig_file(tmp_path / "r1.toml", roi)), "--train", t))
     assert "ROI link2 at [40, 60, 120, 110], where the rig has it at [44, 60, 120, 110]" in line
     line = error_line(cli("fit", "--rig", str(rig_file(tmp_path / "r2.toml", topic)), "--train", t))
@@ -157,24 +114,24 @@ def test_another_roi_is_refused_and_comments_tolerances_and_lengths_are_not(
 
 
 def test_tables_written_before_they_carried_their_rig_are_checked_by_their_names(
-    w: dict[str, Path], tmp_path: Path
+    two_runs: dict[str, Path], tmp_path: Path
 ) -> None:
-    stem = w["tables"].with_suffix("")
+    stem = two_runs["tables"].with_suffix("")
     for part in ("", ".visits", ".temperatures", ".joints", ".runs"):
         pl.read_parquet(f"{stem}{part}.parquet").write_parquet(tmp_path / f"old{part}.parquet")
     assert b"thermrs.rig" not in (pq.read_metadata(tmp_path / "old.visits.parquet").metadata)
     line = error_line(cli("fit", "--rig", str(UR5), "--train", f"{tmp_path / 'old.parquet'}#a"))
     assert "cameras A, B, where the rig has near, far" in line
-    ok(cli("fit", "--rig", str(w["rig"]), "--train", f"{tmp_path / 'old.parquet'}#a"))
+    ok(cli("fit", "--rig", str(two_runs["rig"]), "--train", f"{tmp_path / 'old.parquet'}#a"))
 
 
 def test_a_diagnosis_of_other_recordings_with_the_same_run_names_is_refused(
-    w: dict[str, Path], tmp_path: Path
+    two_runs: dict[str, Path], tmp_path: Path
 ) -> None:
     """The other recording's tables are ``rec.parquet`` too: its runs are named ``rec#a`` and
     ``rec#b`` like the diagnosed ones, and hold other data. Predicting them with the diagnosed
     model is what the model is for."""
-    o, r, dg = str(w["other"]), str(w["rig"]), str(w["diag"])
+    o, r, dg = str(two_runs["other"]), str(two_runs["rig"]), str(two_runs["diag"])
     out = tmp_path / "r.html"
     line = error_line(cli("report", "--rig", r, "--train", f"{o}#a", "--run", f"{o}#b",
                           "--diagnosis", dg, "-o", str(out)))  # fmt: skip
@@ -185,20 +142,20 @@ def test_a_diagnosis_of_other_recordings_with_the_same_run_names_is_refused(
     assert list(tmp_path.iterdir()) == []
     ok(cli("predict", "--rig", r, "--diagnosis", dg, "--run", f"{o}#b"))
     # The diagnosed recording itself is accepted.
-    t = str(w["tables"])
+    t = str(two_runs["tables"])
     ok(cli("design", "--rig", r, "--train", f"{t}#a", "--holdout", f"{t}#b", "--diagnosis", dg,
            "-o", str(tmp_path / "d")))  # fmt: skip
 
 
 def test_a_diagnosis_written_before_it_carried_digests_is_accepted_with_a_warning(
-    w: dict[str, Path], tmp_path: Path
+    two_runs: dict[str, Path], tmp_path: Path
 ) -> None:
-    doc = json.loads(w["diag"].read_text())
+    doc = json.loads(two_runs["diag"].read_text())
     assert set(doc["run_digests"]) == {"rec#a", "rec#b"} and doc["rig"]["map"]["cameras"]
     del doc["run_digests"], doc["rig"]
     old = tmp_path / "old.json"
     old.write_text(json.dumps(doc))
-    o, r = str(w["other"]), str(w["rig"])
+    o, r = str(two_runs["other"]), str(two_runs["rig"])
     p = ok(cli("design", "--rig", r, "--train", f"{o}#a", "--holdout", f"{o}#b",
                "--diagnosis", str(old), "-o", str(tmp_path / "d")))  # fmt: skip
     warned = [ln for ln in p.stderr.splitlines() if ln.startswith("thermrs: warning")]
@@ -209,10 +166,20 @@ def test_a_diagnosis_written_before_it_carried_digests_is_accepted_with_a_warnin
     assert "cameras A, B, where the rig has near, far" in line
 
 
-def test_the_law_carries_its_rig(w: dict[str, Path], tmp_path: Path) -> None:
+def test_the_law_carries_its_rig(two_runs: dict[str, Path], tmp_path: Path) -> None:
     law = tmp_path / "law.json"
-    ok(cli("compensate", "--rig", str(w["rig"]), "--diagnosis", str(w["diag"]), "-o", str(law)))
-    rig = tomllib.loads(Path(w["rig"]).read_text())
+    ok(
+        cli(
+            "compensate",
+            "--rig",
+            str(two_runs["rig"]),
+            "--diagnosis",
+            str(two_runs["diag"]),
+            "-o",
+            str(law),
+        )
+    )
+    rig = tomllib.loads(Path(two_runs["rig"]).read_text())
     doc = json.loads(law.read_text())
     assert [c["name"] for c in doc["rig"]["map"]["cameras"]] == [c["name"] for c in rig["camera"]]
     assert doc["rig"]["model"] == rig["robot"]["model"]
