@@ -93,6 +93,18 @@ def test_wrong_invocation_exits_2_with_one_line(
     assert set(data["dir"].rglob("*")) == before  # nothing written, no temporary left
 
 
+def test_a_campaign_names_a_file_it_cannot_read_once(tmp_path: Path) -> None:
+    """A six-byte file among a campaign's recordings: one line, its path said once."""
+    (tmp_path / "recs").mkdir()
+    notes = tmp_path / "recs" / "notes.mcap"
+    notes.write_text("notes\n")
+    p = cli("extract", str(tmp_path / "recs"), "--rig", str(thermrs.default_rig_path()),
+            "-o", str(tmp_path / "ds"))  # fmt: skip
+    assert p.returncode == 2, p.stderr
+    (line,) = [ln for ln in p.stderr.splitlines() if "notes.mcap" in ln]
+    assert line.count("notes.mcap") == 1 and "not an MCAP file" in line, line
+
+
 def test_at_least_thirty_wrong_invocations() -> None:
     assert len(WRONG) >= 30
 

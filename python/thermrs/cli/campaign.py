@@ -112,7 +112,9 @@ def extract_campaign(
             err=True,
         )
     for path, why in res.failed:
-        click.echo(f"thermrs: {path}: {why}", err=True)
+        # The reason names the file already where it came from a reader.
+        said = why if str(path) in why else f"{path}: {why}"
+        click.echo(f"thermrs: {said}", err=True)
     if res.failed:
         sys.exit(EXIT_BAD_INPUT)
     if res.data_loss:
