@@ -8,11 +8,13 @@ metadata under :data:`RIG_KEY`; a diagnosis carries the same identity of its rig
 digest of each of its runs' content (:func:`run_digests`); a compensation law carries its
 rig's identity.
 
-A rig is refused for them (:func:`check_rig`) when its map differs: other cameras, a camera
-on another topic, at another taught pose or with another pixel grid, other ROIs or thermal
-scaling. A rig that differs only in comments, ``[tolerances]``, link lengths or chip
+A rig is refused for them (:func:`check_rig`) when its map differs: a camera it lacks, a
+camera on another topic, at another taught pose or with another pixel grid, other ROIs or
+thermal scaling. A rig that differs only in comments, ``[tolerances]``, link lengths or chip
 geometry is accepted: the tables are what that rig would have extracted too, and analysing
-them with re-measured geometry is what a user checking a rig does.
+them with re-measured geometry is what a user checking a rig does. So is a rig with more
+cameras (a design's ``rig.toml``, the rig plus a new chip): the tables lack the new camera, as
+a recording made before it does.
 """
 
 from __future__ import annotations
@@ -106,7 +108,9 @@ def mismatch(theirs: Mapping[str, Any], rig: Rig) -> str | None:
         return None
     t_cams = list(theirs.get("cameras") or [])
     o_cams = ours["cameras"]
-    if sorted(c["name"] for c in t_cams) != sorted(c["name"] for c in o_cams):
+    # A rig with more cameras is the same rig grown (a design's rig.toml: a new chip beside
+    # the old ones): the tables simply lack the new camera.
+    if not {c["name"] for c in t_cams} <= {c["name"] for c in o_cams}:
         return f"cameras {_names(t_cams)}, where the rig has {_names(o_cams)}"
     by_name = {c["name"]: c for c in o_cams}
     words = {

@@ -91,7 +91,7 @@ def test_another_robots_rig_is_refused_and_nothing_written(
     assert not out.exists() and list(tmp_path.iterdir()) == []
 
 
-def test_another_roi_is_refused_and_comments_tolerances_and_lengths_are_not(
+def test_another_roi_is_refused_and_comments_tolerances_lengths_and_a_new_chip_are_not(
     two_runs: dict[str, Path], tmp_path: Path
 ) -> None:
     def roi(d: dict[str, Any]) -> None:
@@ -111,6 +111,11 @@ def test_another_roi_is_refused_and_comments_tolerances_and_lengths_are_not(
     assert "camera B's topic /ccd_b/image_raw, where the rig has /ccd_c/image_raw" in line
     same = rig_file(tmp_path / "r3.toml", remeasured, "# the same rig, re-measured\n")
     ok(cli("fit", "--rig", str(same), "--train", t))
+
+    def grown(d: dict[str, Any]) -> None:  # a new chip beside the old ones, as design adds
+        d["camera"].append({**d["camera"][1], "name": "C", "topic": "/ccd_c/image_raw"})
+
+    ok(cli("fit", "--rig", str(rig_file(tmp_path / "r4.toml", grown)), "--train", t))
 
 
 def test_tables_written_before_they_carried_their_rig_are_checked_by_their_names(
