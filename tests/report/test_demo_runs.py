@@ -94,3 +94,16 @@ def test_the_iso_section_says_its_windows_as_the_schedule_has_them(demo: dict[st
     assert f"({minutes} min here)" in para and "warm-up drift inside its window" in para
     row = next(ln for ln in demo["md"].splitlines() if ln.startswith("| run1 | A |"))
     assert re.search(rf"\| 0–{minutes} \|", row), row
+
+
+def test_the_diagnosis_is_the_one_diagnose_makes_on_the_kept_recording(
+    demo: dict[str, Any],
+) -> None:
+    rig, rec = str(thermrs.default_rig_path()), demo["work"] / "demo.mcap"
+    out = demo["dir"] / "diagnose.json"
+    ok(cli("diagnose", "--rig", rig, "--train", f"{rec}#run1", "--holdout", f"{rec}#run2",
+           f"{rec}#run3", "--json", str(out)))  # fmt: skip
+    doc = json.loads(out.read_text())
+    before = doc["baseline"]["holdout_rms_um"]
+    assert f"leaves {before:.2f} µm rms on the held-out runs" in demo["md"]
+    assert f"Verdict: {doc['verdict']['status']}" in demo["md"]
