@@ -182,24 +182,24 @@ def check_rig(
         How it was made with its rig (``"extracted"`` for tables).
     """
     tail = f": {fix}" if fix else ""
-    made = f"{what}: {made} with another rig than {rig.source}"
+    head = f"{what}: {made} with another rig than {rig.source}"
     if identity is not None and isinstance(identity.get("map"), Mapping):
         why = mismatch(identity["map"], rig)
         if why is not None:
-            raise InputError(f"{made} ({why}){tail}")
+            raise InputError(f"{head} ({why}){tail}")
         return
     known = {c.name for c in rig.cameras}
     other = sorted(set(cameras) - known)
     if other:
         raise InputError(
-            f"{made} (cameras {', '.join(other)}, where the rig has "
+            f"{head} (cameras {', '.join(other)}, where the rig has "
             f"{', '.join(c.name for c in rig.cameras)}){tail}"
         )
     names = {r.name for r in rig.rois} | {"ambient"}
     other = sorted(set(temperatures) - names)
     if other:
         shown = ", ".join(r.name for r in rig.rois) or "none"
-        raise InputError(f"{made} (ROIs {', '.join(other)}, where the rig has {shown}){tail}")
+        raise InputError(f"{head} (ROIs {', '.join(other)}, where the rig has {shown}){tail}")
 
 
 def run_digest(table: pl.DataFrame) -> str:
