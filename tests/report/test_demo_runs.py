@@ -107,3 +107,22 @@ def test_the_diagnosis_is_the_one_diagnose_makes_on_the_kept_recording(
     before = doc["baseline"]["holdout_rms_um"]
     assert f"leaves {before:.2f} µm rms on the held-out runs" in demo["md"]
     assert f"Verdict: {doc['verdict']['status']}" in demo["md"]
+
+
+def test_the_intro_says_what_diagnose_paper_finds(demo: dict[str, Any]) -> None:
+    """The demo's scenario is introduced with `thermrs diagnose --paper`'s numbers (L9)."""
+    out = demo["dir"] / "paper.json"
+    ok(cli("diagnose", "--paper", "--json", str(out)))
+    doc = json.loads(out.read_text())
+    by = {c["family"]: c for c in doc["candidates"]}
+    jo = by["joint_offset joint=joint_a3 temperature=link3"]
+    p = {k: round(v) for k, v in jo["predicted_v_um"].items()}
+    said = (
+        f"{p['run1/A']}/{p['run1/B']}, {p['run2/A']}/{p['run2/B']} and "
+        f"−{-p['run3/A']}/−{-p['run3/B']} µm"
+    )
+    assert said in demo["md"] and f"rms {jo['rms_um']:.1f} µm" in demo["md"]
+    (group,) = [g for g in doc["indistinguishable"] if jo["family"] in g]
+    assert len(group) == 6  # "six numbers cannot tell it from five other effects"
+    best = min((by[f] for f in group), key=lambda c: c["rms_um"])
+    assert best["params"]["temperature"] == "link3" and f"rms {best['rms_um']:.1f} µm" in demo["md"]
