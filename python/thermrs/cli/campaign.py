@@ -45,6 +45,7 @@ def extract_campaign(
     address and a summary; exit 3 if a recording lost data, 2 if one could not be read.
     Interrupted (Ctrl-C): exit 130 with one line, how many of the recordings are in the
     dataset and that the same command resumes."""
+    import polars as pl
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from thermrs.campaigns import campaign
@@ -105,6 +106,19 @@ def extract_campaign(
                 f"first, then this campaign's); all of them: {out / 'catalog.parquet'}"
             )
         err.print(t)
+    # The same bytes under two names: catalogued as two recordings; a rule that holds one
+    # out against the other would compare a run with itself.
+    hashed = cat.filter(pl.col("content_hash").is_not_null())
+    twins = hashed.filter(pl.col("content_hash").is_duplicated()).group_by(
+        "content_hash", maintain_order=True
+    )
+    for _, same in twins:
+        click.echo(
+            f"thermrs: warning: {' and '.join(sorted(same['path'].to_list()))} are the same "
+            "recording (identical content): a rule that holds one out against the other "
+            "compares a run with itself",
+            err=True,
+        )
     for row in cat.filter(cat["losses"] > 0).iter_rows(named=True):
         click.echo(
             f"thermrs: data loss: {row['path']}: {row['losses']} damaged part(s), "
