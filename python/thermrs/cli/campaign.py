@@ -195,7 +195,6 @@ def campaign_command(
     from thermrs.campaigns import Dataset
     from thermrs.campaigns.summary import alpha_by_run, holdout_by_rule
     from thermrs.cli.common import console, table, writable
-    from thermrs.report.campaign_page import write_campaign_page as write_page
     from thermrs.rig import load_rig
 
     ds = Dataset(dataset)
@@ -248,4 +247,6 @@ def campaign_command(
             f.add_row(r["fold"], f"{r['alpha_per_k'] * 1e6:.2f}", f"{r['holdout_rms_um']:.2f}")
         out.print(f)
     if out_path is not None:
-        click.echo(f"wrote {write_page(per_run, out_path, folds=folds)}", err=True)
+        from thermrs.report.campaign_page import write_campaign_page
+
+        click.echo(f"wrote {write_campaign_page(per_run, out_path, folds=folds)}", err=True)
