@@ -58,6 +58,18 @@ def test_hand_computed_rp() -> None:
     assert rp_ == pytest.approx(4 * math.sqrt(2) / 5 + 3 * math.sqrt(0.4), rel=1e-12)
 
 
+def test_runs_in_time_order_not_by_name() -> None:
+    """A day's ``morning`` run, then its ``fast`` one: listed as recorded (issue #46, L4)."""
+    rng = np.random.default_rng(4)
+    morning = points_table(rng.normal(size=12), rng.normal(size=12), run="morning")
+    fast = points_table(rng.normal(size=12), rng.normal(size=12), run="fast").with_columns(
+        pl.col("t_ns") + 3_600 * 10**9
+    )
+    res = iso9283(pl.concat([fast, morning]), window=4)
+    assert res.summary["run"].to_list() == ["morning", "fast"]
+    assert res.windows["run"].unique(maintain_order=True).to_list() == ["morning", "fast"]
+
+
 def test_gaussian_repeatability_gives_rayleigh_distances() -> None:
     """Isotropic Gaussian scatter σ per axis about the barycentre: l is Rayleigh,
     l̄ → σ·√(π/2), S_l → σ·√((4 − π)/2), RP → 3.2185·σ. With the barycentre estimated from

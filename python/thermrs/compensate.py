@@ -42,6 +42,7 @@ import polars as pl
 
 from thermrs.effects import Effect, IrGain, from_dict, is_instrument
 from thermrs.errors import InputError
+from thermrs.identity import check_rig, rig_identity
 from thermrs.model import ForwardModel
 from thermrs.rig import Rig, as_rig
 
@@ -77,6 +78,9 @@ class DiagnosedModel:
     #: α's 95 % interval from the fit of α together with the effects (the diagnosis'
     #: ``verdict.alpha_ci95``); None in a diagnosis written before it carried one.
     joint_alpha_ci95: tuple[float, float] | None = None
+    #: The identity of the rig the diagnosis was made with (its ``rig``; empty in a
+    #: diagnosis written before it carried one).
+    rig: dict[str, Any] = field(default_factory=dict)
 
     @property
     def alpha_ci95(self) -> tuple[float, float]:
@@ -132,8 +136,15 @@ def diagnosed_model(
         how = doc.get("how_far", {})
     except (KeyError, TypeError, ValueError) as e:
         raise InputError(f"{what}: not a `thermrs diagnose --json` file (no {e})") from None
+    made_with = doc.get("rig") if isinstance(doc.get("rig"), dict) else None
+    if rig is not None:  # a diagnosis of another rig's cameras or ROIs is not this rig's
+        res = doc.get("residuals")
+        cams = (res.get("camera") or []) if isinstance(res, dict) else []
+        check_rig(what, rig, made_with or None, cameras=set(map(str, cams)),
+                  fix="give the rig it was made with")  # fmt: skip
     model = DiagnosedModel(
         status=status,
+        rig=dict(made_with or {}),
         nominal_alpha_per_k=a0,
         nominal_alpha_ci95=(ci[0], ci[1]),
         alpha_per_k=a0,
@@ -274,6 +285,8 @@ class CompensationLaw:
     linearity_um: float
     residual_um: float | None
     model: DiagnosedModel
+    #: The identity of the rig the law is for (:func:`thermrs.identity.rig_identity`).
+    rig: dict[str, Any] = field(default_factory=dict)
 
     def wide(self) -> pl.DataFrame:
         """The law as one self-contained row per camera pose and chip axis (the CSV a
@@ -347,6 +360,8 @@ class CompensationLaw:
                 "note": m.note,
             },
             "terms": self.table.to_dicts(),
+            # The rig the law is for: its poses, cameras and ROIs (and its digest).
+            "rig": self.rig,
         }
 
 
@@ -480,6 +495,7 @@ def compensation_law(
     r = as_rig(rig)
     if not span_k > 0:
         raise InputError(f"span_k must be > 0, got {span_k}")
+    check_rig("the diagnosis", r, model.rig or None, fix="give the rig it was made with")
     if model.status == "ambiguous":
         # Confounded laws agree on the runs diagnosed and may disagree anywhere else: a
         # controller must not be handed one of them as the law.
@@ -547,6 +563,7 @@ def compensation_law(
         linearity_um=worst,
         residual_um=model.holdout_rms_after_um,
         model=model,
+        rig=rig_identity(r),
     )
 
 

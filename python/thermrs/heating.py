@@ -524,7 +524,9 @@ def heating_curves(table: pl.DataFrame, *, run: str | None = None) -> pl.DataFra
     missing = [c for c in need if c not in table.columns]
     if missing:
         raise InputError(f"the run table has no column(s) {missing}")
-    runs = sorted(set(table["run"].to_list()))
+    # Runs in time order (as the report's figures and Table 4 show them), not by name.
+    first = table.group_by("run").agg(pl.col("t_ns").min()).sort("t_ns", "run")
+    runs = [str(r) for r in first["run"].to_list()]
     if run is not None:
         if run not in runs:
             raise InputError(f"run {run!r} is not in the run table (runs: {runs})")

@@ -29,6 +29,7 @@ from thermrs.atomic import atomic_tmp as atomic_tmp  # atomic writes, importable
 from thermrs.atomic import check_writable, write_all, write_parquet_atomic
 from thermrs.atomic import publish as publish
 from thermrs.errors import InputError, RecordingError
+from thermrs.identity import RIG_KEY, rig_identity
 from thermrs.rig import Rig, as_rig
 from thermrs.rundetect import DEFAULT_GAP_FACTOR, DEFAULT_MIN_GAP_S, RUNS_SCHEMA, find_runs
 from thermrs.visits import DEFAULT_TOLERANCE_DEG, find_visits, with_runs
@@ -114,6 +115,10 @@ class Extraction:
     runs
         The runs the recording holds (:mod:`thermrs.runs`): ``run``, ``start_ns``, ``end_ns``,
         ``source`` (``marker`` or ``gap``); the visits' ``run`` column names them.
+    rig
+        The identity of the rig the tables were extracted with
+        (:func:`thermrs.identity.rig_identity`: its digest and extraction map); written
+        with the tables, so that a later command refuses a rig with other cameras or ROIs.
     """
 
     frames: pl.DataFrame
@@ -122,6 +127,7 @@ class Extraction:
     joints: pl.DataFrame
     report: ExtractReport
     runs: pl.DataFrame = field(default_factory=lambda: pl.DataFrame(schema=RUNS_SCHEMA))
+    rig: dict[str, Any] | None = None
 
     def write(self, out: str | Path) -> dict[str, Path]:
         """Write every table, each atomically.
@@ -150,7 +156,9 @@ class Extraction:
         -----
         Every table carries the recording's losses (a file cut short, a corrupt chunk) in its
         Parquet key-value metadata under :data:`LOSS_KEY`, so that the loss follows the tables
-        to every later command (:func:`data_loss` reads it back).
+        to every later command (:func:`data_loss` reads it back), and the identity of the rig
+        they were extracted with under :data:`thermrs.identity.RIG_KEY` (JSON), so that a
+        command given another rig refuses them (:func:`thermrs.identity.check_rig`).
         """
         out = Path(out)
         stem = out.name[: -len(".parquet")] if out.name.endswith(".parquet") else out.name
@@ -162,6 +170,8 @@ class Extraction:
             "runs": out.with_name(f"{stem}.runs.parquet"),
         }
         meta = {LOSS_KEY: json.dumps(self.report.losses)}
+        if self.rig is not None:
+            meta[RIG_KEY] = json.dumps(self.rig)
         # All or nothing: every table to a temporary file first, then the renames; an error or
         # Ctrl-C on the way removes what this call wrote.
         write_all({path: self._parquet_writer(name, meta) for name, path in paths.items()})
@@ -372,6 +382,7 @@ def assemble_tables(
         joints=joints,
         report=report,
         runs=runs,
+        rig=rig_identity(rig),
     )
 
 

@@ -271,7 +271,9 @@ def iso9283(table: pl.DataFrame, *, window: int = 10, tolerance_um: float = 1.0)
         raise InputError("the run table has no visit with a position (u_um, v_um)")
     windows: list[dict[str, object]] = []
     summary: list[dict[str, object]] = []
-    for run in sorted(set(t["run"].to_list())):
+    # Runs in time order (as the report's figures and Table 4 show them), not by name.
+    chronological = t.group_by("run").agg(pl.col("t_ns").min()).sort("t_ns", "run")["run"]
+    for run in chronological.to_list():
         tr = t.filter(pl.col("run") == run).sort("t_ns")
         t_run0 = int(tr["t_ns"][0])
         for cam in sorted(set(tr["camera"].to_list())):

@@ -32,6 +32,7 @@ loading run tables) and re-exports the detection names.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,6 +42,7 @@ import numpy as np
 import polars as pl
 
 from thermrs.errors import InputError
+from thermrs.identity import RIG_KEY, check_rig
 from thermrs.ingest import data_loss, extract
 from thermrs.rig import as_rig
 from thermrs.rundetect import (
@@ -178,8 +180,12 @@ class RunTables:
         return f"{self.path}: {n} run{'s' * (n != 1)} ({how}): {', '.join(parts)}; using {chosen}"
 
 
-def _read_tables(path: Path) -> tuple[pl.DataFrame, pl.DataFrame, pl.DataFrame | None]:
-    """Visits, temperatures and (if written) runs tables that ``thermrs extract`` wrote."""
+def _read_tables(
+    path: Path,
+) -> tuple[pl.DataFrame, pl.DataFrame, pl.DataFrame | None, dict[str, Any] | None]:
+    """Visits, temperatures and (if written) runs tables that ``thermrs extract`` wrote, and
+    the identity of the rig they were extracted with (None in tables written before it was
+    recorded)."""
     stem = path.name[: -len(".parquet")]
     for part in (".visits", ".temperatures", ".joints", ".runs"):
         if stem.endswith(part):
@@ -198,7 +204,14 @@ def _read_tables(path: Path) -> tuple[pl.DataFrame, pl.DataFrame, pl.DataFrame |
     missing = [c for c in ("camera", "t_ns", "n_ok", "u_um", "v_um") if c not in visits.columns]
     if missing:
         raise InputError(f"{need['visits']}: not a visits table (no {missing})")
-    return visits, temps, runs
+    identity = None
+    raw = pl.read_parquet_metadata(need["visits"]).get(RIG_KEY)
+    if raw:
+        try:
+            identity = json.loads(raw)
+        except ValueError:
+            raise InputError(f"{need['visits']}: its rig identity is not JSON") from None
+    return visits, temps, runs, identity if isinstance(identity, dict) else None
 
 
 def load_runs(
@@ -244,7 +257,18 @@ def load_runs(
     if cache is not None and key in cache:
         visits, temps, runs, loss, stem, ex = cache[key]
     elif path.name.endswith(".parquet"):
-        visits, temps, read_runs = _read_tables(path)
+        visits, temps, read_runs, identity = _read_tables(path)
+        # Tables extracted with another rig's cameras or ROIs would be analysed as nonsense.
+        check_rig(
+            str(path),
+            rig,
+            identity,
+            cameras=visits["camera"].unique().to_list(),
+            temperatures=temps["name"].unique().to_list() if "name" in temps.columns else [],
+            fix="give the rig they were extracted with, or extract the recording again with "
+            "this one",
+            made="extracted",
+        )
         stem = path.name[: -len(".parquet")]
         for part in (".visits", ".temperatures", ".joints", ".runs"):
             stem = stem.removesuffix(part)

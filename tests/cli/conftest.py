@@ -6,7 +6,9 @@ recording would be simulated again for every one of them.
   (SPEC §6 ``joint_offset``, 12.8 µrad/K) that the nominal model leaves out (issue #17); its
   replicate is the same protocol with another seed (new noise, same physics).
 - ``data``: a short simulated recording, its tables, the same cut short, and bad inputs beside
-  them (issue #13)."""
+  them (issue #13).
+- ``two_runs``: two one-hour runs in one recording, its tables and diagnosis, and the same
+  protocol recorded again with other noise, its tables under the same name (issue #46)."""
 
 from __future__ import annotations
 
@@ -85,3 +87,46 @@ def d(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
             "--json", str(diag))
     )  # fmt: skip
     return {"root": root, "rig": rig, "rec": rec, "rep": rep, "diag": diag, "sc": sc}
+
+
+#: Two one-hour runs in one recording (run markers ``a`` and ``b``).
+TWO_RUNS = (
+    """format = "thermrs-scenario/1"
+seed = 3
+[[run]]
+name = "a"
+speed_pct = 30
+duration_min = 60
+cycle_s = 120
+start = "ambient"
+[[run]]
+name = "b"
+speed_pct = 75
+duration_min = 60
+cycle_s = 120
+start = "continue"
+idle_before_min = 30
+"""
+    + FAST_NODES
+)
+
+
+@pytest.fixture(scope="session")
+def two_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """A recording's tables and diagnosis on the paper rig; the same protocol recorded again
+    with other noise, its tables under the same name in another folder."""
+    root = tmp_path_factory.mktemp("identity")
+    rig = thermrs.default_rig_path()
+    sc = root / "two.toml"
+    sc.write_text(TWO_RUNS)
+    (root / "other").mkdir()
+    for rec, tables, seed in ((root / "rec.mcap", root / "rec.parquet", "3"),
+                              (root / "o.mcap", root / "other" / "rec.parquet", "9")):  # fmt: skip
+        ok(cli("simulate", "--rig", str(rig), "--scenario", str(sc), "-o", str(rec),
+               "--seed", seed))  # fmt: skip
+        ok(cli("extract", str(rec), "--rig", str(rig), "-o", str(tables), "--quiet"))
+    diag = root / "diag.json"
+    ok(cli("diagnose", "--rig", str(rig), "--train", f"{root / 'rec.parquet'}#a",
+           "--holdout", f"{root / 'rec.parquet'}#b", "--json", str(diag)))  # fmt: skip
+    return {"root": root, "rig": rig, "tables": root / "rec.parquet", "diag": diag,
+            "other": root / "other" / "rec.parquet"}  # fmt: skip

@@ -93,6 +93,33 @@ def test_wrong_invocation_exits_2_with_one_line(
     assert set(data["dir"].rglob("*")) == before  # nothing written, no temporary left
 
 
+def test_a_campaign_names_a_file_it_cannot_read_once(tmp_path: Path) -> None:
+    """A six-byte file among a campaign's recordings: one line, its path said once."""
+    (tmp_path / "recs").mkdir()
+    notes = tmp_path / "recs" / "notes.mcap"
+    notes.write_text("notes\n")
+    p = cli("extract", str(tmp_path / "recs"), "--rig", str(thermrs.default_rig_path()),
+            "-o", str(tmp_path / "ds"))  # fmt: skip
+    assert p.returncode == 2, p.stderr
+    (line,) = [ln for ln in p.stderr.splitlines() if "notes.mcap" in ln]
+    assert line.count("notes.mcap") == 1 and "not an MCAP file" in line, line
+
+
+def test_a_campaign_warns_of_one_recording_under_two_names(
+    two_runs: dict[str, Path], tmp_path: Path
+) -> None:
+    """Byte-identical copies are catalogued (they are two files) and said to be one
+    recording, so that no rule's folds compare a run with itself unawares (L12)."""
+    (tmp_path / "recs").mkdir()
+    for name in ("day1.mcap", "day1-copy.mcap"):
+        (tmp_path / "recs" / name).write_bytes((two_runs["root"] / "rec.mcap").read_bytes())
+    p = cli("extract", str(tmp_path / "recs"), "--rig", str(two_runs["rig"]),
+            "-o", str(tmp_path / "ds"), "--workers", "1")  # fmt: skip
+    assert p.returncode == 0, p.stderr
+    (line,) = [ln for ln in p.stderr.splitlines() if ln.startswith("thermrs: warning")]
+    assert "day1-copy.mcap and " in line and "day1.mcap are the same recording" in line, line
+
+
 def test_at_least_thirty_wrong_invocations() -> None:
     assert len(WRONG) >= 30
 

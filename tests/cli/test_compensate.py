@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import polars as pl
@@ -68,3 +69,15 @@ def test_the_compensation_law_applied_by_hand_removes_what_the_diagnosis_promise
     rms_before = math.sqrt(np.mean(np.concatenate(before) ** 2))
     rms_after = math.sqrt(np.mean(np.concatenate(after) ** 2))
     assert 1 - rms_after / rms_before == pytest.approx(promised, abs=0.05)
+
+
+def test_check_takes_several_runs_as_documented(two_runs: dict[str, Path], tmp_path: Path) -> None:
+    """README: `[--check RUN…]`: `--check A B` is `--check A --check B` (issue #46, M1)."""
+    t, r, dg = str(two_runs["tables"]), str(two_runs["rig"]), str(two_runs["diag"])
+    docs: list[dict[str, Any]] = []
+    for form in ([f"{t}#a", f"{t}#b"], [f"{t}#a", "--check", f"{t}#b"]):
+        out = tmp_path / f"law{len(docs)}.json"
+        ok(cli("compensate", "--rig", r, "--diagnosis", dg, "-o", str(out), "--check", *form))
+        docs.append(json.loads(out.read_text())["check"])
+    assert [row["run"] for row in docs[0]["runs"]] == ["rec#a", "rec#b"]
+    assert docs[0] == docs[1]

@@ -14,6 +14,7 @@ import numpy as np
 import polars as pl
 import pytest
 import thermrs
+from thermrs.runs import label_runs
 
 from tests.support.recordings import Recording, dark_image, header, image_msg, png_bytes, spot_image
 
@@ -57,9 +58,12 @@ def scenario(
     png: bool = False,
     thermal_float: bool = False,
     pad: int = 0,
+    t0: int = T0,
+    frames: int = 2,
 ) -> Scenario:
-    """The paper rig at work: per cycle a joint state at pose A, two spot frames on A and a
-    dark one on B, then the same at pose B, a thermal frame and an ambient reading."""
+    """The paper rig at work: per cycle a joint state at pose A, two spot frames (or
+    ``frames``) on A and a dark one on B, then the same at pose B, a thermal frame and an
+    ambient reading; the first cycle at ``t0``."""
     rng = np.random.default_rng(seed)
     rec = Recording()
     spots: dict[tuple[str, int], tuple[float, float]] = {}
@@ -68,7 +72,7 @@ def scenario(
     scale = 1.0 if bits == 8 else 64.0  # 16-bit frames: same spot, 64× the DN
     names = rig.joint_names
     for c in range(cycles):
-        t = T0 + c * 60 * 10**9
+        t = t0 + c * 60 * 10**9
         for k, (cam, other) in enumerate((("A", "B"), ("B", "A"))):
             tc = t + k * 20 * 10**9
             q = np.radians(rig.camera_pose(cam).joints_deg)
@@ -81,7 +85,7 @@ def scenario(
                 "effort": [],
             }
             rec.add("/joint_states", "sensor_msgs/msg/JointState", tj, js)
-            for j in range(2):
+            for j in range(frames):
                 tf = tc + j * 40_000_000
                 x = 375.5 + 3.0 * c + rng.uniform(-0.5, 0.5)
                 y = 290.5 - 2.0 * c + rng.uniform(-0.5, 0.5)
@@ -181,6 +185,36 @@ def test_every_layout_recovers_the_truth(
     check_tables(ex, sc)
     assert not ex.report.data_loss
     assert ex.report.skipped == {}
+
+
+@pytest.mark.parametrize("frames", [1, 3])
+def test_a_visit_time_is_its_frames_exact_mean_and_a_cut_at_its_first_frame_keeps_it(
+    tmp_path: Path, paper_rig: thermrs.Rig, frames: int
+) -> None:
+    """Stamps as a clock gives them: odd nanoseconds at today's epoch, where float64 steps by
+    256 ns (the demo's run 2 starts at ...763156603). A visit's time is the exact integer
+    mean (floor) of its frames' stamps as written into the file, and a window cut at its
+    first frame's exact stamp, or a run that starts there, keeps it (issue #46)."""
+    t0 = 1_750_090_000_763_156_603
+    sc = scenario(paper_rig, cycles=3, t0=t0, frames=frames)
+    ex = thermrs.extract(sc.rec.write(tmp_path / "r.mcap"), paper_rig)
+    written: dict[str, list[int]] = {}
+    for cam, t in sorted(sc.spots):
+        written.setdefault(cam, []).append(t)
+    v = ex.visits.sort("camera", "t_start_ns")
+    assert v.height == 6 and (v["n_ok"] == frames).all()
+    for row in v.iter_rows(named=True):
+        mine = [t for t in written[row["camera"]] if row["t_start_ns"] <= t <= row["t_end_ns"]]
+        assert len(mine) == frames
+        assert row["t_ns"] == sum(mine) // frames  # Python integers: no rounding anywhere
+    first = min(written["A"])
+    assert first == t0 and first % 256 != 0
+    cut = ex.visits.filter(pl.col("t_ns").is_between(first, t0 + 3 * 60 * 10**9))
+    assert cut.filter(pl.col("camera") == "A").height == 3
+    runs = pl.DataFrame(
+        {"run": ["r"], "start_ns": [first], "end_ns": [t0 + 3 * 60 * 10**9], "source": ["marker"]}
+    )
+    assert label_runs(ex.visits["t_ns"], runs).null_count() == 0
 
 
 def test_sixteen_bit_padded_rows_png_and_float_thermal(

@@ -9,15 +9,19 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import polars as pl
 
 from thermrs.analyses.inputs import DatasetLike
 from thermrs.ingest import ExtractReport
-from thermrs.report import Written, write_report
-from thermrs.report.data import RunInput
 from thermrs.rig import Rig
+
+if TYPE_CHECKING:
+    # The report package is read when a report is made, not when thermrs.analyses is
+    # imported: ``thermrs fit`` and the other commands load no report module.
+    from thermrs.report import Written
+    from thermrs.report.data import RunInput
 
 __all__ = ["campaign_report_runs", "load_campaign_runs", "report"]
 
@@ -65,6 +69,7 @@ def report(
     >>> thermrs.campaigns.report("campaign/", rig, "november.html",
     ...                          where="date>=2026-11-01", train=["r1#run1"])  # doctest: +SKIP
     """
+    from thermrs.report import write_report
 
     loaded, train_names = campaign_report_runs(dataset, rig, where=where, runs=runs, train=train)
     return write_report(out, runs=loaded, rig=rig, train=train_names or None, **options)
@@ -94,6 +99,7 @@ def load_campaign_runs(
     """
     from thermrs.analyses.inputs import open_dataset, pick_runs, selected
     from thermrs.campaigns.select import campaign_runs
+    from thermrs.report.data import RunInput
 
     ds = open_dataset(dataset)
     runs = campaign_runs(ds, where)

@@ -50,6 +50,7 @@ MULTI_VALUE_OPTIONS = (
     "--effect",
     "--world",
     "--snr",
+    "--check",
 )
 
 

@@ -45,6 +45,7 @@ def extract_campaign(
     address and a summary; exit 3 if a recording lost data, 2 if one could not be read.
     Interrupted (Ctrl-C): exit 130 with one line, how many of the recordings are in the
     dataset and that the same command resumes."""
+    import polars as pl
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from thermrs.campaigns import campaign
@@ -105,6 +106,19 @@ def extract_campaign(
                 f"first, then this campaign's); all of them: {out / 'catalog.parquet'}"
             )
         err.print(t)
+    # The same bytes under two names: catalogued as two recordings; a rule that holds one
+    # out against the other would compare a run with itself.
+    hashed = cat.filter(pl.col("content_hash").is_not_null())
+    twins = hashed.filter(pl.col("content_hash").is_duplicated()).group_by(
+        "content_hash", maintain_order=True
+    )
+    for _, same in twins:
+        click.echo(
+            f"thermrs: warning: {' and '.join(sorted(same['path'].to_list()))} are the same "
+            "recording (identical content): a rule that holds one out against the other "
+            "compares a run with itself",
+            err=True,
+        )
     for row in cat.filter(cat["losses"] > 0).iter_rows(named=True):
         click.echo(
             f"thermrs: data loss: {row['path']}: {row['losses']} damaged part(s), "
@@ -112,7 +126,9 @@ def extract_campaign(
             err=True,
         )
     for path, why in res.failed:
-        click.echo(f"thermrs: {path}: {why}", err=True)
+        # The reason names the file already where it came from a reader.
+        said = why if str(path) in why else f"{path}: {why}"
+        click.echo(f"thermrs: {said}", err=True)
     if res.failed:
         sys.exit(EXIT_BAD_INPUT)
     if res.data_loss:
@@ -179,7 +195,6 @@ def campaign_command(
     from thermrs.campaigns import Dataset
     from thermrs.campaigns.summary import alpha_by_run, holdout_by_rule
     from thermrs.cli.common import console, table, writable
-    from thermrs.report.campaign_page import write_campaign_page as write_page
     from thermrs.rig import load_rig
 
     ds = Dataset(dataset)
@@ -232,4 +247,6 @@ def campaign_command(
             f.add_row(r["fold"], f"{r['alpha_per_k'] * 1e6:.2f}", f"{r['holdout_rms_um']:.2f}")
         out.print(f)
     if out_path is not None:
-        click.echo(f"wrote {write_page(per_run, out_path, folds=folds)}", err=True)
+        from thermrs.report.campaign_page import write_campaign_page
+
+        click.echo(f"wrote {write_campaign_page(per_run, out_path, folds=folds)}", err=True)

@@ -486,8 +486,10 @@ def chosen_splits(
 
 def say_model(m: DiagnosedModel) -> None:
     """The diagnosed model a command uses, told on stderr (with its note, if any)."""
+    from thermrs.diagnose.verdict import format_params
+
     effects = ", ".join(
-        e.name + " " + ", ".join(f"{k}={v}" for k, v in e.to_dict().items() if k != "name")
+        e.name + " " + format_params({k: v for k, v in e.to_dict().items() if k != "name"})
         for e in m.effects
     )
     click.echo(

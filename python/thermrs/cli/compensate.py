@@ -51,7 +51,8 @@ __all__ = ["compensate"]
     multiple=True,
     type=click.Path(path_type=Path),
     metavar="RUN",
-    help="Held-out runs (FILE or FILE#RUN, repeatable) to check the law on: their rms with "
+    help="Held-out runs (FILE or FILE#RUN; --check A B or repeats) to check the law on: their "
+    "rms with "
     "the law against the nominal model's and against the range the diagnosis promised.",
 )
 @click.option(
@@ -131,9 +132,13 @@ def compensate(
                 f"{row['compensated_rms_um']:.2f} µm rms."
             )
         a = checked["all"]
-        inside = {True: "inside", False: "OUTSIDE", None: "no range was promised for"}
+        inside = {
+            True: "inside the promised range",
+            False: "OUTSIDE the promised range",
+            None: "the diagnosis promised no range",
+        }
         out.print(
             f"Over the check runs: {a['compensated_rms_um']:.2f} µm rms compensated, "
-            f"{inside[a['inside']]} the promised range."
+            f"{inside[a['inside']]}."
         )
     click.echo(f"wrote {out_path}", err=True)

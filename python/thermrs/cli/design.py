@@ -29,10 +29,15 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
     if not doc["confounded"]:
         out.print(f"Nothing to design: {doc['why_not']}")
         return
-    out.print(
-        f"Diagnosis: {dg['status']} — confounded: {', '.join(doc['confounded'])} "
-        f"(noise floor {dg['noise_floor_um']:.2f} µm)"
+    names = doc["confounded"]
+    # Effects asked for with --between are not called confounded: the diagnosis may have
+    # told them apart.
+    what = (
+        f"asked to separate {', '.join(names[:-1])} and {names[-1]}"
+        if doc.get("between")
+        else f"confounded: {', '.join(names)}"
     )
+    out.print(f"Diagnosis: {dg['status']} — {what} (noise floor {dg['noise_floor_um']:.2f} µm)")
     now = {(p["truth"], p["rival"]): p["z"] for p in doc["separation_now"]}
     t = Table(
         title="Candidates (best first): least z over ordered pairs (truth over rival; every "
@@ -87,7 +92,7 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
         )
     else:
         out.print(f"[bold]Nothing recommended[/bold]: {doc['why_not']}")
-        out.print(f"Wrote {out_dir / 'design.json'} (and the best candidate's files)")
+        out.print(f"Wrote {out_dir / 'design.json'} (no candidate's files: none is recommended)")
 
 
 @click.command()
@@ -186,6 +191,8 @@ def design(
         from thermrs.diagnose.result import Diagnosis
 
         given = Diagnosis.read(diagnosis_path)
+        if given.unverified:
+            click.echo(f"thermrs: warning: {diagnosis_path}: {given.unverified}", err=True)
     r = load_rig(rig_path)
     sets = chosen_splits(campaign_path, query, rule, train, holdout, r)
     dirs = [out_dir] if rule is None else [out_dir / f"fold-{i + 1}" for i in range(len(sets))]

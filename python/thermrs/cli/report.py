@@ -140,6 +140,8 @@ def report(
         from thermrs.diagnose.result import Diagnosis
 
         given = Diagnosis.read(diagnosis_path)
+        if given.unverified:
+            click.echo(f"thermrs: warning: {diagnosis_path}: {given.unverified}", err=True)
     out = out_path or Path("thermrs-demo-report.html" if demo else "thermrs-report.html")
     writable(out, "-o")
     t_start = time.perf_counter()

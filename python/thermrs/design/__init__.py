@@ -82,6 +82,8 @@ class DesignResult:
     noise: dict[str, float] = field(default_factory=dict)
     recorded_proof: bool = False
     seconds: float = 0.0
+    #: The effects asked to be separated (``between``), or None: the diagnosis' confounded.
+    between: list[str] | None = None
 
     @property
     def proof(self) -> dict[str, Any] | None:
@@ -128,7 +130,13 @@ class DesignResult:
             f"over {worst_now['rival']})"
         )
         high = [p for p in self.now if p["z"] >= Z_TARGET]
-        if high and self.confounded:
+        # Only a diagnosis that called them confounded "does not separate" them (effects
+        # asked for with `between` may be ones it told apart).
+        if (
+            high
+            and self.confounded
+            and self.diagnosis.get("verdict", {}).get("status") == ("ambiguous")
+        ):
             best = max(high, key=lambda p: p["z"])
             said += (
                 f"; z up to {best['z']:.1f} ({best['truth']} over {best['rival']}) counts "
@@ -168,6 +176,8 @@ class DesignResult:
                 "noise_floor_um": self.diagnosis.get("noise_floor_um"),
             },
             "confounded": self.confounded,
+            # The effects asked to be separated (--between), or null: the diagnosis' own.
+            "between": self.between,
             "rivals": [r.to_json() for r in self.rivals],
             "criterion": CRITERION,
             "separation_now": self.now,
@@ -188,20 +198,21 @@ class DesignResult:
             "proofs_tried": self.proofs_tried(),
             "noise": self.noise,
             "files": {"rig": "rig.toml", "scenario": "scenario.toml"}
-            if self.best is not None
+            if self.recommended is not None and self.best is not None
             else {},
             "seconds": self.seconds,
         }
 
     def write(self, out_dir: str | Path) -> list[Path]:
-        """Write ``rig.toml``, ``scenario.toml`` (of the recommended candidate, or else the
-        best ranked one) and ``design.json`` into ``out_dir`` (created), atomically."""
+        """Write ``design.json`` into ``out_dir`` (created), and ``rig.toml`` and
+        ``scenario.toml`` of the recommended candidate when one is (a candidate whose proof
+        failed is no measurement to make: it stays in ``design.json``), atomically."""
         import json
 
         d = Path(out_dir)
         d.mkdir(parents=True, exist_ok=True)
         written = []
-        if self.best is not None:
+        if self.recommended is not None and self.best is not None:
             text, _ = rig_toml(self.rig, self.best)
             write_text_atomic(d / "rig.toml", text)
             sc = scenario_toml(
@@ -347,6 +358,8 @@ def design(
         given.check_runs(
             [str(n) for t in train for n in t["run"].unique().to_list()],
             [str(n) for t in holdout for n in t["run"].unique().to_list()],
+            tables=[*train, *holdout],
+            rig=rig,
         )
         if exclude and sorted(exclude) != sorted(given.excluded):
             raise InputError(
@@ -365,6 +378,7 @@ def design(
         rig=rig,
         cycle_s=cycle_s,
         recorded_proof=recorded_proof,
+        between=names if between else None,
     )
     if not names:
         result.why_not = (

@@ -158,7 +158,7 @@ def diagnose(
         # Thousands of small least-squares problems: one BLAS thread each is several times
         # faster than a pool that spins (and fights other processes for the cores).
         with threadpool_limits(limits=1, user_api="blas"):
-            return _diagnose(
+            d = _diagnose(
                 train,
                 holdout,
                 rig,
@@ -171,6 +171,7 @@ def diagnose(
                 margin_um=margin_um,
                 say=say,
             )
+        return _with_identity(train, holdout, rig, d)
 
     if library is not None:  # classes of the caller's: not keyed by content
         return compute()
@@ -180,6 +181,17 @@ def diagnose(
     except Exception:  # inputs that are not tables: diagnose says what is wrong with them
         return compute()
     return _DIAGNOSES.get(key, compute, on_hit=lambda f: say(f"reused from the cache ({f.parent})"))
+
+
+def _with_identity(
+    train: Sequence[pl.DataFrame], holdout: Sequence[pl.DataFrame], rig: Rig, d: Diagnosis
+) -> Diagnosis:
+    """``d`` with what it belongs to: its runs' content digests and its rig's identity."""
+    from thermrs.identity import rig_identity, run_digests
+
+    d.run_digests = run_digests([*train, *holdout])
+    d.rig = rig_identity(rig)
+    return d
 
 
 #: Diagnoses kept on disk by the content of their runs, rig and options

@@ -45,6 +45,11 @@ class Diagnosis:
     residuals: pl.DataFrame = field(repr=False)
     noise_floor: dict[str, Any] = field(default_factory=dict)
     tests: dict[str, Any] = field(default_factory=dict)
+    #: Per run, the digest of its table's content (:func:`thermrs.identity.run_digests`);
+    #: empty in a diagnosis written before it was recorded.
+    run_digests: dict[str, str] = field(default_factory=dict)
+    #: The identity of the rig it was made with (:func:`thermrs.identity.rig_identity`).
+    rig: dict[str, Any] = field(default_factory=dict)
 
     @property
     def status(self) -> str:
@@ -79,6 +84,9 @@ class Diagnosis:
             # Every visit's held-out and training residual, nominal and with the model, by
             # column: what `thermrs report --diagnosis` draws without diagnosing again.
             "residuals": {c: self.residuals[c].to_list() for c in self.residuals.columns},
+            # What it belongs to: its runs' content and its rig (refused for other ones).
+            "run_digests": self.run_digests,
+            "rig": self.rig,
         }
 
     @classmethod
@@ -122,6 +130,8 @@ class Diagnosis:
             residuals=residuals,
             noise_floor=dict(doc.get("noise_floor", {})),
             tests=dict(doc.get("tests", {})),
+            run_digests={str(k): str(v) for k, v in (doc.get("run_digests") or {}).items()},
+            rig=dict(doc.get("rig") or {}),
         )
 
     @classmethod
@@ -155,10 +165,32 @@ class Diagnosis:
                 out[role].append(str(r["run"]))
         return out
 
-    def check_runs(self, train: Sequence[str], holdout: Sequence[str]) -> None:
+    @property
+    def unverified(self) -> str | None:
+        """Why its runs can be matched by name only (a diagnosis written before it carried
+        a digest of its runs), else None."""
+        if self.run_digests:
+            return None
+        return (
+            "the diagnosis carries no digest of its runs (written by an older thermrs): its "
+            "runs are matched by name only; diagnose them again to have them checked"
+        )
+
+    def check_runs(
+        self,
+        train: Sequence[str],
+        holdout: Sequence[str],
+        *,
+        tables: Sequence[pl.DataFrame] = (),
+        rig: Any = None,
+    ) -> None:
         """Raise :class:`~thermrs.errors.InputError` unless it was made on exactly these
-        training and held-out runs (a diagnosis of other runs cannot be passed on)."""
+        training and held-out runs (a diagnosis of other runs cannot be passed on): their
+        names, and, given their ``tables``, their content (the digest it carries of each,
+        where it carries one); given the ``rig``, unless it was made with the same cameras
+        and ROIs (:func:`thermrs.identity.check_rig`)."""
         from thermrs.errors import InputError
+        from thermrs.identity import check_rig, run_digests
 
         mine = self.runs()
         for role, given in (("train", train), ("holdout", holdout)):
@@ -167,6 +199,19 @@ class Diagnosis:
                     f"the diagnosis was made with {role} runs {', '.join(mine[role]) or 'none'}, "
                     f"not {', '.join(map(str, given)) or 'none'}: diagnose these runs, or give "
                     "the runs it was made on"
+                )
+        if rig is not None:
+            cams = self.residuals["camera"].unique().to_list() if "camera" in self.residuals else []
+            check_rig("the diagnosis", rig, self.rig or None, cameras=cams,
+                      fix="give the rig it was made with")  # fmt: skip
+        if tables and self.run_digests:
+            now = run_digests(tables)
+            other = [n for n, d in now.items() if self.run_digests.get(n, d) != d]
+            if other:
+                raise InputError(
+                    f"the diagnosis was made on other data under the same run names "
+                    f"({', '.join(other)} differ from the runs it diagnosed): diagnose these "
+                    "runs, or give the runs it was made on"
                 )
 
 

@@ -390,7 +390,7 @@ def gather(
     ho = [by[n].table for n in holdout_names]
     if diagnosis is not None and hasattr(diagnosis, "check_runs"):
         # A diagnosis of other runs cannot be passed on (one line, InputError).
-        diagnosis.check_runs(train_names, holdout_names)
+        diagnosis.check_runs(train_names, holdout_names, tables=[*tr, *ho], rig=rig)
 
     say("checking the rig")
     rig_view = rig.check()
@@ -482,18 +482,22 @@ def _fit_and_predict(
 ) -> _Fitted:
     """α on the training runs; the held-out runs (else the training runs) predicted with it,
     as ``thermrs predict`` does (:func:`thermrs.predict.predict_held_out`)."""
-    from thermrs.predict import predict_held_out
+    from thermrs.predict import predict_held_out, prediction_table
 
     out = _Fitted()
     try:
         say("predicting")
-        # The paper compares drift along its cameras' y axis (v): so does its demo.
+        # The paper compares drift along its cameras' y axis (v): so does its demo, and along
+        # x (u) beside it (`thermrs predict --axis u`), where the same α errs the other way.
         axis = "v" if paper_reference else "auto"
         p = predict_held_out(tr, ho if ho else tr, rig, axis=axis)
         assert p.fit is not None
         out.doc = p.fit.to_json()
         out.alphas.update(p.alphas)
         out.prediction = p.table
+        if axis == "v":
+            along_u = prediction_table(ho if ho else tr, rig, alphas=p.alphas, axis="u")
+            out.prediction = pl.concat([p.table, along_u])
         out.series = p.series.filter(pl.col("alpha") == "series").drop("alpha")
     except InputError as e:
         out.note = f"α could not be fitted, so nothing was predicted: {e}."

@@ -100,15 +100,19 @@ def _interval(v: Mapping[str, Any]) -> str:
 def _table6(d: ReportData, fit: Mapping[str, Any]) -> Table:
     """Table 6-style: α on the training runs, time series and the paper's start/end."""
     a = fit["alpha_per_k"]
-    series = ["time-series", join(d.train), "all", fmt_alpha(a["value"]), _interval(a)]
+    series = ["time-series", join(d.train), "all", "u and v", fmt_alpha(a["value"]), _interval(a)]
     rows = [[*series, fmt(fit["rms_um"], 3)]]
     for run, se in fit.get("start_end", {}).items():
+        axes = {c: v.get("axis") or "" for c, v in se["per_camera"].items()}
         for cam, v in [*se["per_camera"].items(), ("mean", se["mean"])]:
-            rows.append(["start/end", run, cam, fmt_alpha(v["value"]), _interval(v), ""])
+            ax = axes.get(cam) or " and ".join(sorted({x for x in axes.values() if x}))
+            rows.append(["start/end", run, cam, ax, fmt_alpha(v["value"]), _interval(v), ""])
     return Table(
         "Table 6-style: α (×10⁻⁶/K) fitted on the training run(s), time-series least squares "
-        "and the paper's start/end estimator (as `thermrs fit --json` gives them)",
-        ["estimator", "run", "camera", "α (×10⁻⁶/K)", "95 % interval", "rms (µm)"],
+        "(every visit, both chip axes) and the paper's start/end estimator (per camera along "
+        "the chip axis given: the one along which the model predicts the larger drift; the "
+        "mean of the cameras'), as `thermrs fit --json` gives them",
+        ["estimator", "run", "camera", "chip axis", "α (×10⁻⁶/K)", "95 % interval", "rms (µm)"],
         rows,
     )
 
@@ -139,15 +143,17 @@ def _table7(d: ReportData) -> Table | Missing:
     )
     return Table(
         f"Table 7-style: predicted against measured drift at the end of {what}, per α "
-        "(series: time-series fit; per camera and mean: start/end), as `thermrs predict --json` "
-        "gives them; rms: over every visit, both axes, mean offset removed; noise: the "
-        "measurement's own (von Neumann)",
+        "(series: time-series fit; per camera and mean: start/end, fitted along the chip axis "
+        "Table 6 gives), compared along the chip axis given (the end drift is one axis's: an α "
+        "fitted along one axis and compared along the other can be far off), as `thermrs "
+        "predict --json` gives them; rms: over every visit, both axes, mean offset removed; "
+        "noise: the measurement's own (von Neumann)",
         [
             "α",
             "α (×10⁻⁶/K)",
             "camera",
             "run",
-            "axis",
+            "chip axis",
             "predicted (µm)",
             "measured (µm)",
             "error (% or µm where the drift is within noise)",
