@@ -48,7 +48,7 @@ def test_effect_free_rigs_within_their_tolerances_are_none(
             # Said as what it is (held-out rms no effect took off), with the defaults named,
             # and what the runs could have found, per effect, in µm of drift.
             reason = d["verdict"]["reason"]
-            assert reason.startswith("no effect takes more than ")
+            assert reason.startswith("no effect found at 95%")
             assert "the rig's stated tolerances" in reason
             assert d["tests"]["tolerances_stated"] is True
             sizes = d["tests"]["detectable_rms_um_80"]

@@ -243,7 +243,8 @@ def render_paper(doc: dict[str, Any]) -> None:
     default=None,
     metavar="UM",
     help="Practical margin: name an effect only if it takes at least this much (µm) off the "
-    "held-out rms, beyond being significant [default: none].",
+    "held-out rms, beyond being significant [default: the held-out noise floor's standard "
+    "error, what the held-out runs resolve].",
 )
 @click.option(
     "--baselines",

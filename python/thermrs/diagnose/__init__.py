@@ -72,12 +72,10 @@ FloatArray = npt.NDArray[np.float64]
 #: The level of the diagnoser's tests: a run without a gap is called otherwise at most this
 #: often (the four tests `none` must pass are each at a quarter of it).
 LEVEL = 0.05
-#: The default practical margin as a share of the held-out noise floor: none. An effect is
-#: named when its held-out gain beats the null world's (the rig's tolerances and the noise);
-#: a fixed share of the floor kept nothing honest that null does not, and made every effect
-#: under a third of the floor unnameable at any run length. ``margin_um`` states a practical
-#: threshold of the user's own.
-MARGIN_SHARE = 0.0
+#: The default practical margin is the held-out floor's standard error (what the held-out
+#: runs resolve; it shrinks as they grow longer), not a share of the floor: a fixed share made
+#: every effect under a third of the floor unnameable at any run length. ``margin_um`` states
+#: a practical threshold of the user's own instead.
 #: Replicates of the parametric bootstrap (the null world) per selection step.
 NULL_DRAWS = 199
 
@@ -125,8 +123,8 @@ def diagnose(
         Replicates of the parametric bootstrap per selection step.
     margin_um
         The practical margin: an effect is named only if it takes at least this much off the
-        held-out rms (µm), beyond being significant against the null (default: none,
-        :data:`MARGIN_SHARE`).
+        held-out rms (µm), beyond being significant against the null (default: the held-out
+        noise floor's standard error, what the held-out runs resolve).
     progress
         Called with a short message at each stage.
 
@@ -331,7 +329,7 @@ def _diagnose(
     say("where")
     where = _where(b, rig)
     say("candidates")
-    margin = MARGIN_SHARE * b.floor.holdout_um if margin_um is None else float(margin_um)
+    margin: float | None = None if margin_um is None else float(margin_um)
     outside = _outside(exclude, library)
     grids, steps = _select(
         b,
@@ -344,6 +342,7 @@ def _diagnose(
         rng=rng,
         say=say,
     )
+    margin = steps[0].margin_um
     say("evidence")
     cands, n_eff_train = _evidence(b, grids, steps, rig, bootstrap=bootstrap, rng=rng)
     say("confounding")
@@ -426,7 +425,7 @@ def _select(
     outside: dict[str, type[Effect]],
     level: float,
     null_draws: int,
-    margin_um: float,
+    margin_um: float | None,
     rng: np.random.Generator,
     say: Callable[[str], object],
 ) -> tuple[list[FamilyGrid], list[Step]]:

@@ -106,6 +106,8 @@ class Step:
     #: The held-out rms (µm) a family must remove to be named at this step: what the null's
     #: threshold gain removes, or the practical margin if that is more.
     detectable_um: float = 0.0
+    #: The practical margin this step used (µm): given, or the floor's standard error.
+    margin_um: float = 0.0
     #: Per family (label): the rms of drift (µm) an effect of that family must have to be
     #: named at this step with 80 % power: its held-out gain (≈ the effect's own mean square
     #: once fitted) must clear the family's bar by the null's spread times z₀.₈ (a normal
@@ -204,7 +206,7 @@ def run_step(
     draws: int,
     rng: np.random.Generator,
     plausible: Callable[[list[Choice], Choice], bool],
-    margin_um: float = 0.0,
+    margin_um: float | None = 0.0,
     prefer: str | None = None,
 ) -> Step:
     """Test the model against its null world and score every family added to it. A family
@@ -212,6 +214,13 @@ def run_step(
     ``margin_um`` off the held-out rms (practical significance). The family chosen is the
     significant one that leaves least, or ``prefer`` (a label) where it is significant."""
     ys_raw, cur = _world(batch, design, floor, model, draws, rng)
+    if not model and floor.holdout_se_um is None:
+        _floor_uncertainty(batch, design, floor, ys_raw, cur)
+    if margin_um is None:
+        # What the held-out runs resolve at the floor: an effect that takes less off the
+        # held-out rms than the floor's own standard error is not told from the floor's
+        # estimation. It shrinks as runs grow longer, so power grows with data.
+        margin_um = float(floor.holdout_se_um or 0.0)
     ys = batch.prepare(ys_raw)
     assert cur.hold_resid is not None
     low = batch.low(cur.hold_resid)
@@ -267,8 +276,7 @@ def run_step(
         },
         draws=draws,
     )
-    if not model and floor.holdout_se_um is None:
-        _floor_uncertainty(batch, design, floor, ys_raw, cur)
+    step.margin_um = margin_um
     if model:
         again = _profile(batch, model[:-1], model[-1].grid, ys)
         if again is not None:
@@ -590,7 +598,7 @@ def forward_selection(
     rng: np.random.Generator,
     plausible: Callable[[list[Choice], Choice], bool],
     max_effects: int = 3,
-    margin_um: float = 0.0,
+    margin_um: float | None = 0.0,
     say: Callable[[str], object] = lambda _m: None,
 ) -> list[Step]:
     """The selection's steps (module docs); the last step tests the final model."""

@@ -115,13 +115,12 @@ def decide(
         if first.p_at_floor >= lvl and first.p_low >= lvl and not contradicted:
             return (
                 "none",
-                f"no effect takes more than {first.detectable_um:.2f} µm off the held-out rms "
-                f"at {1 - level:.0%}: the held-out "
+                f"no effect found at {1 - level:.0%}: the held-out "
                 f"residual ({base_rms:.2f} µm) is within what noise (floor {floor_um:.2f} µm) "
                 f"and {tolerances} leave "
                 f"(p {fp(first.p_at_floor)}), white at the thermal time scales "
-                f"(p {fp(first.p_low)}), and no effect of the library takes more than "
-                f"{first.detectable_um:.2f} µm off it (the most any took: "
+                f"(p {fp(first.p_low)}), and no effect of the library takes more off it than "
+                "that null world lets one take (the most any took: "
                 f"{_best_removal(first):.2f} µm; p {fp(first.p_gain)}"
                 + (f"; practical margin {margin_um:.2f} µm" if margin_um > 0 else "")
                 + ")"
