@@ -76,6 +76,21 @@ def _where_they_differ(design: DesignMatrix, a: FloatArray, b: FloatArray) -> st
     )
 
 
+def _check_instrument(a: str, b: str) -> str:
+    """For a pair with the thermal camera's error in it: what separates them is checking the
+    instrument, not a run of the robot."""
+    from thermrs.effects import is_instrument
+
+    inst = [e for e in (a, b) if is_instrument(e)]
+    if not inst:
+        return ""
+    return (
+        f"{inst[0]} is the thermal camera's error: calibrate the camera (a contact probe on the "
+        "link for its emissivity, its offset and clock) and diagnose again; no run of the "
+        "robot separates them"
+    )
+
+
 def confounded_pairs(
     design: DesignMatrix, pool: list[tuple[str, str, FloatArray]]
 ) -> list[dict[str, Any]]:
@@ -93,7 +108,8 @@ def confounded_pairs(
                         "effects": [ea, eb],
                         "families": [la, lb],
                         "cos": c,
-                        "separate_by": _where_they_differ(design, ca, cb),
+                        "separate_by": _check_instrument(ea, eb)
+                        or _where_they_differ(design, ca, cb),
                     }
                 )
     return out
