@@ -241,3 +241,20 @@ def test_diagnose_bench_cli_runs_a_case_blind_and_withheld(tmp_path: Path) -> No
     assert row["status"] and row["excluded"]["status"]
     assert doc["single"]["white"]["4"]["cases"] == 1
     assert doc["withheld"]["white"]["4"]["cases"] == 1
+
+
+@pytest.mark.parametrize("hours", [15.0, 48.0, 64.0])
+def test_the_second_day_starts_after_the_first_days_run_and_a_rest(hours: float) -> None:
+    """The second day's runs start from the room's temperature in the world's thermal history,
+    so they must start well after the first day's run ends (no chain of runs across a day the
+    world rests), at any run length."""
+    path = thermrs.rig.default_rig_path()
+    w = read_rig(path)
+    scene = draw_scene(w, Campaign(hours=hours, cycle_s=3600.0), "white", 5)
+    tables = render(scene, noise=False, nominal=True)
+    by_run = {str(t["run"][0]): t["t_ns"].to_numpy() for t in tables}
+    rest_s = (by_run["hold_fast"].min() - by_run["train"].max()) / 1e9
+    assert rest_s >= 12 * 3600.0
+    # The runs of one day follow straight on (a cool-down after the fast run).
+    gap_s = (by_run["hold_cool"].min() - by_run["hold_fast"].max()) / 1e9
+    assert 0 < gap_s <= 3600.0

@@ -88,7 +88,6 @@ CENTROID_UM = 0.3
 #: Share of σ from the correlated pose error in the ``ar1`` world.
 AR_SHARE = 0.75
 T0_NS = 1_750_000_000 * 10**9
-DAY_S = 2 * 86400.0
 
 
 @dataclass(frozen=True)
@@ -98,6 +97,14 @@ class Campaign:
     hours: float = 12.0
     cycle_s: float = 600.0
     sigma_um: float = 2.0
+
+    @property
+    def day_s(self) -> float:
+        """Seconds from the first day's start to the second's: whole days, at least two, and
+        at least a day more than the first day's run lasts (the robot rests in between: the
+        second day starts from the room's temperature, as its thermal history does)."""
+        days = max(2, int(np.ceil((self.hours * 3600.0 + 86400.0) / 86400.0)))
+        return days * 86400.0
 
     @property
     def visits(self) -> int:
@@ -385,7 +392,7 @@ def render(
                         "run": [run] * t.size,
                         "camera": [chip.name] * t.size,
                         "visit": np.arange(t.size),
-                        "t_ns": (T0_NS + (day * DAY_S + t) * 1e9).astype(np.int64),
+                        "t_ns": (T0_NS + (day * scene.campaign.day_s + t) * 1e9).astype(np.int64),
                         "u_um": uv[:, 0],
                         "v_um": uv[:, 1],
                         "drift_u_um": uv[:, 0] - uv[0, 0],
