@@ -452,7 +452,64 @@ def _select(
         plausible=plausibility(b.design, rig),
         say=say,
     )
+    first = steps[0]
+    if first.significant or min(first.p_at_floor, first.p_low) < level / 4.0:
+        say("the same test with the rig's tolerances doubled")
+        b.floor.extra["tolerance_excess"] = _tolerance_excess(
+            batch, b, grids, level=level / 4.0, draws=null_draws, rng=rng, rig=rig
+        )
     return [g for g in grids if g.nameable], steps
+
+
+#: How much larger than stated the tolerance-excess check takes the rig's errors.
+TOLERANCE_EXCESS_SCALE = 2.0
+
+
+def _tolerance_excess(
+    batch: Batch,
+    b: _Base,
+    grids: list[FamilyGrid],
+    *,
+    level: float,
+    draws: int,
+    rng: np.random.Generator,
+    rig: Rig,
+) -> dict[str, Any]:
+    """The first step's tests again in a null world whose rig errs by twice its stated
+    tolerances: whether what the data show is within what a rig that understates its
+    errors by that much would leave by itself (then the rig's statement is the first thing
+    to check, before any effect)."""
+    from thermrs.diagnose.selection import run_step
+
+    saved = b.design.nuisance
+    if saved.shape[1] == 0:
+        return {"scale": TOLERANCE_EXCESS_SCALE, "tested": False}
+    b.design.nuisance = saved * TOLERANCE_EXCESS_SCALE
+    try:
+        st = run_step(
+            batch,
+            b.design,
+            b.floor,
+            grids,
+            [],
+            level=level,
+            draws=draws,
+            rng=rng,
+            plausible=plausibility(b.design, rig),
+            margin_um=b.floor.holdout_se_um or 0.0,
+        )
+    finally:
+        b.design.nuisance = saved
+    explains = not st.significant and st.p_at_floor >= level and st.p_low >= level
+    return {
+        "scale": TOLERANCE_EXCESS_SCALE,
+        "tested": True,
+        "p_at_floor": st.p_at_floor,
+        "p_white_at_thermal_scales": st.p_low,
+        "p_best_gain": st.p_gain,
+        "significant": st.significant,
+        "explains": bool(explains),
+    }
 
 
 def _evidence(

@@ -418,12 +418,28 @@ def assemble(
                 )
     if advice and status != "none":
         reason = f"{reason}; {'; '.join(advice)}"
+    excess = floor.extra.get("tolerance_excess") or {}
+    robot = [sel for sel in selected if not is_instrument(sel["effect"])]
+    exceeded = bool(excess.get("explains")) and status != "none" and bool(robot)
+    if exceeded:
+        # The data do not tell an effect of the robot from a rig that errs by twice what it
+        # states: the rig's statement is what to check, not a physical effect to name.
+        status = "unexplained"
+        reason = (
+            f"what these runs show is within what the rig leaves by itself were its errors "
+            f"{excess['scale']:g}× what it states (no effect significant then; p at the floor "
+            f"{excess['p_at_floor']:.2f}): check the rig's tolerances (docs/tolerances.md) "
+            f"before taking it for an effect; with the stated tolerances: {reason}"
+        )
     verdict_doc = {
         # SPEC §7's four statuses; a partial explanation is `unexplained` there (what is left
         # is still a gap) and says so in `outcome` and `partially_explained`.
         "status": "unexplained" if status == "partially explained" else status,
         "outcome": status,
         "partially_explained": status == "partially explained",
+        # The gap is within what the rig leaves if it errs by twice its stated tolerances
+        # (tests.tolerance_excess): no effect of the robot is named.
+        "rig_tolerances_exceeded": exceeded,
         # The effect that explains the gap: none does where what is left is still a gap
         # ("partially explained": the effects that explain a part are in `effects`).
         "effect": None
@@ -510,6 +526,8 @@ def assemble(
             # False: the rig file states no [tolerances]; the null drew the defaults
             # (docs/tolerances.md: the published metrology each comes from).
             "tolerances_stated": tolerances[2],
+            # The first step again with the rig's errors doubled (where it found something).
+            "tolerance_excess": floor.extra.get("tolerance_excess"),
             "tolerance_signatures": tolerances[1],
         },
     )
