@@ -5,7 +5,7 @@ equally well), :func:`design`:
 
 1. takes the confounded set (the verdict's effect and its rivals, or the effects given) with
    the parameters the diagnoser fitted to each (:mod:`thermrs.design.separation`);
-2. searches candidate additional measurements (:mod:`thermrs.design.candidates`): run
+2. searches candidate additional measurements (:mod:`thermrs.design.measurements`): run
    protocols on the user's rig, and new poses with a new chip where the laser lands, recorded
    with a protocol; their visits and drivers forecast by the simulator's thermal model
    (:mod:`thermrs.design.forecast`);
@@ -38,8 +38,8 @@ from typing import Any
 
 import polars as pl
 
-from thermrs.design.candidates import DEFAULT_LIMITS_DEG, Candidate
 from thermrs.design.files import rig_toml, scenario_toml, write_text_atomic
+from thermrs.design.measurements import DEFAULT_LIMITS_DEG, Candidate
 from thermrs.design.search import NOT_SEARCHED, Z_TARGET, search
 from thermrs.design.separation import Rival, rivals_from
 from thermrs.errors import InputError
