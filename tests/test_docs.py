@@ -38,7 +38,8 @@ def test_docstring_examples(module: object) -> None:
 
 
 @pytest.mark.parametrize(
-    "module", ["fit", "predict", "heating", "iso9283", "ingest", "simulate", "rig", "campaigns"]
+    "module",
+    ["fit", "predict", "heating", "iso9283", "ingest", "simulate", "rig", "campaigns", "analyses"],
 )
 def test_public_functions_have_numpy_docstrings(module: str) -> None:
     """Issue #13: every public function documents its parameters, what it returns, what it

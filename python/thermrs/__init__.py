@@ -98,7 +98,6 @@ _SUBMODULES = (
     "simulate",
     "stats",
     "visits",
-    "workflows",
     "analyses",
 )
 
@@ -159,7 +158,6 @@ __all__ = [
     "simulate",
     "stats",
     "visits",
-    "workflows",
 ]
 
 

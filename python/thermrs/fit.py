@@ -480,31 +480,7 @@ def fit_alpha_start_end(
             cams[cam] = one
     if not cams:
         raise InputError("no camera has two visits: nothing to estimate")
-    per: dict[str, tuple[float, tuple[float, float]]] = {}
-    # ∂α_c/∂T per (mapped temperature, first or last visit): the cameras' first (last) visits
-    # lie in one cycle and read the same thermal frames, so a reading error is common to all
-    # cameras and enters their mean coherently, not independently.
-    dtemp: dict[tuple[int, str], list[float]] = {}
-    for cam, one in cams.items():
-        temp_var = 0.0
-        for key, d in one.dtemp.items():
-            temp_var += (d * temperature_noise_c) ** 2
-            dtemp.setdefault(key, []).append(d)
-        half = 1.96 * np.sqrt(one.spot_var + temp_var)
-        per[cam] = (float(one.alpha), (float(one.alpha - half), float(one.alpha + half)))
-    c = len(per)
-    m = float(np.mean([v[0] for v in per.values()]))
-    var_m = float(np.sum([one.spot_var for one in cams.values()])) / c**2 + sum(
-        (sum(d) / c * temperature_noise_c) ** 2 for d in dtemp.values()
-    )
-    half_m = 1.96 * float(np.sqrt(var_m))
-    noise = float(np.sqrt(np.mean(np.square([one.noise for one in cams.values()]))))
-    return StartEndFit(
-        per_camera=per,
-        mean=(m, (m - half_m, m + half_m)),
-        visit_noise_um=noise,
-        axes={cam: one.axis for cam, one in cams.items()},
-    )
+    return _combined(cams, temperature_noise_c)
 
 
 @dataclass(frozen=True)
@@ -558,6 +534,36 @@ def _camera_start_end(
     }
     return _CameraStartEnd(
         alpha=a, spot_var=2.0 * noise**2 / ds**2, noise=noise, dtemp=dtemp, axis=ax
+    )
+
+
+def _combined(cams: dict[str, _CameraStartEnd], temperature_noise_c: float) -> StartEndFit:
+    """Each camera's α with its 95 % interval (its spots' and its temperatures' variance), and
+    their mean with its own (:func:`fit_alpha_start_end`)."""
+    per: dict[str, tuple[float, tuple[float, float]]] = {}
+    # ∂α_c/∂T per (mapped temperature, first or last visit): the cameras' first (last) visits
+    # lie in one cycle and read the same thermal frames, so a reading error is common to all
+    # cameras and enters their mean coherently, not independently.
+    dtemp: dict[tuple[int, str], list[float]] = {}
+    for cam, one in cams.items():
+        temp_var = 0.0
+        for key, d in one.dtemp.items():
+            temp_var += (d * temperature_noise_c) ** 2
+            dtemp.setdefault(key, []).append(d)
+        half = 1.96 * np.sqrt(one.spot_var + temp_var)
+        per[cam] = (float(one.alpha), (float(one.alpha - half), float(one.alpha + half)))
+    c = len(per)
+    m = float(np.mean([v[0] for v in per.values()]))
+    var_m = float(np.sum([one.spot_var for one in cams.values()])) / c**2 + sum(
+        (sum(d) / c * temperature_noise_c) ** 2 for d in dtemp.values()
+    )
+    half_m = 1.96 * float(np.sqrt(var_m))
+    noise = float(np.sqrt(np.mean(np.square([one.noise for one in cams.values()]))))
+    return StartEndFit(
+        per_camera=per,
+        mean=(m, (m - half_m, m + half_m)),
+        visit_noise_um=noise,
+        axes={cam: one.axis for cam, one in cams.items()},
     )
 
 

@@ -277,55 +277,8 @@ def iso9283(table: pl.DataFrame, *, window: int = 10, tolerance_um: float = 1.0)
         tr = t.filter(pl.col("run") == run).sort("t_ns")
         t_run0 = int(tr["t_ns"][0])
         for cam in sorted(set(tr["camera"].to_list())):
-            tc = tr.filter(pl.col("camera") == cam)
-            t_ns = tc["t_ns"].to_numpy().astype(np.int64)
-            u = tc["u_um"].to_numpy().astype(np.float64)
-            v = tc["v_um"].to_numpy().astype(np.float64)
-            n = len(t_ns)
-            nw = n // w
-            row: dict[str, object] = dict.fromkeys(SUMMARY_SCHEMA)
-            row |= {"run": run, "camera": cam, "n_visits": n, "n_windows": nw}
-            if nw == 0:
-                row["note"] = f"{n} visits, fewer than one window of {w}"
-                summary.append(row)
-                continue
-            figs = [rp(u[i * w : (i + 1) * w], v[i * w : (i + 1) * w]) for i in range(nw)]
-            cold = figs[0]
-            for i, (bu, bv, lm, sl, r) in enumerate(figs):
-                windows.append(
-                    {
-                        "run": run,
-                        "camera": cam,
-                        "window": i,
-                        "t_start_ns": int(t_ns[i * w]),
-                        "t_end_ns": int(t_ns[(i + 1) * w - 1]),
-                        "n": w,
-                        "bary_u_um": bu,
-                        "bary_v_um": bv,
-                        "l_mean_um": lm,
-                        "s_l_um": sl,
-                        "rp_um": r,
-                        "dap_um": math.hypot(bu - cold[0], bv - cold[1]),
-                        "drp_um": r - cold[4],
-                    }
-                )
-            row["rp_cold_um"] = cold[4]
-            if nw < 2:
-                row["note"] = f"{n} visits, one window of {w}: no warm window, drift or settling"
-                summary.append(row)
-                continue
-            last = figs[-1]
-            row |= {
-                "rp_warm_um": last[4],
-                "dap_um": math.hypot(last[0] - cold[0], last[1] - cold[1]),
-                "drp_um": last[4] - cold[4],
-                "settle_min": _settle(t_ns, u, v, w, nw, (last[0], last[1]), tol, t_run0),
-            }
-            if row["settle_min"] is None:
-                row["note"] = (
-                    f"not settled: the barycentre is not within {tol:g} µm of the final one "
-                    "before the final window"
-                )
+            rows, row = _camera_figures(tr.filter(pl.col("camera") == cam), w, tol, t_run0)
+            windows += rows
             summary.append(row)
     return Iso9283(
         windows=pl.DataFrame(windows, schema=WINDOW_SCHEMA),
@@ -333,3 +286,59 @@ def iso9283(table: pl.DataFrame, *, window: int = 10, tolerance_um: float = 1.0)
         window=w,
         tolerance_um=tol,
     )
+
+
+def _camera_figures(
+    tc: pl.DataFrame, w: int, tol: float, t_run0: int
+) -> tuple[list[dict[str, object]], dict[str, object]]:
+    """One camera's visits in one run (``tc``, in time order): its windows' rows and its
+    summary row (:func:`iso9283`); ``t_run0`` is the run's first visit, any camera."""
+    t_ns = tc["t_ns"].to_numpy().astype(np.int64)
+    u = tc["u_um"].to_numpy().astype(np.float64)
+    v = tc["v_um"].to_numpy().astype(np.float64)
+    run, cam = str(tc["run"][0]), str(tc["camera"][0])
+    n = len(t_ns)
+    nw = n // w
+    row: dict[str, object] = dict.fromkeys(SUMMARY_SCHEMA)
+    row |= {"run": run, "camera": cam, "n_visits": n, "n_windows": nw}
+    if nw == 0:
+        row["note"] = f"{n} visits, fewer than one window of {w}"
+        return [], row
+    figs = [rp(u[i * w : (i + 1) * w], v[i * w : (i + 1) * w]) for i in range(nw)]
+    cold = figs[0]
+    windows: list[dict[str, object]] = []
+    for i, (bu, bv, lm, sl, r) in enumerate(figs):
+        windows.append(
+            {
+                "run": run,
+                "camera": cam,
+                "window": i,
+                "t_start_ns": int(t_ns[i * w]),
+                "t_end_ns": int(t_ns[(i + 1) * w - 1]),
+                "n": w,
+                "bary_u_um": bu,
+                "bary_v_um": bv,
+                "l_mean_um": lm,
+                "s_l_um": sl,
+                "rp_um": r,
+                "dap_um": math.hypot(bu - cold[0], bv - cold[1]),
+                "drp_um": r - cold[4],
+            }
+        )
+    row["rp_cold_um"] = cold[4]
+    if nw < 2:
+        row["note"] = f"{n} visits, one window of {w}: no warm window, drift or settling"
+        return windows, row
+    last = figs[-1]
+    row |= {
+        "rp_warm_um": last[4],
+        "dap_um": math.hypot(last[0] - cold[0], last[1] - cold[1]),
+        "drp_um": last[4] - cold[4],
+        "settle_min": _settle(t_ns, u, v, w, nw, (last[0], last[1]), tol, t_run0),
+    }
+    if row["settle_min"] is None:
+        row["note"] = (
+            f"not settled: the barycentre is not within {tol:g} µm of the final one "
+            "before the final window"
+        )
+    return windows, row

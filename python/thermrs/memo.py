@@ -136,9 +136,7 @@ def code_identity() -> bytes:
     the versions of the libraries that compute with it."""
     from importlib.metadata import version
 
-    import thermrs
-
-    root = Path(thermrs.__file__).parent
+    root = Path(__file__).parent  # the package's folder
     files = sorted(
         (str(f.relative_to(root)), f.stat().st_size, f.stat().st_mtime_ns)
         for f in root.rglob("*")

@@ -302,45 +302,48 @@ def prediction_table(
     rows: list[dict[str, object]] = []
     for label, alpha in alphas.items():
         p = predict(table, rig, alpha_per_k=alpha)
-        for (run, cam), g in p.group_by(["run", "camera"], maintain_order=True):
-            g = g.sort("t_ns")
-            pred = {a: g[f"predicted_{a}_um"].to_numpy() for a in "uv"}
-            meas = {a: g[f"measured_{a}_um"].to_numpy() for a in "uv"}
-            ax = axis
-            if ax == "auto" and camera_axes and str(cam) in camera_axes:
-                ax = camera_axes[str(cam)]
-            if ax == "auto":
-                ax = "u" if abs(pred["u"][-1]) >= abs(pred["v"][-1]) else "v"
-            k = min(end_visits, g.height)
-            pe = float(np.mean(pred[ax][-k:]))
-            me = float(np.mean(meas[ax][-k:]))
-            res = np.concatenate([meas["u"] - pred["u"], meas["v"] - pred["v"]])
-            res = res[np.isfinite(res)]
-            centred = np.concatenate(
-                [
-                    (meas[a] - pred[a]) - np.nanmean(meas[a] - pred[a])
-                    for a in "uv"
-                    if np.isfinite(meas[a] - pred[a]).any()
-                ]
-            )
-            noise = np.sqrt(np.nanmean([noise_um(meas["u"]) ** 2, noise_um(meas["v"]) ** 2]))
-            rows.append(
-                {
-                    "alpha": label,
-                    "alpha_per_k": float(alpha),
-                    "camera": cam,
-                    "run": run,
-                    "axis": ax,
-                    "predicted_um": pe,
-                    "measured_um": me,
-                    "error_pct": (pe - me) / me * 100.0 if me != 0 else float("nan"),
-                    "rms_um": float(np.sqrt(np.mean(res**2))) if len(res) else float("nan"),
-                    "rms_centred_um": float(np.sqrt(np.nanmean(centred**2))),
-                    "noise_um": float(noise),
-                    "n_visits": g.height,
-                }
-            )
+        for (_, cam), g in p.group_by(["run", "camera"], maintain_order=True):
+            ax = camera_axes.get(str(cam), axis) if axis == "auto" and camera_axes else axis
+            rows.append(_row(g.sort("t_ns"), label, alpha, ax, end_visits))
     return pl.DataFrame(rows)
+
+
+def _row(g: pl.DataFrame, label: str, alpha: float, ax: str, end_visits: int) -> dict[str, object]:
+    """One camera's row in one run (``g``, predicted with ``alpha``, in time order) of
+    :func:`prediction_table`, along ``ax`` (``auto``: the axis of the larger predicted end
+    drift)."""
+    run, cam = g["run"][0], g["camera"][0]
+    pred = {a: g[f"predicted_{a}_um"].to_numpy() for a in "uv"}
+    meas = {a: g[f"measured_{a}_um"].to_numpy() for a in "uv"}
+    if ax == "auto":
+        ax = "u" if abs(pred["u"][-1]) >= abs(pred["v"][-1]) else "v"
+    k = min(end_visits, g.height)
+    pe = float(np.mean(pred[ax][-k:]))
+    me = float(np.mean(meas[ax][-k:]))
+    res = np.concatenate([meas["u"] - pred["u"], meas["v"] - pred["v"]])
+    res = res[np.isfinite(res)]
+    centred = np.concatenate(
+        [
+            (meas[a] - pred[a]) - np.nanmean(meas[a] - pred[a])
+            for a in "uv"
+            if np.isfinite(meas[a] - pred[a]).any()
+        ]
+    )
+    noise = np.sqrt(np.nanmean([noise_um(meas["u"]) ** 2, noise_um(meas["v"]) ** 2]))
+    return {
+        "alpha": label,
+        "alpha_per_k": float(alpha),
+        "camera": cam,
+        "run": run,
+        "axis": ax,
+        "predicted_um": pe,
+        "measured_um": me,
+        "error_pct": (pe - me) / me * 100.0 if me != 0 else float("nan"),
+        "rms_um": float(np.sqrt(np.mean(res**2))) if len(res) else float("nan"),
+        "rms_centred_um": float(np.sqrt(np.nanmean(centred**2))),
+        "noise_um": float(noise),
+        "n_visits": g.height,
+    }
 
 
 @dataclass(frozen=True)

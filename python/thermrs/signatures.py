@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 import polars as pl
 
-from thermrs import _native
+import thermrs._native as _native
 from thermrs.effects import EFFECT_NAMES, AlphaPerLink, Effect
 from thermrs.errors import InputError
 from thermrs.rig import Camera, Rig

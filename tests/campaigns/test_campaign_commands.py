@@ -1,5 +1,5 @@
 """fit, predict, drift, diagnose, design and report on the runs of a campaign dataset
-(``--campaign DATASET --where … --rule …``, ``thermrs.campaigns.fit`` …): each gives what the
+(``--campaign DATASET --where … --rule …``, ``thermrs.analyses.fit`` …): each gives what the
 same command gives on the same runs read from the recordings themselves (``FILE#RUN``), a path
 that shares no code with the dataset's; and bad input is one line, exit 2."""
 
@@ -64,7 +64,7 @@ def spec(camp: dict[str, Path], name: str) -> str:
 
 def rec_id(camp: dict[str, Path], stem: str) -> str:
     """The catalog's id of a recording."""
-    return str(thermrs.campaigns.select_runs(camp["ds"], names=[stem])["recording"][0])
+    return str(thermrs.analyses.inputs.select_runs(camp["ds"], names=[stem])["recording"][0])
 
 
 def named_and_files(
@@ -86,7 +86,7 @@ def same_table(a: pl.DataFrame, b: pl.DataFrame) -> None:
 
 
 def test_runs_by_name_and_query(camp: dict[str, Path]) -> None:
-    from thermrs.campaigns import select_runs, selected, splits
+    from thermrs.analyses.inputs import select_runs, selected, splits
     from thermrs.errors import InputError
 
     rig = thermrs.load_rig()
@@ -115,7 +115,7 @@ def test_fit_from_the_catalog_is_the_fit_of_the_files(
 
     rig = thermrs.load_rig()
     names = ["r1#run1", "r2#run1"]
-    got = thermrs.campaigns.fit(camp["ds"], rig, where="run=run1")
+    got = thermrs.analyses.fit(camp["ds"], rig, where="run=run1")
     truth = fit_document(file_tables(camp, names), rig)
     assert got.fit.alpha_per_k == pytest.approx(truth.fit.alpha_per_k, rel=1e-9)
     assert got.fit.ci95 == pytest.approx(truth.fit.ci95, rel=1e-9)
@@ -383,7 +383,7 @@ def test_report_from_the_catalog_is_the_report_of_the_files(
     assert extraction(tmp_path / "a.md", got[1].name) == extraction(tmp_path / "b.md", "r1#run1")
     assert any(line.startswith("Read ") for line in extraction(tmp_path / "a.md", "RUN"))
     # The library face writes the same report.
-    thermrs.campaigns.report(camp["ds"], rig, tmp_path / "c.html", runs=[got[1].name])
+    thermrs.analyses.report(camp["ds"], rig, tmp_path / "c.html", runs=[got[1].name])
     assert body(tmp_path / "c.md", got[1].name) == body(tmp_path / "b.md", "r1#run1")
 
 
@@ -498,7 +498,7 @@ def test_where_takes_what_people_type(camp: dict[str, Path], tmp_path: Path) -> 
     """Stems, rig files, the date formats people type (one that could be read two ways is
     refused with how to write it), quoted values; a miss lists the values there are, and
     `campaign --list` lists them all."""
-    from thermrs.campaigns import select_runs
+    from thermrs.analyses.inputs import select_runs
     from thermrs.campaigns.select import parse_date
     from thermrs.errors import InputError
 
@@ -538,7 +538,7 @@ def test_where_takes_what_people_type(camp: dict[str, Path], tmp_path: Path) -> 
 def test_where_speed_override_is_the_scenarios(camp: dict[str, Path]) -> None:
     """``speed%`` is the override each run was simulated at (run1 30 %, run2 75 %), through
     the CLI: the table shows it, a query picks by it, and a miss says the range there is."""
-    from thermrs.campaigns import select_runs
+    from thermrs.analyses.inputs import select_runs
 
     fast = select_runs(camp["ds"], where="speed%>=50")
     assert sorted(fast["run"].to_list()) == ["run2", "run2"]
@@ -566,7 +566,7 @@ def test_the_campaign_page_has_tables_figures_and_the_trend(
         p = cli("campaign", str(camp["ds"]), "-o", str(page))
         assert p.returncode == 0, p.stderr
         assert "Over time:" in p.stdout
-    trend = alpha_trend(alpha_by_run(thermrs.campaigns.open_dataset(camp["ds"]), RIG))
+    trend = alpha_trend(alpha_by_run(thermrs.analyses.inputs.open_dataset(camp["ds"]), RIG))
     html = html_page.read_text()
     assert "<pre>" not in html and html.count("<table") == 3  # per day, per speed, every run
     for fig in ("campaign-time", "campaign-speed"):
@@ -633,7 +633,7 @@ def test_the_page_finds_a_trend_injected_into_a_simulated_campaign(
     with ThreadPoolExecutor(2) as pool:  # the simulator runs without the GIL
         recs = list(pool.map(one, range(20)))
     thermrs.campaign(recs, tmp_path / "ds", rig=rig)
-    per_run = alpha_by_run(thermrs.campaigns.open_dataset(tmp_path / "ds"), rig)
+    per_run = alpha_by_run(thermrs.analyses.inputs.open_dataset(tmp_path / "ds"), rig)
     assert per_run.height == 20 and per_run["date"].n_unique() == 6
     trend = alpha_trend(per_run)
     lo, hi = trend["ci95"]

@@ -24,8 +24,8 @@ import pytest
 import scipy.linalg
 import thermrs
 from thermrs.design import DesignResult, design, rival_drift
-from thermrs.design.candidates import candidates, protocols
 from thermrs.design.files import rig_toml, scenario_toml
+from thermrs.design.measurements import candidates, protocols
 from thermrs.design.search import Z_TARGET
 from thermrs.design.separation import Block, Rival, pair_z, rival_families
 from thermrs.effects import JointOffset, UnmodelledLength
@@ -397,8 +397,8 @@ def test_a_room_swing_separates_what_the_room_drives(
     runs: the rival's fit must now also leave the new, driftless visits alone). The room-swing
     protocol moves the room apart from the links, and the fixture's drift, um_per_k times
     the room's excursion, then separates it."""
-    from thermrs.design.candidates import ROOM_SWING_C
     from thermrs.design.forecast import forecast_tables, protocol_samples
+    from thermrs.design.measurements import ROOM_SWING_C
     from thermrs.effects import FixtureDrift
 
     rv = [
@@ -436,7 +436,7 @@ def test_a_room_swing_separates_what_the_room_drives(
 def test_what_the_robot_alone_can_record_is_proved_before_a_room_swing() -> None:
     """Of two candidates that both reach the target, the one that needs the room's climate
     control off is proved second, even with the better score and the less alike signatures."""
-    from thermrs.design.candidates import Candidate
+    from thermrs.design.measurements import Candidate
     from thermrs.design.search import conclude
 
     by = {p.label.split(" ")[0]: p for p in protocols()}

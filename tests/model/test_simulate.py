@@ -303,7 +303,7 @@ def test_start_times_date_the_recording_and_the_idle_day_between_runs(tmp_path: 
         < 0.3
     )
     res = thermrs.campaign([sim.recording], tmp_path / "ds", rig=rig)
-    runs = thermrs.campaigns.select_runs(res.dataset)
+    runs = thermrs.analyses.inputs.select_runs(res.dataset)
     assert runs.sort("start_ns")["date"].cast(pl.String).to_list() == ["2026-11-02", "2026-11-03"]
 
 

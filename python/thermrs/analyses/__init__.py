@@ -1,8 +1,7 @@
 """The analyses a user runs — fit, predict, drift, diagnose, design, report — in one place:
 each loads its runs once (files or a campaign dataset, :mod:`thermrs.analyses.inputs`), makes
 its training and held-out splits, and calls the library. The CLI parses its options, calls
-these and renders what they return; ``thermrs.campaigns.fit``/``predict``/… are these same
-functions; a number in the report is the number the command prints.
+these and renders what they return; a number in the report is the number the command prints.
 
 - :mod:`thermrs.analyses.inputs`: run tables from files (``rec.mcap#run2``) or from a dataset
   (by query and name), :class:`~thermrs.analyses.inputs.Split` (training and held-out runs),

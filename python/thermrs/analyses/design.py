@@ -32,10 +32,40 @@ def design_splits(
     workers: int | None = None,
     **options: Any,
 ) -> list[DesignFold]:
-    """A design per split; ``options`` are :func:`thermrs.design.design`'s keywords.
+    """A design per split (:func:`thermrs.design.design` on its training and held-out runs).
 
-    Several splits are designed side by side on Dask workers (``client``, ``scheduler``,
-    ``workers``: :func:`thermrs.campaigns.fold_map.map_folds`)."""
+    Parameters
+    ----------
+    sets
+        The splits (:func:`~thermrs.analyses.inputs.splits`,
+        :func:`~thermrs.analyses.inputs.file_splits`).
+    rig
+        The rig (a :class:`~thermrs.rig.Rig` or its file).
+    progress
+        Called with a short message (starting with the fold) as the work goes on.
+    client, scheduler, workers
+        Several splits are designed side by side on Dask workers: a ``distributed.Client``,
+        a scheduler's address, or the worker processes of a local cluster
+        (:func:`thermrs.campaigns.fold_map.map_folds`).
+    **options
+        :func:`thermrs.design.design`'s keywords (``exclude``, ``between``, ``budget_h``,
+        ``seed``, ``prove_it``, …).
+
+    Returns
+    -------
+    list of DesignFold
+        One per split, in their order.
+
+    Raises
+    ------
+    InputError
+        What :func:`thermrs.design.design` raises.
+
+    Examples
+    --------
+    >>> sets = thermrs.analyses.file_splits(["rec.mcap#a"], ["rec.mcap#b"], rig)  # doctest: +SKIP
+    >>> (d,) = thermrs.analyses.design_splits(sets, rig, prove_it=False)  # doctest: +SKIP
+    """
     from thermrs.campaigns.fold_map import map_folds
 
     task = partial(_design_fold, rig=rig, **options)
@@ -101,7 +131,7 @@ def design(
 
     Examples
     --------
-    >>> (d,) = thermrs.campaigns.design("campaign/", rig, train=["r1#run1"],
+    >>> (d,) = thermrs.analyses.design("campaign/", rig, train=["r1#run1"],
     ...                                 holdout=["r1#run2"], prove_it=False)  # doctest: +SKIP
     >>> d.result.write("next-experiment/")  # doctest: +SKIP
     """

@@ -63,13 +63,43 @@ def diagnose_splits(
     scheduler: str | None = None,
     workers: int | None = None,
 ) -> list[DiagnosisFold]:
-    """A diagnosis per split: fitted on its training runs, scored on its held-out runs
-    (``margin_um``: the practical margin, :func:`thermrs.diagnose.diagnose`).
+    """A diagnosis per split: fitted on its training runs, scored on its held-out runs.
 
-    Several splits are diagnosed side by side on Dask workers (``client``, ``scheduler``,
-    ``workers``: :func:`thermrs.campaigns.fold_map.map_folds`; with none of them given,
-    on a local cluster only from :data:`CLUSTER_FROM_VISITS` visits); the diagnoses are
-    the same as one after another in this process."""
+    Parameters
+    ----------
+    sets
+        The splits (:func:`~thermrs.analyses.inputs.splits`,
+        :func:`~thermrs.analyses.inputs.file_splits`); each must hold out a run.
+    rig
+        The rig (a :class:`~thermrs.rig.Rig` or its file).
+    exclude, bootstrap, seed, margin_um, progress
+        As :func:`thermrs.diagnose.diagnose` (``margin_um``: the practical margin;
+        ``progress`` messages start with the fold).
+    client, scheduler, workers
+        Several splits are diagnosed side by side on Dask workers: a ``distributed.Client``,
+        a scheduler's address, or the worker processes of a local cluster
+        (:func:`thermrs.campaigns.fold_map.map_folds`). With none given, a local cluster is
+        started only from :data:`CLUSTER_FROM_VISITS` visits. The diagnoses are the same as
+        one after another in this process.
+
+    Returns
+    -------
+    list of DiagnosisFold
+        One per split, in their order.
+
+    Raises
+    ------
+    InputError
+        A split without a held-out run; runs the diagnoser refuses
+        (:func:`thermrs.diagnose.inputs.check_visits`), checked for every split before the
+        first is diagnosed.
+
+    Examples
+    --------
+    >>> sets = thermrs.analyses.file_splits(["rec.mcap#a"], ["rec.mcap#b"], rig)  # doctest: +SKIP
+    >>> (d,) = thermrs.analyses.diagnose_splits(sets, rig)  # doctest: +SKIP
+    >>> d.diagnosis.to_json()["verdict"]["status"]  # doctest: +SKIP
+    """
     from thermrs.campaigns.fold_map import map_folds
     from thermrs.diagnose.inputs import check_visits
     from thermrs.errors import InputError
@@ -153,7 +183,7 @@ def diagnose(
 
     Examples
     --------
-    >>> for d in thermrs.campaigns.diagnose("campaign/", rig, rule="by-day"):  # doctest: +SKIP
+    >>> for d in thermrs.analyses.diagnose("campaign/", rig, rule="by-day"):  # doctest: +SKIP
     ...     print(d.split.name, d.diagnosis.to_json()["verdict"]["status"])
     """
     sets = splits(dataset, rig, where=where, rule=rule, train=train, holdout=holdout)

@@ -29,7 +29,32 @@ class DriftResult:
 def drift_tables(
     tables: Sequence[pl.DataFrame], *, window: int, tolerance_um: float
 ) -> DriftResult:
-    """Heating curves and ISO 9283-style figures of run tables."""
+    """Heating curves and ISO 9283-style figures of run tables.
+
+    Parameters
+    ----------
+    tables
+        Run tables (:func:`thermrs.runs.load_runs`, :func:`~thermrs.analyses.inputs.file_tables`).
+    window
+        Visits per ISO 9283 window, per camera and run (:func:`thermrs.iso9283.iso9283`).
+    tolerance_um
+        The settling tolerance (µm).
+
+    Returns
+    -------
+    DriftResult
+        The curves and the figures, as ``thermrs drift`` prints them.
+
+    Raises
+    ------
+    InputError
+        What :func:`thermrs.heating.heating_curves` and :func:`thermrs.iso9283.iso9283` raise.
+
+    Examples
+    --------
+    >>> tables = thermrs.runs.load_runs("rec.mcap", rig).tables  # doctest: +SKIP
+    >>> thermrs.analyses.drift_tables(tables, window=5, tolerance_um=5.0).curves  # doctest: +SKIP
+    """
     from thermrs.heating import heating_curves
     from thermrs.iso9283 import iso9283
 
@@ -73,7 +98,7 @@ def drift(
 
     Examples
     --------
-    >>> d = thermrs.campaigns.drift("campaign/", rig, where="speed>20")  # doctest: +SKIP
+    >>> d = thermrs.analyses.drift("campaign/", rig, where="speed>20")  # doctest: +SKIP
     >>> d.iso.summary  # doctest: +SKIP
     """
     from thermrs.defaults import ISO_TOLERANCE_UM, ISO_WINDOW

@@ -46,7 +46,7 @@ def fit(
 
     Examples
     --------
-    >>> res = thermrs.campaigns.fit("campaign/", rig, where="date>=2026-11-02")  # doctest: +SKIP
+    >>> res = thermrs.analyses.fit("campaign/", rig, where="date>=2026-11-02")  # doctest: +SKIP
     >>> res.fit.alpha_per_k, res.fit.ci95  # doctest: +SKIP
     """
     return fit_document(selected(dataset, rig, where=where, names=train).train, rig)

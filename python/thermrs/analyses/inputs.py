@@ -106,7 +106,7 @@ def open_dataset(dataset: DatasetLike) -> Dataset:
 
     Examples
     --------
-    >>> thermrs.campaigns.open_dataset("campaign/").catalog()  # doctest: +SKIP
+    >>> thermrs.analyses.inputs.open_dataset("campaign/").catalog()  # doctest: +SKIP
     """
     return dataset if isinstance(dataset, Dataset) else Dataset.open(Path(dataset))
 
@@ -179,7 +179,7 @@ def select_runs(
 
     Examples
     --------
-    >>> thermrs.campaigns.select_runs("campaign/", where="speed>20")  # doctest: +SKIP
+    >>> thermrs.analyses.inputs.select_runs("campaign/", where="speed>20")  # doctest: +SKIP
     """
     runs = campaign_runs(open_dataset(dataset), where)
     return pick_runs(runs, names) if names else runs
@@ -223,7 +223,7 @@ def splits(
 
     Examples
     --------
-    >>> for s in thermrs.campaigns.splits("campaign/", rig, rule="leave-one-run-out"):
+    >>> for s in thermrs.analyses.splits("campaign/", rig, rule="leave-one-run-out"):
     ...     print(s.name, s.train_names, s.holdout_names)  # doctest: +SKIP
     """
     ds = open_dataset(dataset)
@@ -282,7 +282,7 @@ def selected(
 
     Examples
     --------
-    >>> s = thermrs.campaigns.selected("campaign/", rig, where="date=2026-11-02")  # doctest: +SKIP
+    >>> s = thermrs.analyses.selected("campaign/", rig, where="date=2026-11-02")  # doctest: +SKIP
     >>> s.train_names  # doctest: +SKIP
     """
     ds = open_dataset(dataset)
@@ -338,11 +338,21 @@ def file_tables(
         Files already read by this caller (:func:`thermrs.runs.load_runs`'s ``cache``): a
         file named in two options is read once.
 
+    Returns
+    -------
+    tuple of (list of polars.DataFrame, bool)
+        The run tables, in the order given (a file's runs in its order), and whether any
+        recording lost data.
+
     Raises
     ------
     InputError
         A file given twice, unreadable, or without a visit with a spot (with a hint where the
         rig's poses look like radians).
+
+    Examples
+    --------
+    >>> tables, loss = thermrs.analyses.file_tables(["rec.mcap"], rig, "--train")  # doctest: +SKIP
     """
     from thermrs.fit import run_name
     from thermrs.rig import as_rig
@@ -409,7 +419,34 @@ def file_splits(
     cache: dict[Any, Any] | None = None,
 ) -> list[Split]:
     """The one split of training and held-out files (:func:`file_tables`), checked
-    (:func:`check_splits`)."""
+    (:func:`check_splits`).
+
+    Parameters
+    ----------
+    train, holdout
+        The files (``FILE#RUN`` for one run of a file).
+    rig
+        The rig (a :class:`~thermrs.rig.Rig` or its file).
+    holdout_what
+        The option the held-out files were given with, for messages.
+    say, cache
+        As :func:`file_tables`.
+
+    Returns
+    -------
+    list of Split
+        One split, named ``""``.
+
+    Raises
+    ------
+    InputError
+        What :func:`file_tables` raises; no held-out run, or one that is a training run again.
+
+    Examples
+    --------
+    >>> (s,) = thermrs.analyses.file_splits(["rec.mcap#a"], ["rec.mcap#b"], rig)  # doctest: +SKIP
+    >>> s.train_names, s.holdout_names  # doctest: +SKIP
+    """
     tt, loss1 = file_tables(train, rig, "--train", say=say, cache=cache)
     th, loss2 = file_tables(holdout, rig, holdout_what, say=say, cache=cache)
     sets = [Split("", tt, th, loss1 or loss2)]

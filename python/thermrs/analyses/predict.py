@@ -94,7 +94,34 @@ def predict_splits(
     end_visits: int = 1,
 ) -> list[Prediction]:
     """Per split, its held-out runs predicted with ``alphas`` or, without, with the α fitted
-    on its training runs (:func:`thermrs.predict.predict_held_out`)."""
+    on its training runs (:func:`thermrs.predict.predict_held_out`).
+
+    Parameters
+    ----------
+    sets
+        The splits (:func:`~thermrs.analyses.inputs.splits`,
+        :func:`~thermrs.analyses.inputs.file_splits`).
+    rig
+        The rig (a :class:`~thermrs.rig.Rig` or its file).
+    alphas, axis, end_visits
+        As :func:`thermrs.predict.predict_held_out`.
+
+    Returns
+    -------
+    list of Prediction
+        One per split, in their order.
+
+    Raises
+    ------
+    InputError
+        What :func:`thermrs.predict.predict_held_out` raises.
+
+    Examples
+    --------
+    >>> sets = thermrs.analyses.file_splits(["rec.mcap#a"], ["rec.mcap#b"], rig)  # doctest: +SKIP
+    >>> (p,) = thermrs.analyses.predict_splits(sets, rig)  # doctest: +SKIP
+    >>> p.table  # doctest: +SKIP
+    """
     from thermrs.predict import predict_held_out
 
     res = []
@@ -150,7 +177,7 @@ def predict(
 
     Examples
     --------
-    >>> folds = thermrs.campaigns.predict("campaign/", rig, rule="by-day")  # doctest: +SKIP
+    >>> folds = thermrs.analyses.predict("campaign/", rig, rule="by-day")  # doctest: +SKIP
     >>> [(p.split.name, p.rms_um()) for p in folds]  # doctest: +SKIP
     """
     from thermrs.errors import InputError
@@ -172,11 +199,27 @@ def predict(
 def read_fit_alpha(path: str | os.PathLike[str], *, what: str = "--fit") -> float:
     """α (1/K) from a ``thermrs fit --json`` document.
 
+    Parameters
+    ----------
+    path
+        The document.
+    what
+        The option it was given with, for messages.
+
+    Returns
+    -------
+    float
+        α in 1/K.
+
     Raises
     ------
     InputError
         No such file, not such a document, or an α out of range (the message starts with
         ``what`` and the path).
+
+    Examples
+    --------
+    >>> thermrs.analyses.read_fit_alpha("fit.json")  # doctest: +SKIP
     """
     from thermrs.errors import InputError
     from thermrs.predict import check_alpha

@@ -66,7 +66,7 @@ def report(
 
     Examples
     --------
-    >>> thermrs.campaigns.report("campaign/", rig, "november.html",
+    >>> thermrs.analyses.report("campaign/", rig, "november.html",
     ...                          where="date>=2026-11-01", train=["r1#run1"])  # doctest: +SKIP
     """
     from thermrs.report import write_report

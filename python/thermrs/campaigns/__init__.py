@@ -10,10 +10,11 @@ cluster, and the runs of a campaign chosen by query.
 - :mod:`thermrs.campaigns.summary`: α per run, its trend, per day and per speed, folds
   concluded.
 
-:func:`fit`, :func:`predict`, :func:`drift`, :func:`diagnose`, :func:`design` and
-:func:`report` on a campaign's runs, and :func:`selected`, :func:`splits`,
-:func:`select_runs`, :func:`open_dataset`, are those of :mod:`thermrs.analyses` (where every
-analysis runs, on files and on datasets alike), reachable from here.
+The analyses on a campaign's runs (fit, predict, drift, diagnose, design, the report) live in
+:mod:`thermrs.analyses`, where every analysis runs, on files and on datasets alike:
+``thermrs.analyses.fit(dataset, rig, where=…)``. Their old names here
+(``thermrs.campaigns.fit``, …) still work until thermrs 0.2.0, with a
+:class:`DeprecationWarning` that names the new path.
 
 Example
 -------
@@ -21,71 +22,46 @@ Example
 >>> res = thermrs.campaign(["recordings/"], "campaign/", rig="rig.toml")  # doctest: +SKIP
 >>> res.catalog.select("recording", "runs", "frames", "losses")  # doctest: +SKIP
 >>> res.dataset.scan("visits").filter(run="run1").collect()  # doctest: +SKIP
->>> thermrs.campaigns.fit("campaign/", rig, where="date>=2026-11-02").fit  # doctest: +SKIP
->>> for d in thermrs.campaigns.diagnose("campaign/", rig, rule="by-day"):  # doctest: +SKIP
-...     print(d.split.name, d.diagnosis.to_json()["verdict"]["status"])
+>>> thermrs.analyses.fit("campaign/", rig, where="date>=2026-11-02").fit  # doctest: +SKIP
 """
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 from thermrs.campaigns import summary
 from thermrs.campaigns.dataset import Dataset
 from thermrs.campaigns.engine import CampaignInterrupted, CampaignResult, campaign
 
-#: Names that live in :mod:`thermrs.analyses`, by the module that holds them.
-_ANALYSES = {
-    "DesignFold": "design",
-    "DiagnosisFold": "diagnose",
-    "DriftResult": "drift",
-    "Prediction": "predict",
-    "Split": "inputs",
-    "design": "design",
-    "diagnose": "diagnose",
-    "drift": "drift",
-    "fit": "fit",
-    "open_dataset": "inputs",
-    "predict": "predict",
-    "report": "report",
-    "select_runs": "inputs",
-    "selected": "inputs",
-    "splits": "inputs",
+__all__ = ["CampaignInterrupted", "CampaignResult", "Dataset", "campaign", "summary"]
+
+#: The version in which the names that moved to :mod:`thermrs.analyses` stop being handed on
+#: from here.
+MOVED_NAMES_REMOVED_IN = "0.2.0"
+
+#: Names that moved to :mod:`thermrs.analyses`, each with the module that exports it there.
+#: Handed on when first asked, with a warning: this package sits below :mod:`thermrs.analyses`
+#: (which imports its modules) and imports nothing of it.
+_TO_ANALYSES = ("DesignFold", "DiagnosisFold", "DriftResult", "Prediction", "Split", "design",
+                "diagnose", "drift", "fit", "predict", "report", "selected", "splits")  # fmt: skip
+MOVED_TO_ANALYSES = {
+    **dict.fromkeys(_TO_ANALYSES, "thermrs.analyses"),
+    "open_dataset": "thermrs.analyses.inputs",
+    "select_runs": "thermrs.analyses.inputs",
 }
 
 
 def __getattr__(name: str) -> Any:
-    # Read when first asked: thermrs.analyses imports this package's modules.
-    if name in _ANALYSES:
+    if name in MOVED_TO_ANALYSES:
         import importlib
 
-        return getattr(importlib.import_module(f"thermrs.analyses.{_ANALYSES[name]}"), name)
-    if name in ("analyses", "inputs"):
-        import importlib
-
-        return importlib.import_module(f"thermrs.campaigns.{name}")
+        home = MOVED_TO_ANALYSES[name]
+        warnings.warn(
+            f"thermrs.campaigns.{name} moved to {home}.{name}: import it from {home} "
+            f"(thermrs.campaigns.{name} goes in thermrs {MOVED_NAMES_REMOVED_IN})",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return getattr(importlib.import_module(home), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-__all__ = [
-    "CampaignInterrupted",
-    "CampaignResult",
-    "Dataset",
-    "DesignFold",
-    "DiagnosisFold",
-    "DriftResult",
-    "Prediction",
-    "Split",
-    "campaign",
-    "design",
-    "diagnose",
-    "drift",
-    "fit",
-    "open_dataset",
-    "predict",
-    "report",
-    "select_runs",
-    "selected",
-    "splits",
-    "summary",
-]

@@ -218,46 +218,59 @@ def campaign(
     >>> res.extracted, res.unchanged, res.dashboard  # doctest: +SKIP
     >>> res.dataset.scan("visits").filter(run="run2").collect()  # doctest: +SKIP
     """
-    import json
-
     from thermrs.visits import DEFAULT_TOLERANCE_DEG
 
     t0 = time.perf_counter()
     sources = expand([str(r) for r in recordings])
-    r, text, rig_hash = rig_identity(rig)
+    identity = rig_identity(rig)
     version = _version()
     ds = Dataset(Path(out), create=True)
     ds.clean()
-    cat = ds.catalog()
     options = json.dumps(
         {"visit_tolerance_deg": visit_tolerance_deg or DEFAULT_TOLERANCE_DEG}, sort_keys=True
     )
-    same = cat.filter(
+    result = CampaignResult(dataset=ds)
+    todo, jobs, by_hash = _plan(ds, sources, identity, version, options, result)
+    done, total = len(result.unchanged), len(sources)
+    if progress is not None:
+        progress(done, total, "")
+    sizes = [s.size_bytes for s in todo]
+    try:
+        with _engine(jobs, sizes, client, scheduler, workers) as (results, dashboard):
+            if on_cluster is not None:
+                on_cluster(dashboard)
+            _commit_each(ds, results, todo, by_hash, result, progress, total)
+            result.dashboard = dashboard
+        ds.close_staging()
+        ds.consolidate()
+    except KeyboardInterrupt:
+        # The cluster is shut down by now; what was committed stays (the next campaign
+        # removes the staged rest and writes catalog.parquet).
+        n = len(result.extracted) + len(result.unchanged)
+        raise CampaignInterrupted(n, total, len(result.extracted)) from None
+    result.seconds = time.perf_counter() - t0
+    return result
+
+
+def _plan(
+    ds: Dataset,
+    sources: Sequence[Source],
+    identity: tuple[Rig, str, str],
+    version: str,
+    options: str,
+    result: CampaignResult,
+) -> tuple[list[Source], list[Job], dict[str, str]]:
+    """The recordings to extract (:func:`_to_extract`), a job for each (the dataset's staging
+    folder opened for them), and the recordings the dataset holds by content hash, extracted
+    with this rig (``identity``: :func:`rig_identity`), thermrs ``version`` and ``options``."""
+    r, text, rig_hash = identity
+    same = ds.catalog().filter(
         (pl.col("rig_hash") == rig_hash)
         & (pl.col("thermrs_version") == version)
         & (pl.col("options") == options)
     )
-    by_stat = {
-        (row["path"], row["size_bytes"], row["mtime_ns"]): row["recording"]
-        for row in same.iter_rows(named=True)
-    }
     by_hash = dict(zip(same["content_hash"], same["recording"], strict=True))
-    result = CampaignResult(dataset=ds)
-    todo: list[Source] = []
-    for s in sources:
-        if (str(s.path), s.size_bytes, s.mtime_ns) in by_stat:
-            result.unchanged.append(str(s.path))
-        else:
-            todo.append(s)
-    done = len(result.unchanged)
-    total = len(sources)
-    if progress is not None:
-        progress(done, total, "")
-    # Largest first: a long recording started last would run alone at the end while the other
-    # workers idle; in this order the campaign is at most 4/3 of the best split of its work
-    # over the workers (Graham's bound for longest-processing-time-first), where the
-    # listing's order can leave a whole recording's time as the tail.
-    todo.sort(key=lambda s: s.size_bytes, reverse=True)
+    todo = _to_extract(sources, same, result)
     stage, token = ds.open_staging()
     jobs = [
         Job(
@@ -274,33 +287,54 @@ def campaign(
         )
         for s in todo
     ]
+    return todo, jobs, by_hash
+
+
+def _to_extract(
+    sources: Sequence[Source], same: pl.DataFrame, result: CampaignResult
+) -> list[Source]:
+    """The recordings to extract, largest first; those the catalog rows ``same`` hold by path,
+    size and modification time are added to ``result.unchanged`` instead.
+
+    Largest first: a long recording started last would run alone at the end while the other
+    workers idle; in this order the campaign is at most 4/3 of the best split of its work over
+    the workers (Graham's bound for longest-processing-time-first), where the listing's order
+    can leave a whole recording's time as the tail."""
+    by_stat = {
+        (row["path"], row["size_bytes"], row["mtime_ns"]) for row in same.iter_rows(named=True)
+    }
+    todo: list[Source] = []
+    for s in sources:
+        if (str(s.path), s.size_bytes, s.mtime_ns) in by_stat:
+            result.unchanged.append(str(s.path))
+        else:
+            todo.append(s)
+    return sorted(todo, key=lambda s: s.size_bytes, reverse=True)
+
+
+def _commit_each(
+    ds: Dataset,
+    results: Iterator[dict[str, Any]],
+    todo: Sequence[Source],
+    by_hash: dict[str, str],
+    result: CampaignResult,
+    progress: Progress | None,
+    total: int,
+) -> None:
+    """Every job's result committed as it comes (:func:`_absorb`), ``progress`` told."""
     stat = {str(s.path): s for s in todo}
-    sizes = [s.size_bytes for s in todo]
-    try:
-        with _engine(jobs, sizes, client, scheduler, workers) as (results, dashboard):
-            if on_cluster is not None:
-                on_cluster(dashboard)
-            for res in results:
-                # A commit is whole and counted, or not made: Ctrl-C waits for it (renames
-                # and one catalog fragment), so that the count it reports is the dataset's.
-                held = hold_interrupts()
-                try:
-                    _absorb(ds, res, stat, by_hash, result)
-                finally:
-                    release_interrupts(held)
-                done += 1
-                if progress is not None:
-                    progress(done, total, res["path"])
-            result.dashboard = dashboard
-        ds.close_staging()
-        ds.consolidate()
-    except KeyboardInterrupt:
-        # The cluster is shut down by now; what was committed stays (the next campaign
-        # removes the staged rest and writes catalog.parquet).
-        n = len(result.extracted) + len(result.unchanged)
-        raise CampaignInterrupted(n, total, len(result.extracted)) from None
-    result.seconds = time.perf_counter() - t0
-    return result
+    done = len(result.unchanged)
+    for res in results:
+        # A commit is whole and counted, or not made: Ctrl-C waits for it (renames and one
+        # catalog fragment), so that the count it reports is the dataset's.
+        held = hold_interrupts()
+        try:
+            _absorb(ds, res, stat, by_hash, result)
+        finally:
+            release_interrupts(held)
+        done += 1
+        if progress is not None:
+            progress(done, total, res["path"])
 
 
 def _absorb(

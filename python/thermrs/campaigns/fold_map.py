@@ -1,5 +1,6 @@
 """A campaign's folds analysed side by side on Dask workers (``diagnose`` and ``design`` with
-``--rule``, or any list of splits).
+``--rule``, or any list of splits: anything with a ``name``, such as
+:class:`thermrs.analyses.inputs.Split`).
 
 Each fold is a task of its own: its run tables and the rig go to a worker, its result (a
 diagnosis, a design) comes back. The cluster is the campaign's (:func:`~thermrs.campaigns.
@@ -22,13 +23,19 @@ import time
 import uuid
 from collections.abc import Callable, Sequence
 from contextlib import suppress
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import Any, Protocol, TypeVar
 
-if TYPE_CHECKING:
-    from thermrs.analyses.inputs import Split
+__all__ = ["Fold", "FoldTask", "Progress", "map_folds", "prefixed"]
 
-__all__ = ["FoldTask", "Progress", "map_folds", "prefixed"]
 
+class Fold(Protocol):
+    """What a fold must have: its name (empty for the one split of files)."""
+
+    @property
+    def name(self) -> str: ...
+
+
+S = TypeVar("S", bound=Fold)
 R = TypeVar("R")
 
 #: Called with a short message as the work goes on.
@@ -36,12 +43,12 @@ Progress = Callable[[str], object]
 
 #: One fold's analysis: ``task(split, progress)``, a picklable callable (a module-level
 #: function, or a ``functools.partial`` of one) for it to run on a worker.
-FoldTask = Callable[["Split", "Progress | None"], R]
+FoldTask = Callable[[S, "Progress | None"], R]
 
 
 def map_folds(
-    task: FoldTask[R],
-    sets: Sequence[Split],
+    task: FoldTask[S, R],
+    sets: Sequence[S],
     *,
     client: Any = None,
     scheduler: str | None = None,
@@ -118,7 +125,7 @@ def map_folds(
 
 
 def _run(
-    client: Any, task: FoldTask[R], sets: Sequence[Split], topic: str | None, progress: Any
+    client: Any, task: FoldTask[S, R], sets: Sequence[S], topic: str | None, progress: Any
 ) -> list[R]:
     """Every fold submitted at once, results gathered in order (what is left cancelled when
     one fails or Ctrl-C stops the work)."""
@@ -144,7 +151,7 @@ def _run(
                 f.cancel()
 
 
-def _on_worker(task: FoldTask[R], split: Split, topic: str | None) -> R:
+def _on_worker(task: FoldTask[S, R], split: S, topic: str | None) -> R:
     """One fold on a worker, its messages sent on ``topic`` (the fold's name before them)."""
     if topic is None:
         return task(split, None)

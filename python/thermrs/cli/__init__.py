@@ -11,9 +11,10 @@ import its tables and consoles at module level) and the Rust extension ``thermrs
 which defines the exception classes of :mod:`thermrs.errors` that every command maps to an
 exit code.
 
-One command per module of this package (``thermrs.cli.<command>``), each only parsing and
-rendering; the library computes. :mod:`thermrs.cli.common` holds the shared options, output
-checks and tables, :mod:`thermrs.cli.app` the group and the entry point :func:`main`.
+One module of this package per command (``thermrs.cli.<command>``; ``diagnose-bench`` beside
+``diagnose``), each only parsing and rendering; the library computes.
+:mod:`thermrs.cli.common` holds the shared options, output checks and tables,
+:mod:`thermrs.cli.app` the group and the entry point :func:`main`.
 Another module adds a command with ``cli.add_command(my_command)`` (a ``click.Command``).
 """
 

@@ -14,6 +14,9 @@ from thermrs.cli.common import input_file, out_option, rule_option, where_option
 
 if TYPE_CHECKING:
     import polars as pl
+    from rich.console import Console
+
+    from thermrs.campaigns import CampaignResult
 
 __all__ = ["SHOWN", "campaign_command", "extract_campaign", "is_campaign", "rows_to_show"]
 
@@ -50,7 +53,7 @@ def extract_campaign(
 
     from thermrs.campaigns import campaign
     from thermrs.campaigns.engine import CampaignInterrupted
-    from thermrs.cli.common import EXIT_BAD_INPUT, EXIT_DATA_LOSS, console, table
+    from thermrs.cli.common import EXIT_BAD_INPUT, EXIT_DATA_LOSS, console
 
     err = console(stderr=True)
 
@@ -89,23 +92,7 @@ def extract_campaign(
             raise KeyboardInterrupt(f"{e}; run the same command again to resume") from None
     cat = res.catalog
     if not quiet:
-        err.print(
-            f"{len(res.extracted)} recordings extracted, {len(res.unchanged)} unchanged "
-            f"(not extracted again), {len(res.failed)} failed, in {res.seconds:.1f} s"
-        )
-        shown = rows_to_show(cat, set(res.extracted))  # resolved paths, as the catalog's
-        t = table(
-            f"Catalog ({out / 'catalog.parquet'})",
-            [("recording", "left"), ("runs", "right"), ("frames", "right"), ("losses", "right")],
-        )
-        for row in shown.iter_rows(named=True):
-            t.add_row(row["recording"], str(row["runs"]), f"{row['frames']:,}", str(row["losses"]))
-        if cat.height > shown.height:
-            t.caption = (
-                f"{shown.height} of {cat.height:,} recordings shown (those that lost data "
-                f"first, then this campaign's); all of them: {out / 'catalog.parquet'}"
-            )
-        err.print(t)
+        _print_catalog(err, res, out)
     # The same bytes under two names: catalogued as two recordings; a rule that holds one
     # out against the other would compare a run with itself.
     hashed = cat.filter(pl.col("content_hash").is_not_null())
@@ -133,6 +120,31 @@ def extract_campaign(
         sys.exit(EXIT_BAD_INPUT)
     if res.data_loss:
         sys.exit(EXIT_DATA_LOSS)
+
+
+def _print_catalog(err: Console, res: CampaignResult, out: Path) -> None:
+    """What the campaign did, and its catalog: the recordings that lost data first, then
+    this campaign's, at most :data:`SHOWN`."""
+    from thermrs.cli.common import table
+
+    err.print(
+        f"{len(res.extracted)} recordings extracted, {len(res.unchanged)} unchanged "
+        f"(not extracted again), {len(res.failed)} failed, in {res.seconds:.1f} s"
+    )
+    cat = res.catalog
+    shown = rows_to_show(cat, set(res.extracted))  # resolved paths, as the catalog's
+    t = table(
+        f"Catalog ({out / 'catalog.parquet'})",
+        [("recording", "left"), ("runs", "right"), ("frames", "right"), ("losses", "right")],
+    )
+    for row in shown.iter_rows(named=True):
+        t.add_row(row["recording"], str(row["runs"]), f"{row['frames']:,}", str(row["losses"]))
+    if cat.height > shown.height:
+        t.caption = (
+            f"{shown.height} of {cat.height:,} recordings shown (those that lost data "
+            f"first, then this campaign's); all of them: {out / 'catalog.parquet'}"
+        )
+    err.print(t)
 
 
 def _list_values(ds: Any, query: str | None) -> None:

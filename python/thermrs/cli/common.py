@@ -1,8 +1,9 @@
 """What every command shares: the console and tables, option types, output checks and
 writers, and run tables read from recordings or extracted tables (``FILE`` or ``FILE#RUN``).
 
-Start-up is kept short (``thermrs --help``): numpy, polars, scipy, rich and the Rust
-extension are imported inside the functions that need them, never at module level.
+Start-up is kept short (``thermrs --help``): numpy, polars, scipy and rich are imported inside
+the functions that need them, never at module level; the Rust extension is loaded with
+:mod:`thermrs.errors`, whose exception classes it defines.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ equally well), :func:`design`:
 
 1. takes the confounded set (the verdict's effect and its rivals, or the effects given) with
    the parameters the diagnoser fitted to each (:mod:`thermrs.design.separation`);
-2. searches candidate additional measurements (:mod:`thermrs.design.candidates`): run
+2. searches candidate additional measurements (:mod:`thermrs.design.measurements`): run
    protocols on the user's rig, and new poses with a new chip where the laser lands, recorded
    with a protocol; their visits and drivers forecast by the simulator's thermal model
    (:mod:`thermrs.design.forecast`);
@@ -38,8 +38,8 @@ from typing import Any
 
 import polars as pl
 
-from thermrs.design.candidates import DEFAULT_LIMITS_DEG, Candidate
 from thermrs.design.files import rig_toml, scenario_toml, write_text_atomic
+from thermrs.design.measurements import DEFAULT_LIMITS_DEG, Candidate
 from thermrs.design.search import NOT_SEARCHED, Z_TARGET, search
 from thermrs.design.separation import Rival, rivals_from
 from thermrs.errors import InputError
@@ -313,11 +313,45 @@ def design(
     >>> # r = thermrs.design.design([run1], [run2, run3], thermrs.load_rig(), budget_h=24)
     >>> # r.write("design-out"); r.to_json()["proof"]["matrix"]
     """
-    from thermrs.diagnose import diagnose as run_diagnosis
     from thermrs.rig import as_rig
 
     rig = as_rig(rig)
+    lim = tuple(limits_deg) if limits_deg is not None else DEFAULT_LIMITS_DEG
+    _check_options(rig, budget_h=budget_h, between=between, limits=lim)
+    say = progress or (lambda _m: None)
+    t0 = time.perf_counter()
+    doc, exclude = _the_diagnosis(train, holdout, rig, diagnosis, exclude=exclude, say=say)
+    result = _start(
+        doc,
+        rig,
+        between,
+        budget_h=budget_h,
+        limits_deg=lim,
+        limits_source="given" if limits_deg is not None else "default (KUKA KR 15/2 axis ranges)",
+        cycle_s=cycle_s,
+        recorded_proof=recorded_proof,
+    )
+    if result.confounded:
+        _search_and_prove(result, train, holdout, exclude, workdir, seed, prove_it, say, jobs)
+    result.seconds = time.perf_counter() - t0
+    return result
 
+
+def _check_options(
+    rig: Rig,
+    *,
+    budget_h: float,
+    between: Sequence[str] | None,
+    limits: tuple[tuple[float, float], ...],
+) -> None:
+    """What :func:`design` can refuse before the runs are diagnosed.
+
+    Raises
+    ------
+    InputError
+        A budget below one hour; a ROI the simulator has no thermal node for; a ``between``
+        name that is not an effect; joint limits not one range per joint.
+    """
     if not budget_h >= 1.0:
         raise InputError(f"--budget-h {budget_h}: at least 1 hour of recording is needed")
     from thermrs.simulate import DEFAULT_NODES
@@ -337,12 +371,30 @@ def design(
         for name in between:
             if name not in known:  # said before the runs are diagnosed, not after
                 raise InputError(f"--between {name!r}: not an effect (known: {', '.join(known)})")
-    say = progress or (lambda _m: None)
-    t0 = time.perf_counter()
-    lim = tuple(limits_deg) if limits_deg is not None else DEFAULT_LIMITS_DEG
-    if len(lim) != len(rig.joint_names):
-        raise InputError(f"joint limits: {len(lim)} ranges given, the robot has 6 joints")
+    if len(limits) != len(rig.joint_names):
+        raise InputError(f"joint limits: {len(limits)} ranges given, the robot has 6 joints")
+
+
+def _the_diagnosis(
+    train: Sequence[pl.DataFrame],
+    holdout: Sequence[pl.DataFrame],
+    rig: Rig,
+    diagnosis: Any | None,
+    *,
+    exclude: Sequence[str],
+    say: Callable[[str], object],
+) -> tuple[dict[str, Any], list[str]]:
+    """The diagnosis :func:`design` starts from (``diagnosis`` checked against the runs, or
+    the runs diagnosed here) as its JSON document, and the effects it excluded.
+
+    Raises
+    ------
+    InputError
+        A diagnosis of other runs or another rig; ``exclude`` other than the diagnosis's.
+    """
     if diagnosis is None:
+        from thermrs.diagnose import diagnose as run_diagnosis
+
         say("diagnosing the given runs")
         doc = run_diagnosis(
             train,
@@ -351,30 +403,44 @@ def design(
             exclude=list(exclude),
             progress=lambda m: say(f"diagnosing the given runs: {m}"),
         ).to_json()
-    else:
-        from thermrs.diagnose import Diagnosis
+        return doc, list(exclude)
+    from thermrs.diagnose import Diagnosis
 
-        given = diagnosis if isinstance(diagnosis, Diagnosis) else Diagnosis.from_json(diagnosis)
-        given.check_runs(
-            [str(n) for t in train for n in t["run"].unique().to_list()],
-            [str(n) for t in holdout for n in t["run"].unique().to_list()],
-            tables=[*train, *holdout],
-            rig=rig,
+    given = diagnosis if isinstance(diagnosis, Diagnosis) else Diagnosis.from_json(diagnosis)
+    given.check_runs(
+        [str(n) for t in train for n in t["run"].unique().to_list()],
+        [str(n) for t in holdout for n in t["run"].unique().to_list()],
+        tables=[*train, *holdout],
+        rig=rig,
+    )
+    if exclude and sorted(exclude) != sorted(given.excluded):
+        raise InputError(
+            f"--exclude {' '.join(exclude)}: the diagnosis was made excluding "
+            f"{', '.join(given.excluded) or 'nothing'}"
         )
-        if exclude and sorted(exclude) != sorted(given.excluded):
-            raise InputError(
-                f"--exclude {' '.join(exclude)}: the diagnosis was made excluding "
-                f"{', '.join(given.excluded) or 'nothing'}"
-            )
-        exclude = list(given.excluded)
-        doc = given.to_json()
+    return given.to_json(), list(given.excluded)
+
+
+def _start(
+    doc: dict[str, Any],
+    rig: Rig,
+    between: Sequence[str] | None,
+    *,
+    budget_h: float,
+    limits_deg: tuple[tuple[float, float], ...],
+    limits_source: str,
+    cycle_s: float,
+    recorded_proof: bool,
+) -> DesignResult:
+    """The result before the search: the diagnosis, the effects to separate (``between``, or
+    the diagnosis's confounded set) and their rivals, or why there are none."""
     names = _confounded(doc, between)
     result = DesignResult(
         diagnosis=doc,
         confounded=names,
         budget_h=budget_h,
-        limits_deg=lim,
-        limits_source="given" if limits_deg is not None else "default (KUKA KR 15/2 axis ranges)",
+        limits_deg=limits_deg,
+        limits_source=limits_source,
         rig=rig,
         cycle_s=cycle_s,
         recorded_proof=recorded_proof,
@@ -387,12 +453,6 @@ def design(
         )
     else:
         result.rivals = rivals_from(doc, names, rig)
-        with tempfile.TemporaryDirectory(prefix="thermrs-design-") as tmp:
-            wd = Path(workdir) if workdir is not None else Path(tmp)
-            wd.mkdir(parents=True, exist_ok=True)
-            n_jobs = jobs if jobs is not None else len(os.sched_getaffinity(0))
-            _search_and_prove(result, train, holdout, exclude, wd, seed, prove_it, say, n_jobs)
-    result.seconds = time.perf_counter() - t0
     return result
 
 
@@ -401,38 +461,44 @@ def _search_and_prove(
     train: Sequence[pl.DataFrame],
     holdout: Sequence[pl.DataFrame],
     exclude: Sequence[str],
-    wd: Path,
+    workdir: str | Path | None,
     seed: int,
     prove_it: bool,
     say: Callable[[str], object],
-    jobs: int,
+    jobs: int | None,
 ) -> None:
+    """The search, then the proof of the best candidates, in ``workdir`` (default: a temporary
+    folder), the proof's truths on ``jobs`` threads (default: the cores this process may use)."""
     from threadpoolctl import threadpool_limits  # type: ignore[import-untyped]
 
-    user_runs = {str(n) for t in [*train, *holdout] for n in t["run"].unique().to_list()}
-    with threadpool_limits(limits=1, user_api="blas"):
-        found = search(
-            [*train, *holdout],
-            result.rig,
-            result.rivals,
-            float(result.diagnosis["noise_floor_um"]),
-            budget_h=result.budget_h,
-            cycle_s=result.cycle_s,
-            limits_deg=result.limits_deg,
-            workdir=wd,
-            taken=user_runs,
-            progress=say,
-        )
-    result.now = found.now
-    result.ranked = [c for c, _ in found.ranked]
-    order = found.proof_order
-    result.best = order[0] if order else None
-    if not order or found.why_not:
-        result.why_not = found.why_not or "no candidate fits the budget and joint limits"
-    elif not prove_it:
-        result.why_not = "not proved (the proof was not asked for): nothing recommended"
-    else:
-        _prove(result, order, train, holdout, exclude, wd, seed, say, jobs)
+    with tempfile.TemporaryDirectory(prefix="thermrs-design-") as tmp:
+        wd = Path(workdir) if workdir is not None else Path(tmp)
+        wd.mkdir(parents=True, exist_ok=True)
+        n_jobs = jobs if jobs is not None else len(os.sched_getaffinity(0))
+        user_runs = {str(n) for t in [*train, *holdout] for n in t["run"].unique().to_list()}
+        with threadpool_limits(limits=1, user_api="blas"):
+            found = search(
+                [*train, *holdout],
+                result.rig,
+                result.rivals,
+                float(result.diagnosis["noise_floor_um"]),
+                budget_h=result.budget_h,
+                cycle_s=result.cycle_s,
+                limits_deg=result.limits_deg,
+                workdir=wd,
+                taken=user_runs,
+                progress=say,
+            )
+        result.now = found.now
+        result.ranked = [c for c, _ in found.ranked]
+        order = found.proof_order
+        result.best = order[0] if order else None
+        if not order or found.why_not:
+            result.why_not = found.why_not or "no candidate fits the budget and joint limits"
+        elif not prove_it:
+            result.why_not = "not proved (the proof was not asked for): nothing recommended"
+        else:
+            _prove(result, order, train, holdout, exclude, wd, seed, say, n_jobs)
 
 
 def _prove(

@@ -11,7 +11,7 @@ from typing import Any
 import tomli_w
 
 from thermrs.atomic import write_text as write_text_atomic
-from thermrs.design.candidates import Candidate
+from thermrs.design.measurements import Candidate
 from thermrs.rig import Rig
 
 __all__ = ["rig_dict", "rig_toml", "scenario_toml", "write_text_atomic"]

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import polars as pl
 
-from thermrs.design.candidates import Candidate, Protocol
 from thermrs.design.files import scenario_toml, write_text_atomic
+from thermrs.design.measurements import Candidate, Protocol
 from thermrs.rig import Rig
 
 __all__ = ["forecast_tables", "simulated_runs", "truth_runs"]

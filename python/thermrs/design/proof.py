@@ -41,9 +41,9 @@ from typing import Any
 import numpy as np
 import polars as pl
 
-from thermrs.design.candidates import Candidate
 from thermrs.design.files import rig_toml, scenario_toml
 from thermrs.design.forecast import simulated_runs, truth_runs
+from thermrs.design.measurements import Candidate
 from thermrs.design.separation import Rival
 from thermrs.rig import Rig
 

@@ -18,9 +18,9 @@ from typing import Any
 
 import polars as pl
 
-from thermrs.design.candidates import Candidate, Protocol, candidates, protocols
 from thermrs.design.files import rig_toml
 from thermrs.design.forecast import forecast_tables, protocol_samples
+from thermrs.design.measurements import Candidate, Protocol, candidates, protocols
 from thermrs.design.separation import Block, Rival, pair_cos, pair_z, rival_families
 from thermrs.rig import Rig
 from thermrs.signatures import VisitSet

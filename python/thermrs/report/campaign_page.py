@@ -148,6 +148,14 @@ def campaign_sections(per_run: pl.DataFrame, *, folds: pl.DataFrame | None = Non
         )
     )
     speed.blocks.append(_group_table(by_group(per_run, "speed"), "speed"))
+    sections = [summary, time, speed, _runs_section(per_run)]
+    if folds is not None:
+        sections.append(_held_out_section(folds))
+    return sections
+
+
+def _runs_section(per_run: pl.DataFrame) -> Section:
+    """Every run: its α, interval, rms and largest drift."""
     runs = Section("runs", "Every run")
     runs.blocks.append(
         Table(
@@ -180,34 +188,36 @@ def campaign_sections(per_run: pl.DataFrame, *, folds: pl.DataFrame | None = Non
             ],
         )
     )
-    sections = [summary, time, speed, runs]
-    if folds is not None:
-        held = Section("held-out", "Held out by rule")
-        held.blocks.append(
-            Table(
-                caption="α fitted on each fold's training runs; held-out rms: measured − "
-                "predicted drift over every held-out visit (µm, the norm of u and v)",
-                columns=[
-                    "fold",
-                    "training runs",
-                    "held-out runs",
-                    "α (10⁻⁶/K)",
-                    "held-out rms (µm)",
-                ],
-                rows=[
-                    [
-                        f["fold"],
-                        str(f["train_runs"]),
-                        str(f["holdout_runs"]),
-                        _f(f["alpha_per_k"], 1e6),
-                        _f(f["holdout_rms_um"]),
-                    ]
-                    for f in folds.iter_rows(named=True)
-                ],
-            )
+    return runs
+
+
+def _held_out_section(folds: pl.DataFrame) -> Section:
+    """The folds of a rule: α on their training runs, the rms on their held-out runs."""
+    held = Section("held-out", "Held out by rule")
+    held.blocks.append(
+        Table(
+            caption="α fitted on each fold's training runs; held-out rms: measured − "
+            "predicted drift over every held-out visit (µm, the norm of u and v)",
+            columns=[
+                "fold",
+                "training runs",
+                "held-out runs",
+                "α (10⁻⁶/K)",
+                "held-out rms (µm)",
+            ],
+            rows=[
+                [
+                    f["fold"],
+                    str(f["train_runs"]),
+                    str(f["holdout_runs"]),
+                    _f(f["alpha_per_k"], 1e6),
+                    _f(f["holdout_rms_um"]),
+                ]
+                for f in folds.iter_rows(named=True)
+            ],
         )
-        sections.append(held)
-    return sections
+    )
+    return held
 
 
 def write_campaign_page(
