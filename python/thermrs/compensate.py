@@ -44,7 +44,7 @@ from thermrs.effects import Effect, IrGain, from_dict, is_instrument
 from thermrs.errors import InputError
 from thermrs.identity import check_rig, rig_identity
 from thermrs.model import ForwardModel
-from thermrs.rig import Rig, as_rig
+from thermrs.rig import Rig, as_rig, geometry_variants
 
 __all__ = [
     "CompensationLaw",
@@ -421,10 +421,8 @@ def _geometry_sd(
     """Per (camera, temperature): the standard uncertainty (u, v, µm/K) of the slope from the
     rig's stated geometric tolerances: the slope again on the rig with each DH length, twist,
     joint zero, chip and laser quantity moved by its standard uncertainty
-    (:func:`thermrs.diagnose.tolerances.geometry_variants`, the null world's own), the moves
+    (:func:`thermrs.rig.geometry_variants`, the null world's own), the moves
     added in quadrature. A slope near zero is set by the geometry, not by α."""
-    from thermrs.diagnose.tolerances import geometry_variants
-
     acc = {key: np.zeros(2) for key in slopes}
     for name, data in geometry_variants(rig):
         try:

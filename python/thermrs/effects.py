@@ -37,6 +37,7 @@ import dataclasses
 import json
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
@@ -589,25 +590,6 @@ class SensorDrift(Effect):
 # --- instrument effects ---------------------------------------------------------------------------
 
 
-class Readings(Protocol):
-    """What an instrument effect corrects: the visits' temperatures and their times."""
-
-    @property
-    def run(self) -> npt.NDArray[np.str_]:
-        """Every visit's run name."""
-        ...
-
-    @property
-    def t_s(self) -> FloatArray:
-        """Every visit's time (s, one clock for every run)."""
-        ...
-
-    @property
-    def t_since_start(self) -> FloatArray:
-        """Every visit's time since its run began (s)."""
-        ...
-
-
 @dataclass(frozen=True)
 class InstrumentEffect(Effect):
     """An error of the thermal camera's readings, not of the robot: the forward model is
@@ -625,9 +607,10 @@ class InstrumentEffect(Effect):
     size_key: ClassVar[str] = ""
 
     def corrected(
-        self, temps: Mapping[str, FloatArray], visits: Readings, reference_c: float
+        self, temps: Mapping[str, FloatArray], visits: Any, reference_c: float
     ) -> dict[str, FloatArray]:
-        """The readings as they would have been without this error."""
+        """The readings as they would have been without this error (``visits``: their run,
+        ``t_s`` and ``t_since_start`` per visit, as :class:`thermrs.signatures.VisitSet`)."""
         raise NotImplementedError
 
     def check(self, rig: Rig | None = None) -> Effect:
@@ -644,38 +627,39 @@ class InstrumentEffect(Effect):
         return self
 
     @classmethod
-    def _unit_family(
+    def _families(
         cls,
-        label: str,
-        choices: dict[str, Any],
-        make: Callable[[float], InstrumentEffect],
-        unit: float,
+        rig: Rig,
         visits: Visits,
+        make: Callable[..., InstrumentEffect],
+        unit: float,
         transform: Callable[[float], float] | None = None,
-    ) -> Family:
-        """A family whose one column is the spots' move per unit α when the effect is ``unit``
-        large, its parameter the amplitude over α, mapped by ``transform`` (increasing) where
-        the correction is not linear in the parameter."""
+    ) -> list[Family]:
+        """Per ROI the runs carry (``make(roi, size)``), or one for the camera (``make(size)``
+        for a class without ``roi``): one column, the spots' move per unit α when the effect
+        is ``unit`` large; its parameter the amplitude over α, mapped by ``transform``
+        (increasing) where the correction is not linear in it."""
 
-        def columns(vs: Visits, eta: dict[str, float]) -> FloatArray:
-            moved = vs.positions(effects=[make(unit)])
-            return ((moved - vs.positions()) / (unit * vs.alpha0))[:, None]
+        def family(label: str, choices: dict[str, Any], one: Callable[[float], Any]) -> Family:
+            def columns(vs: Visits, eta: dict[str, float]) -> FloatArray:
+                moved = vs.positions(effects=[one(unit)])
+                return ((moved - vs.positions()) / (unit * vs.alpha0))[:, None]
 
-        def params(
-            eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
-        ) -> tuple[dict[str, Any], dict[str, Any]]:
-            k, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
-            ci = _ci(k, sd)
-            if transform is not None:
-                k, ci = transform(k), [transform(ci[0]), transform(ci[1])]
-            return {**choices, cls.size_key: k}, {cls.size_key: ci}
+            def params(
+                eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
+            ) -> tuple[dict[str, Any], dict[str, Any]]:
+                k, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
+                ci = _ci(k, sd)
+                if transform is not None:
+                    k, ci = transform(k), [transform(ci[0]), transform(ci[1])]
+                return {**choices, cls.size_key: k}, {cls.size_key: ci}
 
-        return Family(cls.name, label, choices, [{}], columns, params, driver="instrument")
+            return Family(cls.name, label, choices, [{}], columns, params, driver="instrument")
 
-
-def _room(temps: Mapping[str, FloatArray], n: int, reference_c: float) -> FloatArray:
-    amb = temps.get("ambient")
-    return amb if amb is not None else np.full(n, reference_c)
+        rois = [r for r in rig.mapped_temperatures if r != "ambient" and visits.has(r)]
+        if "roi" not in {f.name for f in dataclasses.fields(cls)}:
+            return [family(cls.name, {}, make)] if rois else []
+        return [family(f"{cls.name} roi={r}", {"roi": r}, partial(make, r)) for r in rois]
 
 
 @register
@@ -691,19 +675,17 @@ class IrGain(InstrumentEffect):
     gain: float = 0.0
 
     def corrected(
-        self, temps: Mapping[str, FloatArray], visits: Readings, reference_c: float
+        self, temps: Mapping[str, FloatArray], visits: Any, reference_c: float
     ) -> dict[str, FloatArray]:
         out = dict(temps)
         t = temps[self.roi]
-        room = _room(temps, len(t), reference_c)
+        amb = temps.get("ambient")
+        room = amb if amb is not None else np.full(len(t), reference_c)
         out[self.roi] = room + (t - room) / (1.0 + self.gain)
         return out
 
     @classmethod
     def families(cls, rig: Rig, visits: Visits) -> list[Family]:
-        def make(r: str) -> Callable[[float], InstrumentEffect]:
-            return lambda g: IrGain(roi=r, gain=g)
-
         unit = 0.01
 
         def gain(x: float) -> float:
@@ -712,11 +694,7 @@ class IrGain(InstrumentEffect):
             c = x / (1.0 + unit)
             return c / (1.0 - c) if c < 1.0 else np.inf
 
-        return [
-            cls._unit_family(f"ir_gain roi={r}", {"roi": r}, make(r), unit, visits, gain)
-            for r in rig.mapped_temperatures
-            if r != "ambient" and visits.has(r)
-        ]
+        return cls._families(rig, visits, lambda r, g: IrGain(roi=r, gain=g), unit, gain)
 
 
 @register
@@ -732,7 +710,7 @@ class IrDrift(InstrumentEffect):
     k_per_h: float = 0.0
 
     def corrected(
-        self, temps: Mapping[str, FloatArray], visits: Readings, reference_c: float
+        self, temps: Mapping[str, FloatArray], visits: Any, reference_c: float
     ) -> dict[str, FloatArray]:
         out = dict(temps)
         out[self.roi] = temps[self.roi] - self.k_per_h * visits.t_since_start / 3600.0
@@ -740,14 +718,7 @@ class IrDrift(InstrumentEffect):
 
     @classmethod
     def families(cls, rig: Rig, visits: Visits) -> list[Family]:
-        def make(r: str) -> Callable[[float], InstrumentEffect]:
-            return lambda k: IrDrift(roi=r, k_per_h=k)
-
-        return [
-            cls._unit_family(f"ir_drift roi={r}", {"roi": r}, make(r), 0.1, visits)
-            for r in rig.mapped_temperatures
-            if r != "ambient" and visits.has(r)
-        ]
+        return cls._families(rig, visits, lambda r, k: IrDrift(roi=r, k_per_h=k), 0.1)
 
 
 @register
@@ -762,7 +733,7 @@ class IrClock(InstrumentEffect):
     s: float = 0.0
 
     def corrected(
-        self, temps: Mapping[str, FloatArray], visits: Readings, reference_c: float
+        self, temps: Mapping[str, FloatArray], visits: Any, reference_c: float
     ) -> dict[str, FloatArray]:
         out = dict(temps)
         for name, t in temps.items():
@@ -779,34 +750,27 @@ class IrClock(InstrumentEffect):
 
     @classmethod
     def families(cls, rig: Rig, visits: Visits) -> list[Family]:
-        rois = [r for r in rig.mapped_temperatures if r != "ambient" and visits.has(r)]
-        if not rois:
-            return []
-        return [cls._unit_family("ir_clock", {}, lambda x: IrClock(s=x), 10.0, visits)]
+        return cls._families(rig, visits, lambda x: IrClock(s=x), 10.0)
 
 
 def instrument_advice(name: str, params: Mapping[str, Any]) -> str:
     """What to check on the instrument an instrument effect names, in one clause."""
-    if name == "ir_gain":
-        g = float(params["gain"])
-        return (
-            f"check the emissivity of {params['roi']}: its reading of the rise above the room is "
-            f"{abs(g):.1%} {'high' if g > 0 else 'low'} — an instrument error, not the robot's"
-        )
-    if name == "ir_drift":
-        return (
-            f"check the thermal camera's offset on {params['roi']}: its reading drifts "
-            f"{float(params['k_per_h']):+.2f} K per hour of the run — an instrument error, not "
-            "the robot's"
-        )
-    if name == "ir_clock":
-        x = float(params["s"])
-        return (
-            f"check the thermal camera's clock: its frames are stamped {abs(x):.0f} s "
-            f"{'late' if x > 0 else 'early'} against the CCD cameras' — an instrument error, "
-            "not the robot's"
-        )
-    return ""
+    p = {k: v for k, v in params.items()}
+    said = {
+        "ir_gain": lambda: (
+            f"check the emissivity of {p['roi']}: its reading of the rise above "
+            f"the room is {abs(p['gain']):.1%} {'high' if p['gain'] > 0 else 'low'}"
+        ),
+        "ir_drift": lambda: (
+            f"check the thermal camera's offset on {p['roi']}: its reading "
+            f"drifts {p['k_per_h']:+.2f} K per hour of the run"
+        ),
+        "ir_clock": lambda: (
+            f"check the thermal camera's clock: its frames are stamped "
+            f"{abs(p['s']):.0f} s {'late' if p['s'] > 0 else 'early'} against the CCD cameras'"
+        ),
+    }.get(name)
+    return "" if said is None else said() + " — an instrument error, not the robot's"
 
 
 #: The instrument effects' names (the thermal camera's, not the robot's).

@@ -18,6 +18,7 @@ Example
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 from collections.abc import Mapping
@@ -41,6 +42,7 @@ __all__ = [
     "Roi",
     "as_rig",
     "default_rig_path",
+    "geometry_variants",
     "load_rig",
 ]
 
@@ -380,3 +382,113 @@ def radians_hint(rig: Rig) -> str:
             "radians; poses are in degrees, as the controller reports them)"
         )
     return ""
+
+
+# --- a rig moved by its tolerances ---------------------------------------------------------
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def _rotation(axis: FloatArray, angle_rad: float) -> FloatArray:
+    a = axis / np.linalg.norm(axis)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    out: FloatArray = np.eye(3) + np.sin(angle_rad) * k + (1.0 - np.cos(angle_rad)) * (k @ k)
+    return out
+
+
+def _unit_perpendiculars(d: FloatArray) -> tuple[FloatArray, FloatArray]:
+    d = d / np.linalg.norm(d)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(d, helper)
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(d, e1)
+
+
+def geometry_variants(rig: Rig) -> list[tuple[str, dict[str, object]]]:
+    """The rig with one geometric quantity at a time moved by its standard uncertainty (the
+    rig's ``[tolerances]``): every DH length, twist and joint zero, each chip's centre and
+    orientation, the laser's origin and direction — what the diagnoser's null world draws and
+    a compensation law's intervals count.
+
+    Parameters
+    ----------
+    rig
+        The rig and its tolerances.
+
+    Returns
+    -------
+    list of (str, dict)
+        Per quantity with a tolerance above zero: its name and the moved rig as plain data
+        (:meth:`Rig.to_dict`'s keys; :meth:`Rig.from_dict` validates it).
+
+    Raises
+    ------
+    KeyError
+        Never for a validated rig (its data carry every key read).
+
+    Examples
+    --------
+    >>> import thermrs
+    >>> names = [n for n, _ in thermrs.rig.geometry_variants(thermrs.load_rig())]
+    >>> names[0], len(names) > 20
+    ('dh[0].a_mm', True)
+    """
+    tol = rig.tolerances
+    base = rig.to_dict()
+    out: list[tuple[str, dict[str, object]]] = []
+
+    def variant(name: str, edit: object) -> None:
+        d = copy.deepcopy(base)
+        edit(d)  # type: ignore[operator]
+        out.append((name, d))
+
+    for i in range(len(base["robot"]["dh"])):
+        for key, sd in (
+            ("a_mm", tol["length_mm"]),
+            ("d_mm", tol["length_mm"]),
+            ("alpha_deg", tol["angle_deg"]),
+            ("theta_offset_deg", tol["angle_deg"]),
+        ):
+            if sd > 0:
+                variant(
+                    f"dh[{i}].{key}",
+                    lambda d, i=i, key=key, sd=sd: d["robot"]["dh"][i].__setitem__(
+                        key, d["robot"]["dh"][i][key] + sd
+                    ),
+                )
+    for j, cam in enumerate(base["camera"]):
+        if tol["chip_mm"] > 0:
+            for k in range(3):
+
+                def shift(d: dict, j: int = j, k: int = k) -> None:  # type: ignore[type-arg]
+                    d["camera"][j]["centre_mm"][k] += tol["chip_mm"]
+
+                variant(f"camera[{cam['name']}].centre_mm[{k}]", shift)
+        if tol["chip_deg"] > 0:
+            x = np.asarray(cam["x_axis"], dtype=np.float64)
+            y = np.asarray(cam["y_axis"], dtype=np.float64)
+            for name, axis in (("x", x), ("y", y), ("normal", np.cross(x, y))):
+                rot = _rotation(axis, np.deg2rad(tol["chip_deg"]))
+
+                def turn(d: dict, j: int = j, rot: FloatArray = rot) -> None:  # type: ignore[type-arg]
+                    for key in ("x_axis", "y_axis"):
+                        d["camera"][j][key] = (rot @ np.asarray(d["camera"][j][key])).tolist()
+
+                variant(f"camera[{cam['name']}].turned about {name}", turn)
+    if tol["laser_mm"] > 0:
+        for k in range(3):
+
+            def move(d: dict, k: int = k) -> None:  # type: ignore[type-arg]
+                d["laser"]["origin_mm"][k] += tol["laser_mm"]
+
+            variant(f"laser.origin_mm[{k}]", move)
+    if tol["laser_deg"] > 0:
+        direction = np.asarray(base["laser"]["direction"], dtype=np.float64)
+        for k, axis in enumerate(_unit_perpendiculars(direction)):
+            rot = _rotation(axis, np.deg2rad(tol["laser_deg"]))
+
+            def tilt(d: dict, rot: FloatArray = rot) -> None:  # type: ignore[type-arg]
+                d["laser"]["direction"] = (rot @ np.asarray(d["laser"]["direction"])).tolist()
+
+            variant(f"laser.direction tilted ({k + 1})", tilt)
+    return out

@@ -413,7 +413,7 @@ def gather(
     design_drift = rival_drift(designed) if designed is not None else None
     compared = None
     if baselines and diag is not None and ho and hasattr(diag, "residuals"):
-        from thermrs.analyses.baselines import compare_baselines
+        from thermrs.diagnose.baselines import compare_baselines
 
         say("fitting the regressions beside the physical model")
         compared = compare_baselines(tr, ho, rig, diagnosis=diag)

@@ -22,7 +22,7 @@ _REGRESSION_COLOURS = ("#d62728", "#ff7f0e", "#2ca02c", "#17becf", "#9467bd", "#
 
 def subsection(comparison: Any) -> Section:
     """The subsection: what was compared and how, the table, what it says, the figure."""
-    from thermrs.analyses.baselines import said
+    from thermrs.diagnose.baselines import said
 
     doc = comparison.to_json()
     comp = doc["baselines_comparison"]
