@@ -41,3 +41,10 @@ def test_one_ulp_or_one_null_changes_it() -> None:
     u[123] = np.nextafter(u[123], np.inf)
     assert run_digest(t.with_columns(u_um=pl.Series(u))) != run_digest(t)
     assert run_digest(t.with_columns(pl.col("link2_c").fill_null(0.0))) != run_digest(t)
+
+
+def test_a_run_renamed_digests_alike() -> None:
+    # A campaign names a run by its recording's id, a file by its stem: the same content.
+    t = table()
+    renamed = t.with_columns(pl.lit("r1-5adfc9d829a3#a").alias("run"))
+    assert run_digest(t) == run_digest(renamed)

@@ -204,11 +204,15 @@ def check_rig(
 
 def run_digest(table: pl.DataFrame) -> str:
     """A digest (BLAKE2b, hex) of a run table's content: its columns' names, types, values
-    and nulls, whatever its memory layout. Numbers are digested by their bytes, text by its
-    UTF-8: the same table read again, by this or another process, digests alike."""
+    and nulls, whatever its memory layout, but not its ``run`` label (the same run named by a
+    campaign's recording id or by its file digests alike; names are compared on their own).
+    Numbers are digested by their bytes, text by its UTF-8: the same table read again, by
+    this or another process, digests alike."""
     h = hashlib.blake2b(digest_size=16)
     t = table.rechunk()
     for name in t.columns:
+        if name == "run":
+            continue
         s = t[name]
         h.update(f"{name}\0{s.dtype}\0{s.len()}\0".encode())
         h.update(s.is_null().to_numpy().tobytes())
