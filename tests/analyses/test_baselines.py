@@ -330,7 +330,7 @@ def test_the_exported_law_is_least_squares_with_intervals_that_hold_the_truth() 
     # fitted scikit-learn pipeline predicts.
     f = features([*train, *hold], RIG, smooth=False)
     fb = next(b for b in c.fitted if b.name == "lowpass_ridge")
-    from thermrs.analyses.baselines import _best_law
+    from thermrs.diagnose.baseline_law import _best_law
 
     one = _best_law([fb], {"lowpass_ridge": np.zeros((f.visits.n, 2))},
                     np.ones(f.visits.n, dtype=bool), f, np.isin(f.visits.run, ["a", "b"]),
