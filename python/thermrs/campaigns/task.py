@@ -281,14 +281,13 @@ def run_stats(
 
 
 def _size(path: str) -> int:
-    """The file's size in bytes.
+    """The recording's size in bytes (a bag: its files' sizes summed).
 
     Raises
     ------
     InputError
         The file cannot be read.
     """
-    try:
-        return os.stat(path).st_size
-    except OSError as e:
-        raise InputError(f"recording {path}: {e.strerror or e}") from None
+    from thermrs.campaigns.sources import stat_of
+
+    return stat_of(Path(path))[0]

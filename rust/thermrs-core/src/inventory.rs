@@ -37,6 +37,9 @@ pub struct ChannelInfo {
 /// What a recording holds (see the module docs).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Inventory {
+    /// How it is stored: `mcap`, `sqlite3` (rosbag2's SQLite), either with ` (zstd file)`
+    /// when compressed whole, or `bag of N files (…)` for a bag folder.
+    pub storage: String,
     /// The file's size in bytes.
     pub bytes: u64,
     /// Whether it was read from its summary section (false: walked record by record).
@@ -76,6 +79,191 @@ pub struct Inventory {
 /// [`Error::Io`] if the file cannot be opened or mapped; [`Error::NotMcap`] if it is not
 /// an MCAP file.
 pub fn inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
+    use crate::bag::Storage;
+    if path.is_dir() {
+        return bag_inventory(path, topics);
+    }
+    match crate::bag::storage_of(path)? {
+        Storage::Sqlite => sqlite_inventory(path, topics),
+        Storage::Zstd => {
+            let plain = crate::bag::decompress_file(path)?;
+            let mut inv = inventory(&plain.path, topics)?;
+            inv.bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+            inv.storage.push_str(" (zstd file)");
+            let tmp = plain.path.display().to_string();
+            for l in &mut inv.losses {
+                *l = l.replace(&tmp, &path.display().to_string());
+            }
+            Ok(inv)
+        }
+        Storage::Ros1 => Err(crate::ingest::refused_ros1(path)),
+        Storage::Mcap | Storage::Unknown => mcap_inventory(path, topics),
+    }
+}
+
+/// [`inventory`] of a rosbag2 SQLite database: its `topics` table, and one pass over the
+/// `messages` table's ids, topics and times (the message bytes are not read).
+fn sqlite_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
+    use rusqlite::{Connection, OpenFlags};
+    let name = path.display().to_string();
+    let bad = |e: rusqlite::Error| Error::BadBag {
+        path: name.clone(),
+        reason: format!("its SQLite database cannot be read as a rosbag2 bag: {e}"),
+    };
+    let len = std::fs::metadata(path)
+        .map_err(|source| Error::Io {
+            path: name.clone(),
+            source,
+        })?
+        .len();
+    let conn = Connection::open_with_flags(
+        path,
+        OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
+    )
+    .map_err(bad)?;
+    let mut inv = Inventory {
+        storage: "sqlite3".into(),
+        bytes: len,
+        profile: "ros2".into(),
+        library: "rosbag2 sqlite3 storage".into(),
+        ..Inventory::default()
+    };
+    let mut by_id: BTreeMap<i64, usize> = BTreeMap::new();
+    {
+        let mut st = conn
+            .prepare("SELECT id, name, type, serialization_format FROM topics ORDER BY id")
+            .map_err(bad)?;
+        let mut rows = st.query([]).map_err(bad)?;
+        while let Some(r) = rows.next().map_err(bad)? {
+            let id: i64 = r.get(0).map_err(bad)?;
+            by_id.insert(id, inv.channels.len());
+            inv.channels.push(ChannelInfo {
+                id: u16::try_from(inv.channels.len() + 1).unwrap_or(u16::MAX),
+                topic: r.get(1).map_err(bad)?,
+                schema: r.get(2).map_err(bad)?,
+                encoding: r.get(3).map_err(bad)?,
+                messages: 0,
+            });
+        }
+    }
+    let wanted: Vec<bool> = inv
+        .channels
+        .iter()
+        .map(|c| topics.contains(&c.topic))
+        .collect();
+    let mut st = conn
+        .prepare("SELECT topic_id, timestamp FROM messages")
+        .map_err(bad)?;
+    let mut rows = st.query([]).map_err(bad)?;
+    loop {
+        let r = match rows.next() {
+            Ok(Some(r)) => r,
+            Ok(None) => break,
+            Err(e) => {
+                inv.losses.push(format!(
+                    "the SQLite database is damaged after {} messages: {e}",
+                    inv.messages
+                ));
+                break;
+            }
+        };
+        let (Ok(tid), Ok(ts)) = (r.get::<_, i64>(0), r.get::<_, i64>(1)) else {
+            continue;
+        };
+        let ts = ts as u64;
+        inv.messages += 1;
+        inv.start_ns = Some(inv.start_ns.map_or(ts, |s| s.min(ts)));
+        inv.end_ns = Some(inv.end_ns.map_or(ts, |e| e.max(ts)));
+        if let Some(&k) = by_id.get(&tid) {
+            inv.channels[k].messages += 1;
+            if wanted[k] {
+                inv.log_times
+                    .entry(inv.channels[k].topic.clone())
+                    .or_default()
+                    .push(ts);
+            }
+        }
+    }
+    for times in inv.log_times.values_mut() {
+        times.sort_unstable();
+    }
+    Ok(inv)
+}
+
+/// [`inventory`] of a bag folder: its files' inventories in order, summed (channels by topic).
+fn bag_inventory(dir: &Path, topics: &[String]) -> Result<Inventory> {
+    let bag = crate::bag::Bag::open(dir)?;
+    let n = bag.parts.len();
+    let mut inv = Inventory {
+        from_summary: true,
+        ..Inventory::default()
+    };
+    inv.notes.extend(bag.notes.iter().cloned());
+    let mut storages: BTreeSet<String> = BTreeSet::new();
+    for (i, p) in bag.parts.iter().enumerate() {
+        let name = crate::bag::Bag::part_name(p);
+        let whose = format!("file {} of {n} of the bag ({name})", i + 1);
+        if !p.is_file() {
+            inv.losses
+                .push(format!("{whose} is missing: its messages are lost"));
+            continue;
+        }
+        let part = match inventory(p, topics) {
+            Ok(x) => x,
+            Err(e) => {
+                inv.bytes += std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
+                inv.losses.push(format!("{whose} cannot be read: {e}"));
+                continue;
+            }
+        };
+        storages.insert(part.storage.clone());
+        if inv.profile.is_empty() {
+            inv.profile = part.profile.clone();
+            inv.library = part.library.clone();
+        }
+        inv.bytes += part.bytes;
+        inv.from_summary &= part.from_summary;
+        inv.start_ns = match (inv.start_ns, part.start_ns) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+        inv.end_ns = match (inv.end_ns, part.end_ns) {
+            (Some(a), Some(b)) => Some(a.max(b)),
+            (a, b) => a.or(b),
+        };
+        inv.chunks += part.chunks;
+        inv.chunks_decompressed += part.chunks_decompressed;
+        inv.compression.extend(part.compression);
+        inv.messages += part.messages;
+        for c in part.channels {
+            match inv.channels.iter_mut().find(|x| x.topic == c.topic) {
+                Some(x) => x.messages += c.messages,
+                None => {
+                    let id = u16::try_from(inv.channels.len() + 1).unwrap_or(u16::MAX);
+                    inv.channels.push(ChannelInfo { id, ..c });
+                }
+            }
+        }
+        inv.metadata.extend(part.metadata);
+        inv.attachments.extend(part.attachments);
+        for (k, v) in part.log_times {
+            inv.log_times.entry(k).or_default().extend(v);
+        }
+        inv.losses
+            .extend(part.losses.into_iter().map(|l| format!("{name}: {l}")));
+        inv.notes
+            .extend(part.notes.into_iter().map(|l| format!("{name}: {l}")));
+    }
+    let kinds: Vec<String> = storages.into_iter().collect();
+    inv.storage = format!("bag of {n} files ({})", kinds.join(", "));
+    for times in inv.log_times.values_mut() {
+        times.sort_unstable();
+    }
+    Ok(inv)
+}
+
+/// [`inventory`] of an MCAP file.
+fn mcap_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
     let io = |source| Error::Io {
         path: path.display().to_string(),
         source,
@@ -101,6 +289,7 @@ pub fn inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
         });
     }
     let mut inv = Inventory {
+        storage: "mcap".into(),
         bytes: len,
         ..Inventory::default()
     };

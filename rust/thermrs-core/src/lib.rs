@@ -20,6 +20,7 @@
 //! - [`record`]: a streaming writer of recordings (CDR encoders, MCAP);
 //! - [`simulate`]: the simulator, a rig at work written as a recording with its truth.
 
+pub mod bag;
 pub mod cdr;
 pub mod centroid;
 pub mod config;

@@ -23,6 +23,20 @@ impl<'r> Context<'r> {
         else {
             return false;
         };
+        // rosbag2's message compression: each message a zstd frame of its CDR bytes (a CDR
+        // message starts with its encapsulation, 0x00 0x0N, never with the zstd magic).
+        if data.starts_with(ZSTD_MAGIC) && self.roles.contains_key(ch.topic.as_str()) {
+            return match zstd::bulk::decompress(data, MAX_CHUNK_BYTES as usize) {
+                Ok(plain) => self.message(reg, local, h, &plain, part),
+                Err(e) => {
+                    part.report.skip(
+                        &ch.topic,
+                        format!("the zstd-compressed message does not decompress: {e}"),
+                    );
+                    true
+                }
+            };
+        }
         let Some(&role) = self.roles.get(ch.topic.as_str()) else {
             part.report.other_messages += 1;
             return true;
