@@ -15,6 +15,7 @@ from __future__ import annotations
 import subprocess
 import sys
 from collections import Counter
+from dataclasses import dataclass
 from pathlib import Path
 
 import polars as pl
@@ -44,23 +45,26 @@ def _messages(rig: thermrs.Rig) -> tuple[list[Message], int, int]:
     return run1 + run2, cut1, cut2
 
 
+@dataclass(frozen=True)
+class World:
+    """The messages, where the split bags are cut, the folder the forms go in, the MCAP."""
+
+    messages: list[Message]
+    cuts: tuple[int, int]
+    dir: Path
+    mcap: Path
+
+
 @pytest.fixture(scope="module")
-def world(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
+def world(tmp_path_factory: pytest.TempPathFactory) -> World:
     rig = thermrs.load_rig()
     msgs, cut1, cut2 = _messages(rig)
     d = tmp_path_factory.mktemp("bags")
-    return {
-        "messages": msgs,
-        "cuts": (cut1, cut2),
-        "dir": d,
-        "mcap": write_mcap(msgs, d / "one.mcap"),
-    }
+    return World(msgs, (cut1, cut2), d, write_mcap(msgs, d / "one.mcap"))
 
 
-def _reference(world: dict[str, object], rig: thermrs.Rig) -> thermrs.Extraction:
-    path = world["mcap"]
-    assert isinstance(path, Path)
-    return thermrs.extract(path, rig)
+def _reference(world: World, rig: thermrs.Rig) -> thermrs.Extraction:
+    return thermrs.extract(world.mcap, rig)
 
 
 FORMS = {
@@ -75,23 +79,19 @@ FORMS = {
 }
 
 
-def _form(world: dict[str, object], name: str) -> Path:
+def _form(world: World, name: str) -> Path:
     storage, compression, split, meta = FORMS[name]
-    d = world["dir"]
-    assert isinstance(d, Path)
-    folder = d / name
+    folder = world.dir / name
     if not folder.exists():
-        msgs = world["messages"]
-        assert isinstance(msgs, list)
-        cuts = world["cuts"] if split else ()
-        assert isinstance(cuts, tuple)
+        msgs = world.messages
+        cuts = world.cuts if split else ()
         write_bag(msgs, folder, storage=storage, compression=compression, cuts=cuts, metadata=meta)
     return folder
 
 
 @pytest.mark.parametrize("name", list(FORMS))
 def test_every_form_gives_the_tables_of_one_mcap(
-    world: dict[str, object], paper_rig: thermrs.Rig, name: str
+    world: World, paper_rig: thermrs.Rig, name: str
 ) -> None:
     ref = _reference(world, paper_rig)
     bag = _form(world, name)
@@ -108,7 +108,7 @@ def test_every_form_gives_the_tables_of_one_mcap(
 
 
 def test_a_db3_file_itself_and_its_compressed_form_give_the_same_tables(
-    world: dict[str, object], paper_rig: thermrs.Rig
+    world: World, paper_rig: thermrs.Rig
 ) -> None:
     ref = _reference(world, paper_rig)
     for name in ("db3-bag", "db3-bag-file-zstd"):
@@ -119,13 +119,12 @@ def test_a_db3_file_itself_and_its_compressed_form_give_the_same_tables(
 
 
 def test_a_run_split_across_parts_is_one_run_anchored_at_its_first_visit(
-    world: dict[str, object], paper_rig: thermrs.Rig
+    world: World, paper_rig: thermrs.Rig
 ) -> None:
     bag = _form(world, "db3-bag-3-parts")
     ex = thermrs.extract(bag, paper_rig)
-    msgs = world["messages"]
-    assert isinstance(msgs, list)
-    cut1, _ = world["cuts"]  # type: ignore[misc]
+    msgs = world.messages
+    cut1, _ = world.cuts
     # The truth as the messages were made: two runs, each of 4 cycles × 2 cameras visits;
     # the first cut falls inside a visit of run 1.
     stamps = [m[2] for m in msgs]
@@ -148,9 +147,8 @@ def test_a_run_split_across_parts_is_one_run_anchored_at_its_first_visit(
             assert (rv["drift_u_um"] - (rv["u_um"] - rv["u_um"][0])).abs().max() < 1e-9
 
 
-def test_info_sums_the_parts(world: dict[str, object], paper_rig: thermrs.Rig) -> None:
-    msgs = world["messages"]
-    assert isinstance(msgs, list)
+def test_info_sums_the_parts(world: World, paper_rig: thermrs.Rig) -> None:
+    msgs = world.messages
     want = Counter(m[0] for m in msgs)
     for name in ("mcap-bag-3-parts", "db3-bag-3-parts", "db3-bag-file-zstd"):
         inv = thermrs.inventory.inventory(_form(world, name), rig=paper_rig)
@@ -171,7 +169,7 @@ def _run_cli(*args: str) -> subprocess.CompletedProcess[str]:
 
 @pytest.mark.parametrize("damage", ["missing", "garbage", "cut"])
 def test_a_missing_or_damaged_part_is_a_stated_loss(
-    world: dict[str, object], paper_rig: thermrs.Rig, tmp_path: Path, damage: str
+    world: World, paper_rig: thermrs.Rig, tmp_path: Path, damage: str
 ) -> None:
     src = _form(world, "db3-bag-3-parts")
     bag = tmp_path / "bag"
@@ -188,9 +186,8 @@ def test_a_missing_or_damaged_part_is_a_stated_loss(
     assert ex.report.data_loss
     assert any(part.name in x["detail"] for x in ex.report.losses)
     # The other parts are read whole: every frame outside part 1's span is there.
-    msgs = world["messages"]
-    assert isinstance(msgs, list)
-    cut1, cut2 = world["cuts"]  # type: ignore[misc]
+    msgs = world.messages
+    cut1, cut2 = world.cuts
     ref = _reference(world, paper_rig).frames
     cameras = {c.topic for c in paper_rig.cameras}
     lost = [m[2] for m in msgs[cut1:cut2] if m[0] in cameras]
@@ -213,14 +210,12 @@ def shutil_copy(src: Path, dst: Path) -> None:
     shutil.copytree(src, dst)
 
 
-def test_a_folder_of_bags_is_a_campaign_of_bags(world: dict[str, object], tmp_path: Path) -> None:
+def test_a_folder_of_bags_is_a_campaign_of_bags(world: World, tmp_path: Path) -> None:
     root = tmp_path / "recs"
     root.mkdir()
     shutil_copy(_form(world, "db3-bag-3-parts"), root / "day1")
     shutil_copy(_form(world, "mcap-bag-3-parts"), root / "day2")
-    mcap = world["mcap"]
-    assert isinstance(mcap, Path)
-    (root / "loose.mcap").write_bytes(mcap.read_bytes())
+    (root / "loose.mcap").write_bytes(world.mcap.read_bytes())
     found = expand([str(root)])
     assert [s.path.name for s in found] == ["day1", "day2", "loose.mcap"]
     day1 = found[0]
@@ -243,17 +238,15 @@ def test_a_folder_of_bags_is_a_campaign_of_bags(world: dict[str, object], tmp_pa
 
 
 @pytest.mark.slow
-def test_a_campaign_catalogs_a_bag_as_one_row(world: dict[str, object], tmp_path: Path) -> None:
+def test_a_campaign_catalogs_a_bag_as_one_row(world: World, tmp_path: Path) -> None:
     from distributed import Client
     from thermrs.campaigns.engine import local_cluster
 
     root = tmp_path / "recs"
     root.mkdir()
     shutil_copy(_form(world, "db3-bag-3-parts"), root / "day1")
-    mcap = world["mcap"]
-    assert isinstance(mcap, Path)
-    (root / "loose.mcap").write_bytes(mcap.read_bytes())
-    with local_cluster(1) as cluster, Client(cluster) as c:
+    (root / "loose.mcap").write_bytes(world.mcap.read_bytes())
+    with local_cluster(1) as cluster, Client(cluster) as c:  # type: ignore[no-untyped-call]
         res = thermrs.campaign([str(root)], tmp_path / "ds", client=c)
         cat = res.dataset.catalog().sort("path")
         assert cat.height == 2
@@ -267,7 +260,7 @@ def test_a_campaign_catalogs_a_bag_as_one_row(world: dict[str, object], tmp_path
 
 
 def test_refused_and_wrong_folders_say_what_to_do(
-    world: dict[str, object], paper_rig: thermrs.Rig, tmp_path: Path
+    world: World, paper_rig: thermrs.Rig, tmp_path: Path
 ) -> None:
     from rosbags.rosbag1 import Writer as Ros1Writer
     from rosbags.typesys import Stores, get_typestore

@@ -12,6 +12,7 @@ written by ``rosbags`` and the metadata of the parts joined (``relative_file_pat
 from __future__ import annotations
 
 import io
+import itertools
 import shutil
 from collections.abc import Sequence
 from pathlib import Path
@@ -87,7 +88,7 @@ def write_bag(
     yaml.default_flow_style = False
     folder.mkdir()
     infos: list[dict[str, Any]] = []
-    for i, (a, b) in enumerate(zip(bounds, bounds[1:], strict=False)):
+    for i, (a, b) in enumerate(itertools.pairwise(bounds)):
         tmp = folder.parent / f".{folder.name}-part{i}"
         _rosbags_bag(messages[a:b], tmp, storage=storage, compression=compression)
         info = yaml.load((tmp / "metadata.yaml").read_text())["rosbag2_bagfile_information"]

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -26,7 +25,7 @@ import polars as pl
 
 from thermrs.campaigns.sources import content_hash, recording_id
 from thermrs.campaigns.staging import reachable, write_stage
-from thermrs.errors import InputError, ThermrsError
+from thermrs.errors import ThermrsError
 
 __all__ = ["RUN_STATS_SCHEMA", "TABLES", "Job", "marker_speeds", "run_job", "run_jobs", "run_stats"]
 
