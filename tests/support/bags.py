@@ -14,7 +14,7 @@ from __future__ import annotations
 import io
 import itertools
 import shutil
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -54,7 +54,7 @@ def write_mcap(messages: Sequence[Message], path: Path) -> Path:
 
 
 def _rosbags_bag(
-    messages: Sequence[Message], folder: Path, *, storage: str, compression: str
+    messages: Iterable[Message], folder: Path, *, storage: str, compression: str
 ) -> Path:
     """One rosbag2 bag written by ``rosbags`` (``compression``: none, file or message)."""
     store = get_typestore(Stores.ROS2_HUMBLE)
@@ -73,7 +73,7 @@ def _rosbags_bag(
 
 
 def write_bag(
-    messages: Sequence[Message],
+    messages: Iterable[Message],
     folder: Path,
     *,
     storage: str = "sqlite3",
@@ -81,16 +81,19 @@ def write_bag(
     cuts: Sequence[int] = (),
     metadata: bool = True,
 ) -> Path:
-    """A rosbag2 bag folder of the messages, split before each index in ``cuts`` into parts
-    ``NAME_0``, ``NAME_1``, … (``metadata=False``: without ``metadata.yaml``)."""
-    bounds = [0, *cuts, len(messages)]
+    """A rosbag2 bag folder of the messages (streamed), split before each index in ``cuts``
+    into parts ``NAME_0``, ``NAME_1``, … (``metadata=False``: without ``metadata.yaml``)."""
+    bounds: list[int | None] = [0, *cuts, None]
+    stream = iter(messages)
     yaml = YAML(typ="safe")
     yaml.default_flow_style = False
     folder.mkdir()
     infos: list[dict[str, Any]] = []
     for i, (a, b) in enumerate(itertools.pairwise(bounds)):
         tmp = folder.parent / f".{folder.name}-part{i}"
-        _rosbags_bag(messages[a:b], tmp, storage=storage, compression=compression)
+        assert a is not None
+        part = itertools.islice(stream, None if b is None else b - a)
+        _rosbags_bag(part, tmp, storage=storage, compression=compression)
         info = yaml.load((tmp / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
         (src,) = info["relative_file_paths"]
         name = f"{folder.name}_{i}" + src[len(tmp.name) :]
