@@ -38,9 +38,12 @@ def _messages(rig: thermrs.Rig) -> tuple[list[Message], int, int]:
     spot frames of camera A's visit of its third cycle, and inside run 2 at its middle."""
     run1 = scenario(rig, cycles=4, seed=1).rec.messages
     run2 = shifted(scenario(rig, cycles=4, seed=2).rec.messages, APART_NS)
+    # In time order, as a recorder receives them.
+    run1 = sorted(run1, key=lambda m: m[2])
+    run2 = sorted(run2, key=lambda m: m[2])
     a_topic = rig.camera("A").topic
     a_frames = [i for i, m in enumerate(run1) if m[0] == a_topic]
-    cut1 = a_frames[6] + 1  # cycle 2 (3 frames of A a cycle): between its two spot frames
+    cut1 = a_frames[6] + 1  # cycle 2 (3 frames of A a cycle): after its first spot frame
     cut2 = len(run1) + len(run2) // 2
     return run1 + run2, cut1, cut2
 
@@ -235,6 +238,13 @@ def test_a_folder_of_bags_is_a_campaign_of_bags(world: World, tmp_path: Path) ->
     ]
     # A bag folder named on its own is one recording.
     assert [s.path.name for s in expand([str(root / "day2")])] == ["day2"]
+    # Numbered files without metadata.yaml that do not follow each other in time (the same
+    # recording twice) are two recordings, not one bag.
+    twice = tmp_path / "twice"
+    twice.mkdir()
+    for i in range(2):
+        (twice / f"rec_{i}.mcap").write_bytes(world.mcap.read_bytes())
+    assert [s.path.name for s in expand([str(twice)])] == ["rec_0.mcap", "rec_1.mcap"]
 
 
 @pytest.mark.slow

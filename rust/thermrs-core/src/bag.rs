@@ -2,8 +2,9 @@
 //! `NAME_1.mcap`, … or `NAME_0.db3`, …, each perhaps zstd-compressed whole as `….zstd`), read
 //! as one recording: its files in the order `metadata.yaml` lists them. A folder without
 //! `metadata.yaml` whose recordings all carry one stem numbered from 0 (`NAME_0`, `NAME_1`, …,
-//! as `ros2 bag record` names a split bag's files) is offered as one bag in that order, and
-//! says so.
+//! as `ros2 bag record` names a split bag's files) and follow each other (the same topics,
+//! each file starting after the previous one ends, within [`SPLIT_GAP_NS`]) is offered as one
+//! bag in that order, and says so.
 //!
 //! `metadata.yaml` is parsed with `serde_norway` (YAML), every version rosbag2 has written
 //! (1 to 9, `rosbag2_storage/yaml.hpp`): the fields read are `version`,
@@ -15,6 +16,7 @@
 //! compressed whole: `compression_mode: FILE`), ROS 1 (`#ROSBAG V2.0`, refused with the
 //! conversion to use).
 
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
@@ -184,8 +186,37 @@ fn numbered_parts(dir: &Path) -> Option<Vec<PathBuf>> {
     if found.iter().enumerate().any(|(i, f)| f.1 != i as u64) {
         return None;
     }
-    Some(found.into_iter().map(|f| f.2).collect())
+    let parts: Vec<PathBuf> = found.into_iter().map(|f| f.2).collect();
+    follow_each_other(&parts).then_some(parts)
 }
+
+/// Files of one bag split by the recorder follow each other: the same topics, each file's
+/// first message after the previous file's last, closer to it than [`SPLIT_GAP_NS`]. Read
+/// from each file's inventory (its summary; no message decoded).
+fn follow_each_other(parts: &[PathBuf]) -> bool {
+    let mut prev: Option<(BTreeSet<String>, u64)> = None;
+    for p in parts {
+        let Ok(inv) = crate::inventory::inventory(p, &[]) else {
+            return false;
+        };
+        let (Some(start), Some(end)) = (inv.start_ns, inv.end_ns) else {
+            return false;
+        };
+        let topics: BTreeSet<String> = inv.channels.into_iter().map(|c| c.topic).collect();
+        if let Some((t, last)) = &prev {
+            if *t != topics || start < *last || start - last > SPLIT_GAP_NS {
+                return false;
+            }
+        }
+        prev = Some((topics, end));
+    }
+    true
+}
+
+/// The longest silence between two files of a bag without `metadata.yaml` for them to be
+/// taken as one recording split: thermrs' shortest idle gap between runs (600 s), so that
+/// files a run could not span stay separate recordings.
+pub const SPLIT_GAP_NS: u64 = 600 * 1_000_000_000;
 
 impl Bag {
     /// Open the bag in `dir` (see [`is_bag`]).
@@ -247,8 +278,8 @@ impl Bag {
             dir: dir.to_path_buf(),
             metadata: None,
             notes: vec![format!(
-                "no {METADATA}: its {} files ({}) are read as one bag in the order of their \
-                 numbers",
+                "no {METADATA}: its {} files ({}) hold the same topics and follow each other \
+                 in time, so they are read as one bag in the order of their numbers",
                 parts.len(),
                 names.join(", ")
             )],
