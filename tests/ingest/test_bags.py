@@ -26,7 +26,14 @@ from polars.testing import assert_frame_equal
 from thermrs.campaigns.sources import content_hash, expand
 
 from tests.ingest.test_extract import scenario
-from tests.support.bags import LOG_DELAY_NS, Message, shifted, write_bag, write_mcap
+from tests.support.bags import (
+    LOG_DELAY_NS,
+    Message,
+    shifted,
+    write_bag,
+    write_mcap,
+    write_ros1,
+)
 
 #: The second run starts this long after the first (far beyond any idle gap within a run).
 APART_NS = 3 * 3600 * 10**9
@@ -119,6 +126,26 @@ def test_a_db3_file_itself_and_its_compressed_form_give_the_same_tables(
         ex = thermrs.extract(db3, paper_rig)
         for t in TABLES:
             assert_frame_equal(getattr(ex, t), getattr(ref, t), check_exact=True)
+
+
+@pytest.mark.parametrize("compression", ["none", "bz2", "lz4"])
+def test_a_ros1_bag_gives_the_tables_of_one_mcap(
+    world: World, paper_rig: thermrs.Rig, compression: str
+) -> None:
+    ref = _reference(world, paper_rig)
+    bag = world.dir / f"ros1-{compression}.bag"
+    if not bag.exists():
+        write_ros1(world.messages, bag, compression=compression)
+    ex = thermrs.extract(bag, paper_rig)
+    for t in TABLES:
+        assert_frame_equal(getattr(ex, t), getattr(ref, t), check_exact=True)
+    assert ex.report.messages == ref.report.messages
+    assert ex.report.losses == []
+    assert ex.report.chunks > 1
+    inv = thermrs.inventory.inventory(bag, rig=paper_rig)
+    assert inv.messages == len(world.messages) and inv.runs.height == 2
+    want = Counter(m[0] for m in world.messages)
+    assert dict(zip(inv.topics["topic"], inv.topics["messages"], strict=True)) == want
 
 
 def test_a_run_split_across_parts_is_one_run_anchored_at_its_first_visit(
@@ -269,31 +296,12 @@ def test_a_campaign_catalogs_a_bag_as_one_row(world: World, tmp_path: Path) -> N
         )
 
 
-def test_refused_and_wrong_folders_say_what_to_do(
-    world: World, paper_rig: thermrs.Rig, tmp_path: Path
-) -> None:
-    from rosbags.rosbag1 import Writer as Ros1Writer
-    from rosbags.typesys import Stores, get_typestore
-
-    store = get_typestore(Stores.ROS1_NOETIC)
-    ros1 = tmp_path / "old.bag"
-    with Ros1Writer(ros1) as w:
-        conn = w.add_connection("/joint_states", "sensor_msgs/msg/JointState", typestore=store)
-        msg = store.types["sensor_msgs/msg/JointState"](
-            header=store.types["std_msgs/msg/Header"](
-                seq=0,
-                stamp=store.types["builtin_interfaces/msg/Time"](sec=1, nanosec=0),
-                frame_id="base",
-            ),
-            name=[],
-            position=pl.Series([], dtype=pl.Float64).to_numpy(),
-            velocity=pl.Series([], dtype=pl.Float64).to_numpy(),
-            effort=pl.Series([], dtype=pl.Float64).to_numpy(),
-        )
-        w.write(conn, 1, store.serialize_ros1(msg, conn.msgtype))
+def test_refused_and_wrong_folders_say_what_to_do(paper_rig: thermrs.Rig, tmp_path: Path) -> None:
+    old = tmp_path / "old.bag"
+    old.write_bytes(b"#ROSBAG V1.2\n" + bytes(100))
     out = str(tmp_path / "o.parquet")
-    r = _run_cli("extract", str(ros1), "--rig", str(paper_rig.source), "-o", out)
-    assert r.returncode == 2 and "ROS 1 bag" in r.stderr and "rosbags-convert" in r.stderr
+    r = _run_cli("extract", str(old), "--rig", str(paper_rig.source), "-o", out)
+    assert r.returncode == 2 and "before 2.0" in r.stderr and "rosbag filter" in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1, r.stderr
     empty = tmp_path / "notabag"
     empty.mkdir()

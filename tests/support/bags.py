@@ -1,7 +1,9 @@
 """The same messages written in every form a ROS lab keeps, by writers thermrs does not use:
-one MCAP file (the ``mcap`` package, :func:`tests.support.recordings.write_messages`) and
+one MCAP file (the ``mcap`` package, :func:`tests.support.recordings.write_messages`),
 rosbag2 bags written by ``rosbags`` (its MCAP and SQLite storages, whole or compressed with
-zstd per file or per message), single or split into parts with their ``metadata.yaml``.
+zstd per file or per message), single or split into parts with their ``metadata.yaml``, and
+ROS 1 bags converted from those by ``rosbags-convert`` (chunks uncompressed, bz2 or lz4; each
+message turned from CDR into ROS 1's serialization by ``rosbags``).
 
 A split bag is written as ``ros2 bag record --max-bag-size`` leaves it: one folder,
 ``NAME_0.EXT``, ``NAME_1.EXT``, … and one ``metadata.yaml`` listing them in order, each part
@@ -127,3 +129,21 @@ def write_bag(
         yaml.dump({"rosbag2_bagfile_information": joined}, text)
         (folder / "metadata.yaml").write_text(text.getvalue())
     return folder
+
+
+def write_ros1(messages: Iterable[Message], path: Path, *, compression: str = "none") -> Path:
+    """A ROS 1 bag of the messages: a rosbag2 SQLite bag written by ``rosbags``, converted by
+    ``rosbags-convert`` (CDR to ROS 1's serialization; ``compression``: none, bz2 or lz4)."""
+    import subprocess
+    import sys
+    import tempfile
+
+    with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+        src = write_bag(messages, Path(tmp) / "src")
+        tool = Path(sys.executable).parent / "rosbags-convert"
+        subprocess.run(
+            [str(tool), "--src", str(src), "--dst", str(path), "--compress", compression],
+            check=True,
+            capture_output=True,
+        )
+    return path

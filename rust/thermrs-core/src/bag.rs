@@ -13,8 +13,8 @@
 //!
 //! A file's storage is recognised by its first bytes, never by its name: MCAP (`\x89MCAP0\r\n`),
 //! SQLite (`SQLite format 3\0`, rosbag2's `sqlite3` storage), a zstd frame (a file
-//! compressed whole: `compression_mode: FILE`), ROS 1 (`#ROSBAG V2.0`, refused with the
-//! conversion to use).
+//! compressed whole: `compression_mode: FILE`), ROS 1 (`#ROSBAG V2.0`; `#ROSBAG V1.x`,
+//! refused with the conversion to use).
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -28,7 +28,8 @@ pub const METADATA: &str = "metadata.yaml";
 
 const SQLITE_MAGIC: &[u8] = b"SQLite format 3\0";
 const ZSTD_MAGIC: &[u8] = &[0x28, 0xb5, 0x2f, 0xfd];
-const ROS1_MAGIC: &[u8] = b"#ROSBAG V";
+const ROS1_MAGIC: &[u8] = b"#ROSBAG V2.0\n";
+const OLD_ROS1_MAGIC: &[u8] = b"#ROSBAG V1.";
 
 /// What a file holds, by its first bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -39,8 +40,10 @@ pub enum Storage {
     Sqlite,
     /// A file compressed whole with zstd (rosbag2's file compression).
     Zstd,
-    /// A ROS 1 bag.
+    /// A ROS 1 bag (format 2.0).
     Ros1,
+    /// A ROS 1 bag of a format before 2.0.
+    OldRos1,
     /// None of these.
     Unknown,
 }
@@ -77,6 +80,8 @@ pub fn sniff(head: &[u8]) -> Storage {
         Storage::Zstd
     } else if head.starts_with(ROS1_MAGIC) {
         Storage::Ros1
+    } else if head.starts_with(OLD_ROS1_MAGIC) {
+        Storage::OldRos1
     } else {
         Storage::Unknown
     }
@@ -429,6 +434,7 @@ mod tests {
         assert_eq!(sniff(b"SQLite format 3\0"), Storage::Sqlite);
         assert_eq!(sniff(&[0x28, 0xb5, 0x2f, 0xfd, 0]), Storage::Zstd);
         assert_eq!(sniff(b"#ROSBAG V2.0\n"), Storage::Ros1);
+        assert_eq!(sniff(b"#ROSBAG V1.2\n"), Storage::OldRos1);
         assert_eq!(sniff(b"hello"), Storage::Unknown);
     }
 }

@@ -48,6 +48,7 @@ mod floor;
 mod png;
 mod recovery;
 mod report;
+mod rosbag1;
 mod source;
 mod sqlite;
 mod tables;
@@ -58,6 +59,7 @@ pub use floor::{checksum_chunks, ChecksumScan};
 pub use png::decode_png;
 pub use recovery::{record_at, summary_crc, MAX_CHUNK_BYTES};
 pub use report::{Loss, MetadataRecord, PartInfo, Report};
+pub use rosbag1::ros2_type;
 pub use source::Source;
 use source::{Route, RouteChooser};
 use tables::{invalid_frame, status_code};
@@ -249,11 +251,11 @@ enum Work<'a> {
 }
 
 /// Extract every table of a recording: an MCAP file, a rosbag2 SQLite database (`.db3`),
-/// either compressed whole with zstd, or a rosbag2 bag folder (its files in order, as one
+/// either compressed whole with zstd, a ROS 1 bag (format 2.0), or a rosbag2 bag folder (its files in order, as one
 /// recording; see [`crate::bag`]). The storage is recognised by the file's first bytes.
 ///
 /// # Errors
-/// [`Error::Refused`] for a ROS 1 bag (with the conversion to use); [`Error::NotMcap`] for a
+/// [`Error::Refused`] for a ROS 1 bag older than format 2.0 (with the conversion to use); [`Error::NotMcap`] for a
 /// file none of these; [`Error::BadBag`] for a folder that is not a readable bag.
 pub fn extract(
     path: &Path,
@@ -301,20 +303,21 @@ pub fn extract(
             }
             Ok((t, r))
         }
-        Storage::Ros1 => Err(refused_ros1(path)),
+        Storage::Ros1 => rosbag1::extract_ros1(path, &name, rig, opts, progress),
+        Storage::OldRos1 => Err(refused_old_ros1(path)),
         Storage::Mcap | Storage::Unknown => extract_by(path, rig, opts, progress, None),
     }
 }
 
-/// The error for a ROS 1 bag: thermrs does not read them; the conversion to MCAP.
-pub fn refused_ros1(path: &Path) -> Error {
+/// The error for a ROS 1 bag of a format before 2.0 (`#ROSBAG V1.x`), which thermrs does not
+/// read: how to write it again as 2.0.
+pub fn refused_old_ros1(path: &Path) -> Error {
     Error::Refused {
         path: path.display().to_string(),
-        what: "a ROS 1 bag (#ROSBAG V2.0)".into(),
+        what: "a ROS 1 bag of a format before 2.0 (#ROSBAG V1.x)".into(),
         conversion: format!(
-            "`rosbags-convert --src {} --dst OUT.mcap` (pip install rosbags), or `mcap convert \
-             {} OUT.mcap`",
-            path.display(),
+            "write it again with ROS 1's rosbag, which writes format 2.0: `rosbag filter {} \
+             NEW.bag True`",
             path.display()
         ),
     }

@@ -96,7 +96,8 @@ pub fn inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
             }
             Ok(inv)
         }
-        Storage::Ros1 => Err(crate::ingest::refused_ros1(path)),
+        Storage::Ros1 => ros1_inventory(path, topics),
+        Storage::OldRos1 => Err(crate::ingest::refused_old_ros1(path)),
         Storage::Mcap | Storage::Unknown => mcap_inventory(path, topics),
     }
 }
@@ -186,6 +187,89 @@ fn sqlite_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
     }
     for times in inv.log_times.values_mut() {
         times.sort_unstable();
+    }
+    Ok(inv)
+}
+
+/// [`inventory`] of a ROS 1 bag: connections, counts and time span from its index section
+/// (no chunk decompressed); the log times of `topics` from the index records beside each
+/// chunk (which the `rosbag` crate reaches only by decompressing the chunks).
+fn ros1_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
+    use rosbag::{ChunkRecord, IndexRecord, RosBag};
+    let name = path.display().to_string();
+    let bad = |e: rosbag::Error| Error::BadBag {
+        path: name.clone(),
+        reason: format!("not a readable ROS 1 bag: {e}"),
+    };
+    let bag = RosBag::new(path).map_err(|e| Error::BadBag {
+        path: name.clone(),
+        reason: format!("not a readable ROS 1 bag (its header or index): {e}"),
+    })?;
+    let mut inv = Inventory {
+        storage: "ros1".into(),
+        bytes: std::fs::metadata(path).map(|m| m.len()).unwrap_or(0),
+        from_summary: true,
+        profile: "ros1".into(),
+        library: "ROS 1 bag (#ROSBAG V2.0)".into(),
+        ..Inventory::default()
+    };
+    let mut by_conn: BTreeMap<u32, usize> = BTreeMap::new();
+    for rec in bag.index_records() {
+        match rec.map_err(bad)? {
+            IndexRecord::Connection(c) => {
+                if by_conn.contains_key(&c.id) {
+                    continue;
+                }
+                by_conn.insert(c.id, inv.channels.len());
+                inv.channels.push(ChannelInfo {
+                    id: u16::try_from(inv.channels.len() + 1).unwrap_or(u16::MAX),
+                    topic: c.topic.to_string(),
+                    schema: crate::ingest::ros2_type(c.tp),
+                    encoding: "ros1".into(),
+                    messages: 0,
+                });
+            }
+            IndexRecord::ChunkInfo(ci) => {
+                inv.chunks += 1;
+                inv.start_ns = Some(inv.start_ns.map_or(ci.start_time, |s| s.min(ci.start_time)));
+                inv.end_ns = Some(inv.end_ns.map_or(ci.end_time, |e| e.max(ci.end_time)));
+                for e in ci.entries() {
+                    if let Some(&k) = by_conn.get(&e.conn_id) {
+                        inv.channels[k].messages += u64::from(e.count);
+                    }
+                    inv.messages += u64::from(e.count);
+                }
+            }
+            IndexRecord::IndexData(_) => {}
+        }
+    }
+    let wanted: BTreeMap<u32, String> = by_conn
+        .iter()
+        .filter(|(_, &k)| topics.contains(&inv.channels[k].topic))
+        .map(|(&id, &k)| (id, inv.channels[k].topic.clone()))
+        .collect();
+    if !wanted.is_empty() {
+        for rec in bag.chunk_records() {
+            match rec {
+                Ok(ChunkRecord::IndexData(d)) => {
+                    if let Some(t) = wanted.get(&d.conn_id) {
+                        let times = inv.log_times.entry(t.clone()).or_default();
+                        times.extend(d.entries().map(|e| e.time));
+                    }
+                }
+                Ok(ChunkRecord::Chunk(_)) => inv.chunks_decompressed += 1,
+                Err(e) => {
+                    inv.losses.push(format!(
+                        "a chunk cannot be read ({e}): the times of the messages after it \
+                         are not known"
+                    ));
+                    break;
+                }
+            }
+        }
+        for times in inv.log_times.values_mut() {
+            times.sort_unstable();
+        }
     }
     Ok(inv)
 }

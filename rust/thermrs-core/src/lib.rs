@@ -38,6 +38,7 @@ pub mod msg;
 pub mod optics;
 pub mod record;
 pub mod rig;
+pub mod ros1;
 pub mod scenario;
 pub mod simulate;
 pub mod thermal;
