@@ -12,10 +12,13 @@ written by a writer thermrs does not use:
 - ``db3``: a rosbag2 SQLite bag (``rosbags``), uncompressed, single file;
 - ``db3-3-parts``: the same split into three files with one ``metadata.yaml``;
 - ``db3-message-zstd``: each message compressed with zstd (rosbag2's message compression);
-- ``mcap-bag-3-parts``: a rosbag2 MCAP bag (``rosbags``) in three files.
+- ``mcap-bag-3-parts``: a rosbag2 MCAP bag (``rosbags``) in three files;
+- ``ros1-none`` / ``ros1-lz4`` / ``ros1-bz2``: a ROS 1 bag, ``rosbags-convert`` of the ``db3``
+  bag (ROS 1 serialization), chunks uncompressed, lz4 or bz2.
 
-Ratios: each SQLite form against ``mcap-none`` (uncompressed against uncompressed), the
-message-compressed one against ``mcap-zstd``; by wall time and by the process's CPU time (the
+Ratios: each uncompressed form against ``mcap-none``, the message-compressed ``.db3`` against
+``mcap-zstd``, ROS 1 lz4 against MCAP lz4 and ROS 1 bz2 (no MCAP form has bz2) against
+``mcap-zstd``; by wall time and by the process's CPU time (the
 steadier of the two on a machine shared with other work).
 
 Run:  python benchmarks/bench_bags.py [--frames 2000] [--dir bench-out/bags] [--repeats 3]
@@ -35,13 +38,24 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
-FORMS = ["mcap-none", "mcap-zstd", "db3", "db3-3-parts", "db3-message-zstd", "mcap-bag-3-parts"]
+FORMS = [
+    "mcap-none",
+    "mcap-zstd",
+    "mcap-lz4",
+    "db3",
+    "db3-3-parts",
+    "db3-message-zstd",
+    "mcap-bag-3-parts",
+    "ros1-none",
+    "ros1-lz4",
+    "ros1-bz2",
+]
 
 
 def make(form: str, path: Path, frames: int) -> None:
     from bench_extract import messages
 
-    from tests.support.bags import write_bag
+    from tests.support.bags import write_bag, write_ros1
     from tests.support.recordings import write_messages
 
     if path.exists():
@@ -49,7 +63,7 @@ def make(form: str, path: Path, frames: int) -> None:
     msgs = messages(frames, 0.1)
     n = frames + 3 * (frames // 20)
     thirds = (n // 3, 2 * n // 3)
-    if form.startswith("mcap-") and not form.startswith("mcap-bag"):
+    if form in ("mcap-none", "mcap-zstd", "mcap-lz4"):
         with open(path, "wb") as fh:
             write_messages(fh, msgs, compression=form.split("-")[1], chunk_size=4 << 20)
     elif form == "db3":
@@ -60,6 +74,8 @@ def make(form: str, path: Path, frames: int) -> None:
         write_bag(msgs, path, compression="message")
     elif form == "mcap-bag-3-parts":
         write_bag(msgs, path, storage="mcap", cuts=thirds)
+    elif form.startswith("ros1-"):
+        write_ros1(msgs, path, compression=form.split("-")[1])
 
 
 def warm(path: Path) -> None:
@@ -116,9 +132,8 @@ def main() -> None:
     a.dir.mkdir(parents=True, exist_ok=True)
     res: dict[str, dict[str, float]] = {}
     for form in FORMS:
-        path = a.dir / (
-            f"{form}-{a.frames}" + (".mcap" if form in ("mcap-none", "mcap-zstd") else "")
-        )
+        ext = {"mcap-none": ".mcap", "mcap-zstd": ".mcap", "mcap-lz4": ".mcap"}
+        path = a.dir / (f"{form}-{a.frames}" + ext.get(form, ".bag" if "ros1" in form else ""))
         make(form, path, a.frames)
         r = spawn(path, a.repeats)
         r["mb"] = size(path) / 1e6
@@ -132,7 +147,9 @@ def main() -> None:
     frames = {r["frames"] for r in res.values()}
     assert len(frames) == 1, f"the forms gave different frame counts: {frames}"
     pairs = [(f, "mcap-none") for f in ("db3", "db3-3-parts", "mcap-bag-3-parts")]
-    for form, base in [*pairs, ("db3-message-zstd", "mcap-zstd")]:
+    pairs += [("db3-message-zstd", "mcap-zstd"), ("ros1-none", "mcap-none")]
+    pairs += [("ros1-lz4", "mcap-lz4"), ("ros1-bz2", "mcap-zstd")]
+    for form, base in pairs:
         a, b = res[form], res[base]
         print(
             f"{form} / {base}: {a['seconds'] / b['seconds']:.2f}x wall, "

@@ -192,10 +192,10 @@ fn sqlite_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
 }
 
 /// [`inventory`] of a ROS 1 bag: connections, counts and time span from its index section
-/// (no chunk decompressed); the log times of `topics` from the index records beside each
-/// chunk (which the `rosbag` crate reaches only by decompressing the chunks).
+/// (no chunk decompressed); the log times of `topics` from the index data records beside
+/// each chunk ([`ros1_index_times`]).
 fn ros1_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
-    use rosbag::{ChunkRecord, IndexRecord, RosBag};
+    use rosbag::{IndexRecord, RosBag};
     let name = path.display().to_string();
     let bad = |e: rosbag::Error| Error::BadBag {
         path: name.clone(),
@@ -249,29 +249,86 @@ fn ros1_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
         .map(|(&id, &k)| (id, inv.channels[k].topic.clone()))
         .collect();
     if !wanted.is_empty() {
-        for rec in bag.chunk_records() {
-            match rec {
-                Ok(ChunkRecord::IndexData(d)) => {
-                    if let Some(t) = wanted.get(&d.conn_id) {
-                        let times = inv.log_times.entry(t.clone()).or_default();
-                        times.extend(d.entries().map(|e| e.time));
-                    }
-                }
-                Ok(ChunkRecord::Chunk(_)) => inv.chunks_decompressed += 1,
-                Err(e) => {
-                    inv.losses.push(format!(
-                        "a chunk cannot be read ({e}): the times of the messages after it \
-                         are not known"
-                    ));
-                    break;
-                }
-            }
+        match ros1_index_times(path, &wanted) {
+            Ok(times) => inv.log_times = times,
+            Err(e) => inv.losses.push(format!(
+                "the index records beside the chunks cannot be read ({e}): the times of the \
+                 camera messages are not known"
+            )),
         }
         for times in inv.log_times.values_mut() {
             times.sort_unstable();
         }
     }
     Ok(inv)
+}
+
+/// The times of the messages of the connections in `wanted` (id → topic), by topic, from a ROS
+/// 1 bag's index data records (op 0x04: per chunk and connection, each message's time), the
+/// records' headers walked from the file's start and every chunk skipped unread (the
+/// `rosbag` crate reaches these records only by decompressing each chunk before them).
+fn ros1_index_times(
+    path: &Path,
+    wanted: &BTreeMap<u32, String>,
+) -> std::result::Result<BTreeMap<String, Vec<u64>>, String> {
+    use std::os::unix::fs::FileExt;
+    let f = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let len = f.metadata().map_err(|e| e.to_string())?.len();
+    let u32_at = |at: u64| -> std::result::Result<u32, String> {
+        let mut b = [0u8; 4];
+        f.read_exact_at(&mut b, at)
+            .map_err(|e| format!("byte {at}: {e}"))?;
+        Ok(u32::from_le_bytes(b))
+    };
+    let mut out: BTreeMap<String, Vec<u64>> = BTreeMap::new();
+    let mut at = 13u64; // "#ROSBAG V2.0\n"
+    while at + 4 <= len {
+        let hlen = u64::from(u32_at(at)?);
+        if at + 4 + hlen + 4 > len {
+            return Err(format!("the record at byte {at} runs past the end"));
+        }
+        let mut header = vec![0u8; usize::try_from(hlen).map_err(|e| e.to_string())?];
+        f.read_exact_at(&mut header, at + 4)
+            .map_err(|e| format!("byte {at}: {e}"))?;
+        let dlen = u64::from(u32_at(at + 4 + hlen)?);
+        let data_at = at + 8 + hlen;
+        if data_at + dlen > len {
+            return Err(format!("the record at byte {at} runs past the end"));
+        }
+        // Header fields: u32 length, then `name=value`.
+        let (mut op, mut conn) = (None, None);
+        let mut i = 0usize;
+        while i + 4 <= header.len() {
+            let n = u32::from_le_bytes(header[i..i + 4].try_into().expect("4 bytes")) as usize;
+            let Some(field) = header.get(i + 4..i + 4 + n) else {
+                return Err(format!("the record header at byte {at} is cut"));
+            };
+            if let Some(eq) = field.iter().position(|&c| c == b'=') {
+                let (name, value) = (&field[..eq], &field[eq + 1..]);
+                match (name, value.len()) {
+                    (b"op", 1) => op = Some(value[0]),
+                    (b"conn", 4) => conn = Some(u32::from_le_bytes(value.try_into().expect("4"))),
+                    _ => {}
+                }
+            }
+            i += 4 + n;
+        }
+        if op == Some(0x04) {
+            if let Some(topic) = conn.and_then(|c| wanted.get(&c)) {
+                let mut data = vec![0u8; usize::try_from(dlen).map_err(|e| e.to_string())?];
+                f.read_exact_at(&mut data, data_at)
+                    .map_err(|e| format!("byte {data_at}: {e}"))?;
+                let times = out.entry(topic.clone()).or_default();
+                for e in data.chunks_exact(12) {
+                    let secs = u32::from_le_bytes(e[0..4].try_into().expect("4 bytes"));
+                    let nsecs = u32::from_le_bytes(e[4..8].try_into().expect("4 bytes"));
+                    times.push(u64::from(secs) * 1_000_000_000 + u64::from(nsecs));
+                }
+            }
+        }
+        at = data_at + dlen;
+    }
+    Ok(out)
 }
 
 /// [`inventory`] of a bag folder: its files' inventories in order, summed (channels by topic).
