@@ -244,10 +244,10 @@ def extract(
     ----------
     path
         The recording: an MCAP file, a rosbag2 SQLite database (``.db3``), either compressed
-        whole with zstd (``.zstd``), or a rosbag2 bag folder (``metadata.yaml`` and its files,
-        read in the order it lists them as one recording: runs and visits cross the files'
-        boundaries; a file missing or unreadable is a loss). What a file holds is recognised
-        by its first bytes.
+        whole with zstd (``.zstd``), a ROS 1 bag (format 2.0), or a rosbag2 bag folder
+        (``metadata.yaml`` and its files, read in the order it lists them as one recording:
+        runs and visits cross the files' boundaries; a file missing or unreadable is a loss).
+        What a file holds is recognised by its first bytes.
     rig
         The rig that names its topics, cameras, ROIs and poses (a :class:`~thermrs.Rig` or the
         path of a rig file).
@@ -278,7 +278,8 @@ def extract(
     Raises
     ------
     RecordingError
-        Not a recording thermrs reads (a ROS 1 bag: the message names the conversion), or
+        Not a recording thermrs reads (a ROS 1 bag older than format 2.0: the message names
+        the conversion), or
         none of the rig's topics in it, or none of its camera topics (the recording was made
         on another rig); the message names the topics.
     InternalError

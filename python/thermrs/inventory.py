@@ -54,7 +54,8 @@ class Inventory:
     path
         The recording.
     storage
-        How it is stored: ``mcap``, ``sqlite3`` (rosbag2's SQLite), either with
+        How it is stored: ``mcap``, ``sqlite3`` (rosbag2's SQLite), ``ros1``, either of the
+        first two with
         `` (zstd file)`` when compressed whole, or ``bag of N files (…)`` for a bag folder
         (its files' inventories summed, channels by topic).
     bytes
@@ -202,8 +203,8 @@ def inventory(
     path
         A recording: an MCAP file, a rosbag2 SQLite database (``.db3``, read from its tables:
         one pass over the messages' times, their bytes unread), either compressed whole with
-        zstd, or a rosbag2 bag folder (its files' inventories summed; a missing file is a
-        loss).
+        zstd, a ROS 1 bag (format 2.0: from its index, no chunk decompressed), or a rosbag2
+        bag folder (its files' inventories summed; a missing file is a loss).
     rig
         The rig it was recorded on (a :class:`~thermrs.Rig` or a rig file), to name each
         topic's role, list the cameras and ROIs it maps, and know which topics are CCD
@@ -216,7 +217,8 @@ def inventory(
     InputError
         No such file, or a directory that is not a bag.
     RecordingError
-        Not a recording thermrs reads (a ROS 1 bag: the message names the conversion), or
+        Not a recording thermrs reads (a ROS 1 bag older than format 2.0: the message names
+        the conversion), or
         run markers that contradict each other.
     """
     from thermrs.ingest import NOT_A_BAG

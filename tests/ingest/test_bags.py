@@ -246,8 +246,9 @@ def test_a_folder_of_bags_is_a_campaign_of_bags(world: World, tmp_path: Path) ->
     shutil_copy(_form(world, "db3-bag-3-parts"), root / "day1")
     shutil_copy(_form(world, "mcap-bag-3-parts"), root / "day2")
     (root / "loose.mcap").write_bytes(world.mcap.read_bytes())
+    write_ros1(world.messages, root / "old.bag", compression="lz4")
     found = expand([str(root)])
-    assert [s.path.name for s in found] == ["day1", "day2", "loose.mcap"]
+    assert [s.path.name for s in found] == ["day1", "day2", "loose.mcap", "old.bag"]
     day1 = found[0]
     files = sorted(p for p in day1.path.iterdir() if p.name != "metadata.yaml")
     assert day1.size_bytes == sum(p.stat().st_size for p in files)
@@ -275,7 +276,9 @@ def test_a_folder_of_bags_is_a_campaign_of_bags(world: World, tmp_path: Path) ->
 
 
 @pytest.mark.slow
-def test_a_campaign_catalogs_a_bag_as_one_row(world: World, tmp_path: Path) -> None:
+def test_a_campaign_catalogs_a_bag_as_one_row_beside_mcap_and_ros1(
+    world: World, tmp_path: Path
+) -> None:
     from distributed import Client
     from thermrs.campaigns.engine import local_cluster
 
@@ -283,17 +286,17 @@ def test_a_campaign_catalogs_a_bag_as_one_row(world: World, tmp_path: Path) -> N
     root.mkdir()
     shutil_copy(_form(world, "db3-bag-3-parts"), root / "day1")
     (root / "loose.mcap").write_bytes(world.mcap.read_bytes())
+    write_ros1(world.messages, root / "old.bag", compression="bz2")
+    names = (root / "day1", root / "loose.mcap", root / "old.bag")
     with local_cluster(1) as cluster, Client(cluster) as c:  # type: ignore[no-untyped-call]
         res = thermrs.campaign([str(root)], tmp_path / "ds", client=c)
         cat = res.dataset.catalog().sort("path")
-        assert cat.height == 2
-        bag_row, one_row = cat.row(0, named=True), cat.row(1, named=True)
-        assert bag_row["content_hash"] == content_hash(root / "day1")
-        assert (bag_row["runs"], bag_row["frames"]) == (one_row["runs"], one_row["frames"])
+        assert cat["path"].to_list() == [str(p) for p in names]
+        assert cat["content_hash"][0] == content_hash(root / "day1")
+        assert cat["runs"].to_list() == [2, 2, 2]
+        assert cat["frames"].n_unique() == 1 and cat["losses"].to_list() == [0, 0, 0]
         again = thermrs.campaign([str(root)], tmp_path / "ds", client=c)
-        assert sorted(again.unchanged) == sorted(
-            str(p) for p in (root / "day1", root / "loose.mcap")
-        )
+        assert sorted(again.unchanged) == sorted(str(p) for p in names)
 
 
 def test_refused_and_wrong_folders_say_what_to_do(paper_rig: thermrs.Rig, tmp_path: Path) -> None:

@@ -2,7 +2,8 @@
 
 A campaign names its recordings as the user types them: files, glob patterns (``'day*/r*.mcap'``,
 expanded here, also where the shell did not) and folders (every recording below them: ``*.mcap``
-and ``*.db3`` files, either compressed whole as ``*.zstd``, and rosbag2 bag folders, each bag
+and ``*.db3`` files, either compressed whole as ``*.zstd``, ROS 1 ``*.bag`` files, and rosbag2
+bag folders, each bag
 one recording; a folder that is itself a bag is one recording). Each recording is identified by
 the BLAKE3 hash of its bytes (``content_hash``; a bag: of its files' hashes in order), so that a
 file renamed, copied or touched is known for what it holds; its id in the dataset is
@@ -22,7 +23,7 @@ __all__ = ["RECORDING_SUFFIXES", "Source", "content_hash", "expand", "recording_
 
 #: The names of the files a folder's recordings are found by (a bag folder is found by its
 #: ``metadata.yaml`` or its numbered files).
-RECORDING_SUFFIXES = (".mcap", ".db3", ".mcap.zstd", ".db3.zstd")
+RECORDING_SUFFIXES = (".mcap", ".db3", ".mcap.zstd", ".db3.zstd", ".bag")
 
 
 @dataclass(frozen=True)
