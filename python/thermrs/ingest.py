@@ -52,8 +52,11 @@ class ExtractReport:
 
     Each entry of ``losses`` has ``kind`` (``truncated``, ``corrupt_chunk``,
     ``corrupt_record``, ``undefined_channel`` (messages on a channel the file never defines),
-    ``zeros`` (the recording ends in zeros a writer reserved) or ``hole`` (a trailing hole the
-    file system holds no data for)), ``offset`` and ``bytes`` (the lost byte range is
+    ``zeros`` (the recording ends in zeros a writer reserved), ``hole`` (a trailing hole the
+    file system holds no data for), ``corrupt_database`` (a rosbag2 SQLite database damaged
+    part way: the messages before the damage are kept), or for a bag folder ``missing_part``
+    and ``unreadable_part`` (a file of the bag, named in ``detail`` and ``part``)),
+    ``offset`` and ``bytes`` (the lost byte range is
     ``offset .. offset + bytes``), ``detail`` (one line) and ``messages_lost`` (messages per
     topic the range held, where the file tells: its message indexes, the summary's chunk index
     or the damaged chunk's own records). ``crc_failures`` counts chunks skipped because their

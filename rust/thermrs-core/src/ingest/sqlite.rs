@@ -127,7 +127,7 @@ pub(super) fn extract_sqlite(
                 report.losses.push(Loss::new(
                     "corrupt_database",
                     0,
-                    len,
+                    0,
                     format!(
                         "the SQLite database is damaged after message id {last_id} of \
                          {max_id}: {e}; the messages before it were read, the rest are lost"
@@ -178,7 +178,7 @@ pub(super) fn extract_sqlite(
                 report.losses.push(Loss::new(
                     "corrupt_database",
                     0,
-                    len,
+                    0,
                     format!(
                         "message id {last_id} of the SQLite database cannot be read: {e}; \
                          the messages before it were read, the rest are lost"
