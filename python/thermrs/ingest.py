@@ -40,6 +40,7 @@ __all__ = [
     "check_writable",
     "data_loss",
     "extract",
+    "is_bag",
     "write_parquet_atomic",
 ]
 
@@ -184,6 +185,25 @@ NOT_A_BAG = (
     "numbered files NAME_0, NAME_1, … of one bag); give a recording (.mcap, .db3) or a bag folder"
 )
 
+
+def is_bag(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a folder read as one recording: a rosbag2 bag (``metadata.yaml``),
+    or numbered files ``NAME_0``, ``NAME_1``, … of one recording split, holding the same topics
+    and following each other in time.
+
+    Parameters
+    ----------
+    path
+        Any path (a file or a missing path is not a bag).
+
+    Returns
+    -------
+    bool
+        True for a bag folder.
+    """
+    return _native.is_bag(os.fspath(path))
+
+
 #: Parquet key-value metadata key of the losses of the recording a table was extracted from
 #: (a JSON list of ``{"kind", "offset", "bytes", "detail"}``; empty when nothing was lost).
 LOSS_KEY = "thermrs.data_loss"
@@ -303,7 +323,7 @@ def extract(
     """
     rig = as_rig(rig)
     p = Path(path)
-    if p.is_dir() and not _native.is_bag(str(p)):
+    if p.is_dir() and not is_bag(p):
         raise InputError(f"recording {p}: {NOT_A_BAG}")
     if not p.exists():
         raise InputError(f"recording {p}: no such file")

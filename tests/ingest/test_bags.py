@@ -312,3 +312,28 @@ def test_refused_and_wrong_folders_say_what_to_do(paper_rig: thermrs.Rig, tmp_pa
     (empty / "b.mcap").write_bytes(b"")
     r = _run_cli("extract", str(empty), "--rig", str(paper_rig.source), "-o", out)
     assert r.returncode == 2 and "not a rosbag2 bag" in r.stderr, r.stderr
+
+
+def test_the_diagnosis_of_a_bag_is_that_of_the_mcap(
+    world: World, paper_rig: thermrs.Rig, tmp_path: Path
+) -> None:
+    """`thermrs diagnose` on run 1 against run 2 of each form: the same JSON once the runs'
+    names (the recording's stem) are the same."""
+    ros1 = world.dir / "ros1-lz4.bag"
+    if not ros1.exists():
+        write_ros1(world.messages, ros1, compression="lz4")
+    texts = []
+    for rec, stem in [
+        (world.mcap, "one"),
+        (_form(world, "db3-bag-3-parts"), "db3-bag-3-parts"),
+        (ros1, "ros1-lz4"),
+    ]:
+        out = tmp_path / f"{stem}.json"
+        r = _run_cli(
+            "diagnose", "--rig", str(paper_rig.source), "--train", f"{rec}#run1",
+            "--holdout", f"{rec}#run2", "--json", str(out),
+        )  # fmt: skip
+        assert r.returncode == 0, r.stderr
+        texts.append(out.read_text().replace(f"{stem}#", "REC#"))
+    assert texts[1] == texts[0]
+    assert texts[2] == texts[0]
