@@ -133,3 +133,33 @@ pub fn parse_temperature(buf: &[u8]) -> Result<TemperatureMsg, String> {
         variance: r.f64("variance")?,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `sensor_msgs/Temperature` as ROS 1 writes it (header seq, stamp, frame id; two
+    /// float64), and every cut of it an error naming the field, never a panic.
+    #[test]
+    fn a_message_reads_and_every_cut_of_it_is_an_error() {
+        let mut b = Vec::new();
+        b.extend_from_slice(&7u32.to_le_bytes()); // seq
+        b.extend_from_slice(&1_750_000_000u32.to_le_bytes());
+        b.extend_from_slice(&250u32.to_le_bytes());
+        b.extend_from_slice(&4u32.to_le_bytes());
+        b.extend_from_slice(b"room");
+        b.extend_from_slice(&22.5f64.to_le_bytes());
+        b.extend_from_slice(&0.01f64.to_le_bytes());
+        let t = parse_temperature(&b).unwrap();
+        assert_eq!(t.stamp_ns, 1_750_000_000 * 1_000_000_000 + 250);
+        assert_eq!((t.temperature, t.variance), (22.5, 0.01));
+        for n in 0..b.len() {
+            let e = parse_temperature(&b[..n]).unwrap_err();
+            assert!(e.contains("needs") && e.contains("remain"), "{e}");
+        }
+        // A length beyond the message (a string claiming 4 GB) is an error too.
+        let mut bad = b.clone();
+        bad[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(parse_image(&bad).is_err() && parse_joint_state(&bad).is_err());
+    }
+}
