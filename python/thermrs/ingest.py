@@ -41,6 +41,7 @@ __all__ = [
     "check_writable",
     "data_loss",
     "extract",
+    "is_bag",
     "write_parquet_atomic",
 ]
 
@@ -53,8 +54,11 @@ class ExtractReport:
 
     Each entry of ``losses`` has ``kind`` (``truncated``, ``corrupt_chunk``,
     ``corrupt_record``, ``undefined_channel`` (messages on a channel the file never defines),
-    ``zeros`` (the recording ends in zeros a writer reserved) or ``hole`` (a trailing hole the
-    file system holds no data for)), ``offset`` and ``bytes`` (the lost byte range is
+    ``zeros`` (the recording ends in zeros a writer reserved), ``hole`` (a trailing hole the
+    file system holds no data for), ``corrupt_database`` (a rosbag2 SQLite database damaged
+    part way: the messages before the damage are kept), or for a bag folder ``missing_part``
+    and ``unreadable_part`` (a file of the bag, named in ``detail`` and ``part``)),
+    ``offset`` and ``bytes`` (the lost byte range is
     ``offset .. offset + bytes``), ``detail`` (one line) and ``messages_lost`` (messages per
     topic the range held, where the file tells: its message indexes, the summary's chunk index
     or the damaged chunk's own records). ``crc_failures`` counts chunks skipped because their
@@ -82,6 +86,9 @@ class ExtractReport:
     #: How the file was read where that is worth saying and nothing was lost (a summary
     #: unreadable; an id defined twice, each message read with the definition before it).
     notes: list[str] = field(default_factory=list)
+    #: A bag folder's files in order, each ``{"file", "bytes", "content_hash"}`` (the hash
+    #: when asked for, None for a missing file); empty for a single file.
+    parts: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def data_loss(self) -> bool:
@@ -182,6 +189,31 @@ class Extraction:
         return lambda tmp: table.write_parquet(tmp, metadata=meta)
 
 
+#: Why a folder is not read as one recording.
+NOT_A_BAG = (
+    "is a directory but not a rosbag2 bag (no metadata.yaml, and its recordings are not the "
+    "numbered files NAME_0, NAME_1, … of one bag); give a recording (.mcap, .db3) or a bag folder"
+)
+
+
+def is_bag(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a folder read as one recording: a rosbag2 bag (``metadata.yaml``),
+    or numbered files ``NAME_0``, ``NAME_1``, … of one recording split, holding the same topics
+    and following each other in time.
+
+    Parameters
+    ----------
+    path
+        Any path (a file or a missing path is not a bag).
+
+    Returns
+    -------
+    bool
+        True for a bag folder.
+    """
+    return _native.is_bag(os.fspath(path))
+
+
 #: Parquet key-value metadata key of the losses of the recording a table was extracted from
 #: (a JSON list of ``{"kind", "offset", "bytes", "detail"}``; empty when nothing was lost).
 LOSS_KEY = "thermrs.data_loss"
@@ -244,7 +276,11 @@ def extract(
     Parameters
     ----------
     path
-        The MCAP recording.
+        The recording: an MCAP file, a rosbag2 SQLite database (``.db3``), either compressed
+        whole with zstd (``.zstd``), a ROS 1 bag (format 2.0), or a rosbag2 bag folder
+        (``metadata.yaml`` and its files, read in the order it lists them as one recording:
+        runs and visits cross the files' boundaries; a file missing or unreadable is a loss).
+        What a file holds is recognised by its first bytes.
     rig
         The rig that names its topics, cameras, ROIs and poses (a :class:`~thermrs.Rig` or the
         path of a rig file).
@@ -275,12 +311,14 @@ def extract(
     Raises
     ------
     RecordingError
-        Not an MCAP file, or none of the rig's topics in it, or none of its camera topics
-        (the recording was made on another rig); the message names the topics.
+        Not a recording thermrs reads (a ROS 1 bag older than format 2.0: the message names
+        the conversion), or
+        none of the rig's topics in it, or none of its camera topics (the recording was made
+        on another rig); the message names the topics.
     InternalError
         A bug in thermrs (a panic in the core), as one line.
     InputError
-        The file does not exist, is a directory or cannot be read.
+        The file does not exist, is a directory but not a bag, or cannot be read.
     TypeError
         ``rig`` is neither a :class:`~thermrs.Rig` nor a path.
     KeyboardInterrupt
@@ -295,8 +333,8 @@ def extract(
     """
     rig = as_rig(rig)
     p = Path(path)
-    if p.is_dir():
-        raise InputError(f"recording {p}: is a directory, expected a recording (.mcap)")
+    if p.is_dir() and not is_bag(p):
+        raise InputError(f"recording {p}: {NOT_A_BAG}")
     if not p.exists():
         raise InputError(f"recording {p}: no such file")
     columns = _native.extract(

@@ -53,8 +53,13 @@ class Inventory:
     ----------
     path
         The recording.
+    storage
+        How it is stored: ``mcap``, ``sqlite3`` (rosbag2's SQLite), ``ros1``, either of the
+        first two with
+        `` (zstd file)`` when compressed whole, or ``bag of N files (…)`` for a bag folder
+        (its files' inventories summed, channels by topic).
     bytes
-        Its size.
+        Its size (a bag: its files' sizes summed).
     from_summary
         Whether it was read from its summary section (False: walked record by record).
     start_ns, end_ns
@@ -103,6 +108,7 @@ class Inventory:
     losses: list[str]
     metadata: list[dict[str, Any]]
     notes: list[str] = field(default_factory=list)
+    storage: str = "mcap"
 
     @property
     def duration_s(self) -> float:
@@ -115,6 +121,7 @@ class Inventory:
         """Everything above as JSON-ready values (``thermrs info --json``)."""
         return {
             "path": str(self.path),
+            "storage": self.storage,
             "bytes": self.bytes,
             "from_summary": self.from_summary,
             "profile": self.profile,
@@ -194,7 +201,10 @@ def inventory(
     Parameters
     ----------
     path
-        An MCAP recording.
+        A recording: an MCAP file, a rosbag2 SQLite database (``.db3``, read from its tables:
+        one pass over the messages' times, their bytes unread), either compressed whole with
+        zstd, a ROS 1 bag (format 2.0: from its index, no chunk decompressed), or a rosbag2
+        bag folder (its files' inventories summed; a missing file is a loss).
     rig
         The rig it was recorded on (a :class:`~thermrs.Rig` or a rig file), to name each
         topic's role, list the cameras and ROIs it maps, and know which topics are CCD
@@ -205,13 +215,17 @@ def inventory(
     Raises
     ------
     InputError
-        No such file, or a directory.
+        No such file, or a directory that is not a bag.
     RecordingError
-        Not an MCAP recording, or run markers that contradict each other.
+        Not a recording thermrs reads (a ROS 1 bag older than format 2.0: the message names
+        the conversion), or
+        run markers that contradict each other.
     """
+    from thermrs.ingest import NOT_A_BAG
+
     p = Path(path)
-    if p.is_dir():
-        raise InputError(f"{p}: is a directory, expected a recording (.mcap)")
+    if p.is_dir() and not _native.is_bag(str(p)):
+        raise InputError(f"{p}: {NOT_A_BAG}")
     if not p.exists():
         raise InputError(f"{p}: no such file")
     r = as_rig(rig) if rig is not None else None
@@ -243,6 +257,7 @@ def inventory(
         losses=list(doc["losses"]),
         metadata=list(doc["metadata"]),
         notes=list(doc.get("notes", [])),
+        storage=str(doc.get("storage", "mcap")),
     )
 
 

@@ -43,7 +43,7 @@ import polars as pl
 
 from thermrs.errors import InputError
 from thermrs.identity import RIG_KEY, check_rig
-from thermrs.ingest import data_loss, extract
+from thermrs.ingest import NOT_A_BAG, data_loss, extract, is_bag
 from thermrs.rig import as_rig
 from thermrs.rundetect import (
     DEFAULT_GAP_FACTOR,
@@ -247,12 +247,18 @@ def load_runs(
     """
     rig = as_rig(rig)
     path, wanted = split_run_spec(spec)
-    if path.is_dir():
-        raise InputError(f"{path}: is a directory, expected a recording (.mcap) or tables")
+    if path.is_dir() and not is_bag(path):
+        raise InputError(f"{path}: {NOT_A_BAG}")
     if not path.exists():
         raise InputError(f"{path}: no such file")
-    st = path.stat()
-    key = (path.resolve(), st.st_mtime_ns, st.st_size)
+    if path.is_dir():
+        from thermrs.campaigns.sources import stat_of  # a bag: its files' sizes and times
+
+        size, mtime = stat_of(path)
+    else:
+        st = path.stat()
+        size, mtime = st.st_size, st.st_mtime_ns
+    key = (path.resolve(), mtime, size)
     ex: Any = None
     if cache is not None and key in cache:
         visits, temps, runs, loss, stem, ex = cache[key]

@@ -1,9 +1,12 @@
 """The recordings of a campaign: paths, globs and folders expanded, and their content hashes.
 
 A campaign names its recordings as the user types them: files, glob patterns (``'day*/r*.mcap'``,
-expanded here, also where the shell did not) and folders (every ``*.mcap`` below them). Each
-recording is identified by the BLAKE3 hash of its bytes (``content_hash``), so that a file
-renamed, copied or touched is known for what it holds; its id in the dataset is
+expanded here, also where the shell did not) and folders (every recording below them: ``*.mcap``
+and ``*.db3`` files, either compressed whole as ``*.zstd``, ROS 1 ``*.bag`` files, and rosbag2
+bag folders, each bag
+one recording; a folder that is itself a bag is one recording). Each recording is identified by
+the BLAKE3 hash of its bytes (``content_hash``; a bag: of its files' hashes in order), so that a
+file renamed, copied or touched is known for what it holds; its id in the dataset is
 ``<stem>-<first 12 hex digits of the hash>`` (readable, and stable between campaigns).
 """
 
@@ -16,7 +19,11 @@ from pathlib import Path
 
 from thermrs.errors import InputError
 
-__all__ = ["Source", "content_hash", "expand", "recording_id"]
+__all__ = ["RECORDING_SUFFIXES", "Source", "content_hash", "expand", "recording_id", "stat_of"]
+
+#: The names of the files a folder's recordings are found by (a bag folder is found by its
+#: ``metadata.yaml`` or its numbered files).
+RECORDING_SUFFIXES = (".mcap", ".db3", ".mcap.zstd", ".db3.zstd", ".bag")
 
 
 @dataclass(frozen=True)
@@ -26,10 +33,12 @@ class Source:
     Attributes
     ----------
     path
-        The file (absolute, unless :func:`expand` was asked for the paths as named).
+        The file or bag folder (absolute, unless :func:`expand` was asked for the paths as
+        named).
     size_bytes, mtime_ns
-        From ``stat``: with the path, the key under which a previous campaign's hash of the
-        file is trusted without reading the file again.
+        From ``stat`` (a bag: its files' sizes summed, the latest modification of them and
+        its ``metadata.yaml``): with the path, the key under which a previous campaign's hash
+        of the recording is trusted without reading it again.
     """
 
     path: Path
@@ -45,8 +54,8 @@ def expand(
     Parameters
     ----------
     specs
-        Files, glob patterns (``*``, ``?``, ``[…]``, ``**``) and folders (every ``*.mcap``
-        below them, sorted).
+        Files, glob patterns (``*``, ``?``, ``[…]``, ``**``) and folders (every recording
+        below them, sorted: see the module docs).
     resolve
         Give each recording's absolute path (a campaign's key); else its path as named (a
         file as given, a folder's or pattern's files below it as written). A file named
@@ -62,9 +71,12 @@ def expand(
     for spec in specs:
         s = str(spec)
         if Path(s).is_dir():
-            found = sorted(Path(s).rglob("*.mcap"))
+            found = recordings_below(Path(s))
             if not found:
-                raise InputError(f"recording folder {s}: holds no .mcap file")
+                raise InputError(
+                    f"recording folder {s}: holds no recording "
+                    f"({', '.join(RECORDING_SUFFIXES)} or a rosbag2 bag folder)"
+                )
         elif Path(s).exists():
             found = [Path(s)]
         elif glob.has_magic(s):
@@ -78,21 +90,66 @@ def expand(
             if p in seen:
                 continue
             seen.add(p)
-            try:
-                st = p.stat()
-            except OSError as e:
-                raise InputError(f"recording {p}: {e.strerror or e}") from None
-            out.append(Source(p if resolve else named, st.st_size, st.st_mtime_ns))
+            size, mtime = stat_of(p)
+            out.append(Source(p if resolve else named, size, mtime))
     if not out:
         raise InputError("no recording given")
     return out
 
 
+def recordings_below(folder: Path) -> list[Path]:
+    """The recordings in ``folder`` and below it, sorted: the folder itself if it is a bag,
+    else each bag folder below it (not looked into further) and each recording file."""
+    import thermrs._native as _native
+
+    if _native.is_bag(str(folder)):
+        return [folder]
+    found: list[Path] = []
+    for here, dirs, files in os.walk(folder):
+        if Path(here) != folder and _native.is_bag(here):
+            found.append(Path(here))
+            dirs.clear()
+            continue
+        found += [Path(here) / f for f in files if f.endswith(RECORDING_SUFFIXES)]
+    return sorted(found)
+
+
+def stat_of(path: Path) -> tuple[int, int]:
+    """Size and modification time (ns) of a recording: a file's own; a bag's files' sizes
+    summed and the latest modification of them and its ``metadata.yaml``.
+
+    Raises
+    ------
+    InputError
+        It cannot be read.
+    """
+    import thermrs._native as _native
+    from thermrs.errors import ThermrsError
+
+    try:
+        if not path.is_dir():
+            st = path.stat()
+            return st.st_size, st.st_mtime_ns
+        try:
+            parts = [Path(p) for p in _native.bag_parts(str(path))]
+        except ThermrsError as e:
+            raise InputError(str(e)) from None
+        stats = [p.stat() for p in parts if p.is_file()]
+        meta = path / "metadata.yaml"
+        mtimes = [s.st_mtime_ns for s in stats] + (
+            [meta.stat().st_mtime_ns] if meta.is_file() else []
+        )
+        return sum(s.st_size for s in stats), max(mtimes, default=path.stat().st_mtime_ns)
+    except OSError as e:
+        raise InputError(f"recording {path}: {e.strerror or e}") from None
+
+
 def content_hash(path: str | os.PathLike[str]) -> str:
     """The hash (hex) that identifies a recording: BLAKE3 of the file's bytes, a trailing hole
-    (space a crashed writer reserved) counted by its length rather than read; the same as an
-    extraction's own pass gives (``extract(..., content_hash=True)``). Read in the core with
-    the GIL released.
+    (space a crashed writer reserved) counted by its length rather than read; for a bag
+    folder, BLAKE3 of its files' names and hashes in order (a missing file counted as such);
+    the same as an extraction's own pass gives (``extract(..., content_hash=True)``). Read in
+    the core with the GIL released.
 
     Raises
     ------

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -26,7 +25,7 @@ import polars as pl
 
 from thermrs.campaigns.sources import content_hash, recording_id
 from thermrs.campaigns.staging import reachable, write_stage
-from thermrs.errors import InputError, ThermrsError
+from thermrs.errors import ThermrsError
 
 __all__ = ["RUN_STATS_SCHEMA", "TABLES", "Job", "marker_speeds", "run_job", "run_jobs", "run_stats"]
 
@@ -281,14 +280,13 @@ def run_stats(
 
 
 def _size(path: str) -> int:
-    """The file's size in bytes.
+    """The recording's size in bytes (a bag: its files' sizes summed).
 
     Raises
     ------
     InputError
         The file cannot be read.
     """
-    try:
-        return os.stat(path).st_size
-    except OSError as e:
-        raise InputError(f"recording {path}: {e.strerror or e}") from None
+    from thermrs.campaigns.sources import stat_of
+
+    return stat_of(Path(path))[0]

@@ -165,7 +165,7 @@ input_file = click.Path(exists=True, dir_okay=False, readable=True, path_type=Pa
 
 class RunFileType(click.ParamType):  # type: ignore[type-arg]
     """A run: a recording or extracted tables, optionally ``FILE#RUN`` (one run of the file);
-    the file must exist and not be a folder."""
+    the file must exist and not be a folder, unless the folder is a bag (one recording)."""
 
     name = "RUN"
 
@@ -177,7 +177,10 @@ class RunFileType(click.ParamType):  # type: ignore[type-arg]
         if "#" in text and not path.exists():
             path = Path(text.rpartition("#")[0])
         if path.is_dir():
-            self.fail(f"{path}: is a directory, expected a recording (.mcap) or tables", param, ctx)
+            from thermrs.ingest import NOT_A_BAG, is_bag
+
+            if not is_bag(path):
+                self.fail(f"{path}: {NOT_A_BAG}", param, ctx)
         if not path.exists():
             self.fail(f"{str(path)!r} does not exist.", param, ctx)
         return Path(text)

@@ -88,7 +88,11 @@ def extract(
             quiet=quiet,
         )
         return
-    recording = input_file.convert(recordings[0], None, click.get_current_context())
+    recording = (
+        Path(recordings[0])  # a bag folder (checked as the extraction opens it)
+        if Path(recordings[0]).is_dir()
+        else input_file.convert(recordings[0], None, click.get_current_context())
+    )
     from thermrs.rig import load_rig
 
     writable(out_path, "-o", suffixes=(".parquet",))

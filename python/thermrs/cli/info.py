@@ -67,12 +67,15 @@ def info(recordings: tuple[str, ...], rig_path: Path | None, as_json: bool) -> N
     for inv in invs if not as_json else []:
         t0 = inv.start_ns
         out.print(
-            f"[bold]{inv.path}[/bold]: {inv.bytes / 1e6:,.1f} MB, {inv.messages:,} messages "
+            f"[bold]{inv.path}[/bold]: {inv.storage}, {inv.bytes / 1e6:,.1f} MB, "
+            f"{inv.messages:,} messages "
             f"over {_span(inv.duration_s * 1e9 if t0 is not None else 0)}, {inv.chunks} chunks "
             f"({', '.join(inv.compression) or 'unchunked'}); "
             + (
                 "read from its summary"
                 if inv.from_summary
+                else "read from its SQLite tables"
+                if "sqlite3" in inv.storage and "mcap" not in inv.storage
                 else "no summary: walked record by record"
             )
         )

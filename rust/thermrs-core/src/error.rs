@@ -190,6 +190,16 @@ pub enum Error {
     /// The caller asked to stop (Ctrl-C).
     #[error("interrupted")]
     Interrupted,
+    /// A folder taken for a rosbag2 bag whose `metadata.yaml` is unreadable or wrong.
+    #[error("bag {path}: {reason}")]
+    BadBag { path: String, reason: String },
+    /// A recording in a format thermrs does not read (`what`), with the conversion to use.
+    #[error("{path}: {what}, which thermrs does not read; convert it to MCAP: {conversion}")]
+    Refused {
+        path: String,
+        what: String,
+        conversion: String,
+    },
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -41,13 +41,16 @@ use crate::error::{Error, Result};
 use crate::rig::Rig;
 use crate::thermal::{roi_maxima, ThermalFormat, ThermalView};
 
+mod bagread;
 mod chunk;
 mod dispatch;
 mod floor;
 mod png;
 mod recovery;
 mod report;
+mod rosbag1;
 mod source;
+mod sqlite;
 mod tables;
 mod walk;
 mod work;
@@ -55,7 +58,8 @@ use chunk::{decompress, walk, walk_read, CHUNK_BUF, INPUT_BUF};
 pub use floor::{checksum_chunks, ChecksumScan};
 pub use png::decode_png;
 pub use recovery::{record_at, summary_crc, MAX_CHUNK_BYTES};
-pub use report::{Loss, MetadataRecord, Report};
+pub use report::{Loss, MetadataRecord, PartInfo, Report};
+pub use rosbag1::ros2_type;
 pub use source::Source;
 use source::{Route, RouteChooser};
 use tables::{invalid_frame, status_code};
@@ -63,6 +67,8 @@ pub use tables::{AmbientTable, FrameTable, JointTable, Tables, ThermalTable, STA
 use walk::Walk;
 
 const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+/// A zstd frame's first bytes (rosbag2's message compression).
+const ZSTD_MAGIC: &[u8] = &[0x28, 0xb5, 0x2f, 0xfd];
 const IMAGE: &str = "sensor_msgs/msg/Image";
 const COMPRESSED: &str = "sensor_msgs/msg/CompressedImage";
 const JOINT_STATE: &str = "sensor_msgs/msg/JointState";
@@ -244,14 +250,77 @@ enum Work<'a> {
     Loose(Vec<(MessageHeader, &'a [u8])>),
 }
 
-/// Extract every table of a recording.
+/// Extract every table of a recording: an MCAP file, a rosbag2 SQLite database (`.db3`),
+/// either compressed whole with zstd, a ROS 1 bag (format 2.0), or a rosbag2 bag folder (its files in order, as one
+/// recording; see [`crate::bag`]). The storage is recognised by the file's first bytes.
+///
+/// # Errors
+/// [`Error::Refused`] for a ROS 1 bag older than format 2.0 (with the conversion to use); [`Error::NotMcap`] for a
+/// file none of these; [`Error::BadBag`] for a folder that is not a readable bag.
 pub fn extract(
     path: &Path,
     rig: &Rig,
     opts: &ExtractOptions,
     progress: &ProgressFn<'_>,
 ) -> Result<(Tables, Report)> {
-    extract_by(path, rig, opts, progress, None)
+    use crate::bag::Storage;
+    if path.is_dir() {
+        return bagread::extract_bag(path, rig, opts, progress);
+    }
+    let name = path.display().to_string();
+    match crate::bag::storage_of(path)? {
+        Storage::Sqlite => sqlite::extract_sqlite(path, &name, rig, opts, progress),
+        Storage::Zstd => {
+            let plain = crate::bag::decompress_file(path)?;
+            let inner = ExtractOptions {
+                content_hash: false,
+                ..opts.clone()
+            };
+            let tmp = plain.path.display().to_string();
+            let (t, mut r) = match extract(&plain.path, rig, &inner, progress) {
+                Err(Error::NoRigTopics {
+                    topics, present, ..
+                }) => {
+                    return Err(Error::NoRigTopics {
+                        path: name,
+                        topics,
+                        present,
+                    })
+                }
+                other => other?,
+            };
+            for l in &mut r.losses {
+                l.detail = l.detail.replace(&tmp, &name);
+            }
+            r.file_bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+            r.notes.push(format!(
+                "compressed whole with zstd: decompressed into a temporary file ({} bytes) \
+                 and read from there",
+                std::fs::metadata(&plain.path).map(|m| m.len()).unwrap_or(0)
+            ));
+            if opts.content_hash {
+                r.content_hash = Some(crate::digest::content_hash(path)?);
+            }
+            Ok((t, r))
+        }
+        Storage::Ros1 => rosbag1::extract_ros1(path, &name, rig, opts, progress),
+        Storage::OldRos1 => Err(refused_old_ros1(path)),
+        Storage::Mcap | Storage::Unknown => extract_by(path, rig, opts, progress, None),
+    }
+}
+
+/// The error for a ROS 1 bag of a format before 2.0 (`#ROSBAG V1.x`), which thermrs does not
+/// read: how to write it again as 2.0.
+pub fn refused_old_ros1(path: &Path) -> Error {
+    Error::Refused {
+        path: path.display().to_string(),
+        what: "a ROS 1 bag of a format before 2.0 (#ROSBAG V1.x)".into(),
+        conversion: format!(
+            "write it again with ROS 1's rosbag, which writes format 2.0: `rosbag filter {} \
+             NEW.bag True`",
+            path.display()
+        ),
+    }
 }
 
 /// [`extract`], with every uncompressed chunk taking `route` if given.

@@ -37,6 +37,9 @@ pub struct ChannelInfo {
 /// What a recording holds (see the module docs).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Inventory {
+    /// How it is stored: `mcap`, `sqlite3` (rosbag2's SQLite), either with ` (zstd file)`
+    /// when compressed whole, or `bag of N files (…)` for a bag folder.
+    pub storage: String,
     /// The file's size in bytes.
     pub bytes: u64,
     /// Whether it was read from its summary section (false: walked record by record).
@@ -76,6 +79,332 @@ pub struct Inventory {
 /// [`Error::Io`] if the file cannot be opened or mapped; [`Error::NotMcap`] if it is not
 /// an MCAP file.
 pub fn inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
+    use crate::bag::Storage;
+    if path.is_dir() {
+        return bag_inventory(path, topics);
+    }
+    match crate::bag::storage_of(path)? {
+        Storage::Sqlite => sqlite_inventory(path, topics),
+        Storage::Zstd => {
+            let plain = crate::bag::decompress_file(path)?;
+            let mut inv = inventory(&plain.path, topics)?;
+            inv.bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+            inv.storage.push_str(" (zstd file)");
+            let tmp = plain.path.display().to_string();
+            for l in &mut inv.losses {
+                *l = l.replace(&tmp, &path.display().to_string());
+            }
+            Ok(inv)
+        }
+        Storage::Ros1 => ros1_inventory(path, topics),
+        Storage::OldRos1 => Err(crate::ingest::refused_old_ros1(path)),
+        Storage::Mcap | Storage::Unknown => mcap_inventory(path, topics),
+    }
+}
+
+/// [`inventory`] of a rosbag2 SQLite database: its `topics` table, and one pass over the
+/// `messages` table's ids, topics and times (the message bytes are not read).
+fn sqlite_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
+    use rusqlite::{Connection, OpenFlags};
+    let name = path.display().to_string();
+    let bad = |e: rusqlite::Error| Error::BadBag {
+        path: name.clone(),
+        reason: format!("its SQLite database cannot be read as a rosbag2 bag: {e}"),
+    };
+    let len = std::fs::metadata(path)
+        .map_err(|source| Error::Io {
+            path: name.clone(),
+            source,
+        })?
+        .len();
+    let conn = Connection::open_with_flags(
+        path,
+        OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
+    )
+    .map_err(bad)?;
+    let mut inv = Inventory {
+        storage: "sqlite3".into(),
+        bytes: len,
+        profile: "ros2".into(),
+        library: "rosbag2 sqlite3 storage".into(),
+        ..Inventory::default()
+    };
+    let mut by_id: BTreeMap<i64, usize> = BTreeMap::new();
+    {
+        let mut st = conn
+            .prepare("SELECT id, name, type, serialization_format FROM topics ORDER BY id")
+            .map_err(bad)?;
+        let mut rows = st.query([]).map_err(bad)?;
+        while let Some(r) = rows.next().map_err(bad)? {
+            let id: i64 = r.get(0).map_err(bad)?;
+            by_id.insert(id, inv.channels.len());
+            inv.channels.push(ChannelInfo {
+                id: u16::try_from(inv.channels.len() + 1).unwrap_or(u16::MAX),
+                topic: r.get(1).map_err(bad)?,
+                schema: r.get(2).map_err(bad)?,
+                encoding: r.get(3).map_err(bad)?,
+                messages: 0,
+            });
+        }
+    }
+    let wanted: Vec<bool> = inv
+        .channels
+        .iter()
+        .map(|c| topics.contains(&c.topic))
+        .collect();
+    let mut st = conn
+        .prepare("SELECT topic_id, timestamp FROM messages")
+        .map_err(bad)?;
+    let mut rows = st.query([]).map_err(bad)?;
+    loop {
+        let r = match rows.next() {
+            Ok(Some(r)) => r,
+            Ok(None) => break,
+            Err(e) => {
+                inv.losses.push(format!(
+                    "the SQLite database is damaged after {} messages: {e}",
+                    inv.messages
+                ));
+                break;
+            }
+        };
+        let (Ok(tid), Ok(ts)) = (r.get::<_, i64>(0), r.get::<_, i64>(1)) else {
+            continue;
+        };
+        let ts = ts as u64;
+        inv.messages += 1;
+        inv.start_ns = Some(inv.start_ns.map_or(ts, |s| s.min(ts)));
+        inv.end_ns = Some(inv.end_ns.map_or(ts, |e| e.max(ts)));
+        if let Some(&k) = by_id.get(&tid) {
+            inv.channels[k].messages += 1;
+            if wanted[k] {
+                inv.log_times
+                    .entry(inv.channels[k].topic.clone())
+                    .or_default()
+                    .push(ts);
+            }
+        }
+    }
+    for times in inv.log_times.values_mut() {
+        times.sort_unstable();
+    }
+    Ok(inv)
+}
+
+/// [`inventory`] of a ROS 1 bag: connections, counts and time span from its index section
+/// (no chunk decompressed); the log times of `topics` from the index data records beside
+/// each chunk ([`ros1_index_times`]).
+fn ros1_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
+    use rosbag::{IndexRecord, RosBag};
+    let name = path.display().to_string();
+    let bad = |e: rosbag::Error| Error::BadBag {
+        path: name.clone(),
+        reason: format!("not a readable ROS 1 bag: {e}"),
+    };
+    let bag = RosBag::new(path).map_err(|e| Error::BadBag {
+        path: name.clone(),
+        reason: format!("not a readable ROS 1 bag (its header or index): {e}"),
+    })?;
+    let mut inv = Inventory {
+        storage: "ros1".into(),
+        bytes: std::fs::metadata(path).map(|m| m.len()).unwrap_or(0),
+        from_summary: true,
+        profile: "ros1".into(),
+        library: "ROS 1 bag (#ROSBAG V2.0)".into(),
+        ..Inventory::default()
+    };
+    let mut by_conn: BTreeMap<u32, usize> = BTreeMap::new();
+    for rec in bag.index_records() {
+        match rec.map_err(bad)? {
+            IndexRecord::Connection(c) => {
+                if by_conn.contains_key(&c.id) {
+                    continue;
+                }
+                by_conn.insert(c.id, inv.channels.len());
+                inv.channels.push(ChannelInfo {
+                    id: u16::try_from(inv.channels.len() + 1).unwrap_or(u16::MAX),
+                    topic: c.topic.to_string(),
+                    schema: crate::ingest::ros2_type(c.tp),
+                    encoding: "ros1".into(),
+                    messages: 0,
+                });
+            }
+            IndexRecord::ChunkInfo(ci) => {
+                inv.chunks += 1;
+                inv.start_ns = Some(inv.start_ns.map_or(ci.start_time, |s| s.min(ci.start_time)));
+                inv.end_ns = Some(inv.end_ns.map_or(ci.end_time, |e| e.max(ci.end_time)));
+                for e in ci.entries() {
+                    if let Some(&k) = by_conn.get(&e.conn_id) {
+                        inv.channels[k].messages += u64::from(e.count);
+                    }
+                    inv.messages += u64::from(e.count);
+                }
+            }
+            IndexRecord::IndexData(_) => {}
+        }
+    }
+    let wanted: BTreeMap<u32, String> = by_conn
+        .iter()
+        .filter(|(_, &k)| topics.contains(&inv.channels[k].topic))
+        .map(|(&id, &k)| (id, inv.channels[k].topic.clone()))
+        .collect();
+    if !wanted.is_empty() {
+        match ros1_index_times(path, &wanted) {
+            Ok(times) => inv.log_times = times,
+            Err(e) => inv.losses.push(format!(
+                "the index records beside the chunks cannot be read ({e}): the times of the \
+                 camera messages are not known"
+            )),
+        }
+        for times in inv.log_times.values_mut() {
+            times.sort_unstable();
+        }
+    }
+    Ok(inv)
+}
+
+/// The times of the messages of the connections in `wanted` (id → topic), by topic, from a ROS
+/// 1 bag's index data records (op 0x04: per chunk and connection, each message's time), the
+/// records' headers walked from the file's start and every chunk skipped unread (the
+/// `rosbag` crate reaches these records only by decompressing each chunk before them).
+fn ros1_index_times(
+    path: &Path,
+    wanted: &BTreeMap<u32, String>,
+) -> std::result::Result<BTreeMap<String, Vec<u64>>, String> {
+    use std::os::unix::fs::FileExt;
+    let f = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let len = f.metadata().map_err(|e| e.to_string())?.len();
+    let u32_at = |at: u64| -> std::result::Result<u32, String> {
+        let mut b = [0u8; 4];
+        f.read_exact_at(&mut b, at)
+            .map_err(|e| format!("byte {at}: {e}"))?;
+        Ok(u32::from_le_bytes(b))
+    };
+    let mut out: BTreeMap<String, Vec<u64>> = BTreeMap::new();
+    let mut at = 13u64; // "#ROSBAG V2.0\n"
+    while at + 4 <= len {
+        let hlen = u64::from(u32_at(at)?);
+        if at + 4 + hlen + 4 > len {
+            return Err(format!("the record at byte {at} runs past the end"));
+        }
+        let mut header = vec![0u8; usize::try_from(hlen).map_err(|e| e.to_string())?];
+        f.read_exact_at(&mut header, at + 4)
+            .map_err(|e| format!("byte {at}: {e}"))?;
+        let dlen = u64::from(u32_at(at + 4 + hlen)?);
+        let data_at = at + 8 + hlen;
+        if data_at + dlen > len {
+            return Err(format!("the record at byte {at} runs past the end"));
+        }
+        // Header fields: u32 length, then `name=value`.
+        let (mut op, mut conn) = (None, None);
+        let mut i = 0usize;
+        while i + 4 <= header.len() {
+            let n = u32::from_le_bytes(header[i..i + 4].try_into().expect("4 bytes")) as usize;
+            let Some(field) = header.get(i + 4..i + 4 + n) else {
+                return Err(format!("the record header at byte {at} is cut"));
+            };
+            if let Some(eq) = field.iter().position(|&c| c == b'=') {
+                let (name, value) = (&field[..eq], &field[eq + 1..]);
+                match (name, value.len()) {
+                    (b"op", 1) => op = Some(value[0]),
+                    (b"conn", 4) => conn = Some(u32::from_le_bytes(value.try_into().expect("4"))),
+                    _ => {}
+                }
+            }
+            i += 4 + n;
+        }
+        if op == Some(0x04) {
+            if let Some(topic) = conn.and_then(|c| wanted.get(&c)) {
+                let mut data = vec![0u8; usize::try_from(dlen).map_err(|e| e.to_string())?];
+                f.read_exact_at(&mut data, data_at)
+                    .map_err(|e| format!("byte {data_at}: {e}"))?;
+                let times = out.entry(topic.clone()).or_default();
+                for e in data.chunks_exact(12) {
+                    let secs = u32::from_le_bytes(e[0..4].try_into().expect("4 bytes"));
+                    let nsecs = u32::from_le_bytes(e[4..8].try_into().expect("4 bytes"));
+                    times.push(u64::from(secs) * 1_000_000_000 + u64::from(nsecs));
+                }
+            }
+        }
+        at = data_at + dlen;
+    }
+    Ok(out)
+}
+
+/// [`inventory`] of a bag folder: its files' inventories in order, summed (channels by topic).
+fn bag_inventory(dir: &Path, topics: &[String]) -> Result<Inventory> {
+    let bag = crate::bag::Bag::open(dir)?;
+    let n = bag.parts.len();
+    let mut inv = Inventory {
+        from_summary: true,
+        ..Inventory::default()
+    };
+    inv.notes.extend(bag.notes.iter().cloned());
+    let mut storages: BTreeSet<String> = BTreeSet::new();
+    for (i, p) in bag.parts.iter().enumerate() {
+        let name = crate::bag::Bag::part_name(p);
+        let whose = format!("file {} of {n} of the bag ({name})", i + 1);
+        if !p.is_file() {
+            inv.losses
+                .push(format!("{whose} is missing: its messages are lost"));
+            continue;
+        }
+        let part = match inventory(p, topics) {
+            Ok(x) => x,
+            Err(e) => {
+                inv.bytes += std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
+                inv.losses.push(format!("{whose} cannot be read: {e}"));
+                continue;
+            }
+        };
+        storages.insert(part.storage.clone());
+        if inv.profile.is_empty() {
+            inv.profile = part.profile.clone();
+            inv.library = part.library.clone();
+        }
+        inv.bytes += part.bytes;
+        inv.from_summary &= part.from_summary;
+        inv.start_ns = match (inv.start_ns, part.start_ns) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+        inv.end_ns = match (inv.end_ns, part.end_ns) {
+            (Some(a), Some(b)) => Some(a.max(b)),
+            (a, b) => a.or(b),
+        };
+        inv.chunks += part.chunks;
+        inv.chunks_decompressed += part.chunks_decompressed;
+        inv.compression.extend(part.compression);
+        inv.messages += part.messages;
+        for c in part.channels {
+            match inv.channels.iter_mut().find(|x| x.topic == c.topic) {
+                Some(x) => x.messages += c.messages,
+                None => {
+                    let id = u16::try_from(inv.channels.len() + 1).unwrap_or(u16::MAX);
+                    inv.channels.push(ChannelInfo { id, ..c });
+                }
+            }
+        }
+        inv.metadata.extend(part.metadata);
+        inv.attachments.extend(part.attachments);
+        for (k, v) in part.log_times {
+            inv.log_times.entry(k).or_default().extend(v);
+        }
+        inv.losses
+            .extend(part.losses.into_iter().map(|l| format!("{name}: {l}")));
+        inv.notes
+            .extend(part.notes.into_iter().map(|l| format!("{name}: {l}")));
+    }
+    let kinds: Vec<String> = storages.into_iter().collect();
+    inv.storage = format!("bag of {n} files ({})", kinds.join(", "));
+    for times in inv.log_times.values_mut() {
+        times.sort_unstable();
+    }
+    Ok(inv)
+}
+
+/// [`inventory`] of an MCAP file.
+fn mcap_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
     let io = |source| Error::Io {
         path: path.display().to_string(),
         source,
@@ -101,6 +430,7 @@ pub fn inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
         });
     }
     let mut inv = Inventory {
+        storage: "mcap".into(),
         bytes: len,
         ..Inventory::default()
     };

@@ -20,6 +20,7 @@
 //! - [`record`]: a streaming writer of recordings (CDR encoders, MCAP);
 //! - [`simulate`]: the simulator, a rig at work written as a recording with its truth.
 
+pub mod bag;
 pub mod cdr;
 pub mod centroid;
 pub mod config;
@@ -37,6 +38,7 @@ pub mod msg;
 pub mod optics;
 pub mod record;
 pub mod rig;
+pub mod ros1;
 pub mod scenario;
 pub mod simulate;
 pub mod thermal;

@@ -52,7 +52,9 @@ pub fn to_py(e: CoreError) -> PyErr {
         CoreError::Write { target, source } => write_error(&target, &source),
         e @ (CoreError::NotMcap { .. }
         | CoreError::NoRigTopics { .. }
-        | CoreError::BadChunk { .. }) => RecordingError::new_err(e.to_string()),
+        | CoreError::BadChunk { .. }
+        | CoreError::BadBag { .. }
+        | CoreError::Refused { .. }) => RecordingError::new_err(e.to_string()),
         e @ (CoreError::Io { .. }
         | CoreError::Heat(_)
         | CoreError::UnknownName(_)

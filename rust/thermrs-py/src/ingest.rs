@@ -155,13 +155,34 @@ fn checksum_chunks(py: Python<'_>, path: PathBuf) -> PyResult<(u64, u64, u32)> {
 }
 
 /// The content hash that identifies a recording in a campaign (BLAKE3 of its bytes, a
-/// trailing hole counted by its length; the core's `digest` module), as hex.
+/// trailing hole counted by its length; the core's `digest` module; for a bag folder, of its
+/// files' hashes in order, the core's `bag` module), as hex.
 #[pyfunction]
 fn content_hash(py: Python<'_>, path: PathBuf) -> PyResult<String> {
     py.detach(|| {
         call("hashing a recording", || {
-            thermrs_core::digest::content_hash(&path)
+            if path.is_dir() {
+                thermrs_core::bag::content_hash(&path)
+            } else {
+                thermrs_core::digest::content_hash(&path)
+            }
         })
+    })
+}
+
+/// Whether `path` is a rosbag2 bag folder read as one recording (`metadata.yaml`, or the
+/// numbered files of one split bag; the core's `bag` module).
+#[pyfunction]
+fn is_bag(path: PathBuf) -> bool {
+    thermrs_core::bag::is_bag(&path)
+}
+
+/// The files of the bag in `path`, in order (some may be missing).
+#[pyfunction]
+fn bag_parts(path: PathBuf) -> PyResult<Vec<String>> {
+    call("reading a bag's metadata", || {
+        let bag = thermrs_core::bag::Bag::open(&path)?;
+        Ok(bag.parts.iter().map(|p| p.display().to_string()).collect())
     })
 }
 
@@ -173,6 +194,8 @@ fn status_names() -> Vec<&'static str> {
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(extract, m)?)?;
+    m.add_function(wrap_pyfunction!(is_bag, m)?)?;
+    m.add_function(wrap_pyfunction!(bag_parts, m)?)?;
     m.add_function(wrap_pyfunction!(status_names, m)?)?;
     m.add_function(wrap_pyfunction!(decompress_chunks, m)?)?;
     m.add_function(wrap_pyfunction!(checksum_chunks, m)?)?;

@@ -38,6 +38,7 @@ fn inventory(py: Python<'_>, path: PathBuf, topics: Option<Vec<String>>) -> PyRe
         .map(|(name, bytes)| json!({"name": name, "bytes": bytes}))
         .collect();
     Ok(json!({
+        "storage": inv.storage,
         "bytes": inv.bytes,
         "from_summary": inv.from_summary,
         "profile": inv.profile,

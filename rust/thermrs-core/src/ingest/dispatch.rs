@@ -23,6 +23,20 @@ impl<'r> Context<'r> {
         else {
             return false;
         };
+        // rosbag2's message compression: each message a zstd frame of its CDR bytes (a CDR
+        // message starts with its encapsulation, 0x00 0x0N, never with the zstd magic).
+        if data.starts_with(ZSTD_MAGIC) && self.roles.contains_key(ch.topic.as_str()) {
+            return match zstd::bulk::decompress(data, MAX_CHUNK_BYTES as usize) {
+                Ok(plain) => self.message(reg, local, h, &plain, part),
+                Err(e) => {
+                    part.report.skip(
+                        &ch.topic,
+                        format!("the zstd-compressed message does not decompress: {e}"),
+                    );
+                    true
+                }
+            };
+        }
         let Some(&role) = self.roles.get(ch.topic.as_str()) else {
             part.report.other_messages += 1;
             return true;
@@ -45,7 +59,8 @@ impl<'r> Context<'r> {
                 part.report.messages.insert(topic.to_string(), 1);
             }
         }
-        if ch.encoding != "cdr" {
+        let ros1 = ch.encoding == "ros1";
+        if !ros1 && ch.encoding != "cdr" {
             part.report.skip(
                 topic,
                 format!("message encoding {:?} is not cdr", ch.encoding),
@@ -57,9 +72,9 @@ impl<'r> Context<'r> {
         }
         let stamp = |ns: i64| if ns == 0 { h.log_time as i64 } else { ns };
         match role {
-            Role::Camera(i) => self.camera_frame(i, topic, schema, data, h, part),
-            Role::Thermal => self.thermal_frame(topic, schema, data, h, part),
-            Role::Joints => match (schema, cdr::parse_joint_state(data)) {
+            Role::Camera(i) => self.camera_frame(i, topic, schema, ros1, data, h, part),
+            Role::Thermal => self.thermal_frame(topic, schema, ros1, data, h, part),
+            Role::Joints => match (schema, joint_state(ros1, data)) {
                 (JOINT_STATE, Ok(js)) => {
                     let mut row = [f64::NAN; 6];
                     for (k, name) in self.rig.robot.joint_names.iter().enumerate() {
@@ -79,7 +94,7 @@ impl<'r> Context<'r> {
                     .report
                     .skip(topic, format!("schema {s:?} is not {JOINT_STATE}")),
             },
-            Role::Ambient => match (schema, cdr::parse_temperature(data)) {
+            Role::Ambient => match (schema, temperature(ros1, data)) {
                 (TEMPERATURE, Ok(t)) => {
                     part.tables.ambient.t_ns.push(stamp(t.stamp_ns));
                     part.tables.ambient.temperature_c.push(t.temperature);
@@ -93,11 +108,13 @@ impl<'r> Context<'r> {
         true
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn camera_frame(
         &self,
         cam: usize,
         topic: &str,
         schema: &str,
+        ros1: bool,
         data: &[u8],
         h: &MessageHeader,
         part: &mut Part,
@@ -106,7 +123,7 @@ impl<'r> Context<'r> {
         let (w, hgt) = (c.size_px[0] as usize, c.size_px[1] as usize);
         let log_t = h.log_time as i64;
         let res: std::result::Result<(i64, centroid::Spot), String> = match schema {
-            IMAGE => cdr::parse_image(data)
+            IMAGE => image(ros1, data)
                 .map_err(|e| format!("bad Image: {e}"))
                 .and_then(|im| {
                     let t = if im.stamp_ns == 0 { log_t } else { im.stamp_ns };
@@ -125,7 +142,7 @@ impl<'r> Context<'r> {
                         FrameView::new(im.data, w, hgt, im.step as usize, bpp, im.is_bigendian)?;
                     Ok((t, centroid::find_spot(&view, &self.spot)))
                 }),
-            COMPRESSED => cdr::parse_compressed_image(data)
+            COMPRESSED => compressed_image(ros1, data)
                 .map_err(|e| format!("bad CompressedImage: {e}"))
                 .and_then(|im| {
                     let t = if im.stamp_ns == 0 { log_t } else { im.stamp_ns };
@@ -161,6 +178,7 @@ impl<'r> Context<'r> {
         &self,
         topic: &str,
         schema: &str,
+        ros1: bool,
         data: &[u8],
         h: &MessageHeader,
         part: &mut Part,
@@ -169,7 +187,7 @@ impl<'r> Context<'r> {
         let (w, hgt) = (th.size_px[0] as usize, th.size_px[1] as usize);
         let log_t = h.log_time as i64;
         let res: std::result::Result<(i64, Vec<crate::thermal::RoiMax>), String> = match schema {
-            IMAGE => cdr::parse_image(data)
+            IMAGE => image(ros1, data)
                 .map_err(|e| format!("bad Image: {e}"))
                 .and_then(|im| {
                     let t = if im.stamp_ns == 0 { log_t } else { im.stamp_ns };
@@ -186,7 +204,7 @@ impl<'r> Context<'r> {
                         ThermalView::new(im.data, w, hgt, im.step as usize, fmt, im.is_bigendian)?;
                     Ok((t, roi_maxima(&v, &self.rois, th.scale, th.offset_c)))
                 }),
-            COMPRESSED => cdr::parse_compressed_image(data)
+            COMPRESSED => compressed_image(ros1, data)
                 .map_err(|e| format!("bad CompressedImage: {e}"))
                 .and_then(|im| {
                     let t = if im.stamp_ns == 0 { log_t } else { im.stamp_ns };
@@ -220,5 +238,44 @@ impl<'r> Context<'r> {
             }
             Err(reason) => part.report.skip(topic, reason),
         }
+    }
+}
+
+/// The message parsed from its serialization: CDR, or ROS 1's (`ros1`).
+fn image(ros1: bool, data: &[u8]) -> std::result::Result<crate::msg::ImageMsg<'_>, String> {
+    if ros1 {
+        crate::ros1::parse_image(data)
+    } else {
+        cdr::parse_image(data).map_err(|e| e.to_string())
+    }
+}
+
+fn compressed_image(
+    ros1: bool,
+    data: &[u8],
+) -> std::result::Result<crate::msg::CompressedImageMsg<'_>, String> {
+    if ros1 {
+        crate::ros1::parse_compressed_image(data)
+    } else {
+        cdr::parse_compressed_image(data).map_err(|e| e.to_string())
+    }
+}
+
+fn joint_state(
+    ros1: bool,
+    data: &[u8],
+) -> std::result::Result<crate::msg::JointStateMsg<'_>, String> {
+    if ros1 {
+        crate::ros1::parse_joint_state(data)
+    } else {
+        cdr::parse_joint_state(data).map_err(|e| e.to_string())
+    }
+}
+
+fn temperature(ros1: bool, data: &[u8]) -> std::result::Result<crate::msg::TemperatureMsg, String> {
+    if ros1 {
+        crate::ros1::parse_temperature(data)
+    } else {
+        cdr::parse_temperature(data).map_err(|e| e.to_string())
     }
 }

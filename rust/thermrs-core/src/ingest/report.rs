@@ -17,6 +17,9 @@ pub struct Loss {
     /// Messages lost per topic, where the file tells (message indexes, the summary's chunk
     /// index, or the damaged chunk's own records); empty where it does not.
     pub messages_lost: BTreeMap<String, u64>,
+    /// The file of a bag the loss is in (a bag folder read as one recording), else none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub part: Option<String>,
     /// The same by channel id, until the topics are known.
     #[serde(skip)]
     pub(super) channels_lost: BTreeMap<u16, u64>,
@@ -30,6 +33,7 @@ impl Loss {
             bytes,
             detail,
             messages_lost: BTreeMap::new(),
+            part: None,
             channels_lost: BTreeMap::new(),
         }
     }
@@ -63,6 +67,19 @@ pub struct Report {
     pub notes: Vec<String>,
     /// BLAKE3 of the whole file (hex), when asked for ([`super::ExtractOptions::content_hash`]).
     #[serde(skip_serializing_if = "Option::is_none")]
+    pub content_hash: Option<String>,
+    /// A bag folder's files in order (empty for one file): name, size and content hash.
+    pub parts: Vec<PartInfo>,
+}
+
+/// One file of a bag folder read as one recording.
+#[derive(Debug, Default, Clone, serde::Serialize)]
+pub struct PartInfo {
+    /// Its name in the bag's folder.
+    pub file: String,
+    /// Its size (0: missing).
+    pub bytes: u64,
+    /// Its content hash, when asked for (none: missing).
     pub content_hash: Option<String>,
 }
 
