@@ -210,6 +210,17 @@ def is_bag(path: str | os.PathLike[str]) -> bool:
     -------
     bool
         True for a bag folder.
+
+    Raises
+    ------
+    InputError
+        Never for a path that cannot be read: that is not a bag.
+
+    Examples
+    --------
+    >>> import thermrs.ingest
+    >>> thermrs.ingest.is_bag("no-such-folder")
+    False
     """
     return _native.is_bag(os.fspath(path))
 
@@ -518,3 +529,32 @@ def _with_chip_um(frames: pl.DataFrame, rig: Rig) -> pl.DataFrame:
         v_um=(pl.col("y_px") - cam.replace_strict(cy, return_dtype=pl.Float64))
         * cam.replace_strict(py, return_dtype=pl.Float64),
     )
+
+
+def stat_of(path: Path) -> tuple[int, int]:
+    """Size and modification time (ns) of a recording: a file's own; a bag's files' sizes
+    summed and the latest modification of them and its ``metadata.yaml``.
+
+    Raises
+    ------
+    InputError
+        It cannot be read.
+    """
+    from thermrs.errors import ThermrsError
+
+    try:
+        if not path.is_dir():
+            st = path.stat()
+            return st.st_size, st.st_mtime_ns
+        try:
+            parts = [Path(p) for p in _native.bag_parts(str(path))]
+        except ThermrsError as e:
+            raise InputError(str(e)) from None
+        stats = [p.stat() for p in parts if p.is_file()]
+        meta = path / "metadata.yaml"
+        mtimes = [s.st_mtime_ns for s in stats] + (
+            [meta.stat().st_mtime_ns] if meta.is_file() else []
+        )
+        return sum(s.st_size for s in stats), max(mtimes, default=path.stat().st_mtime_ns)
+    except OSError as e:
+        raise InputError(f"recording {path}: {e.strerror or e}") from None

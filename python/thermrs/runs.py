@@ -43,7 +43,7 @@ import polars as pl
 
 from thermrs.errors import InputError
 from thermrs.identity import RIG_KEY, check_rig
-from thermrs.ingest import NOT_A_BAG, data_loss, extract, is_bag
+from thermrs.ingest import NOT_A_BAG, data_loss, extract, is_bag, stat_of
 from thermrs.rig import as_rig
 from thermrs.rundetect import (
     DEFAULT_GAP_FACTOR,
@@ -252,8 +252,6 @@ def load_runs(
     if not path.exists():
         raise InputError(f"{path}: no such file")
     if path.is_dir():
-        from thermrs.campaigns.sources import stat_of  # a bag: its files' sizes and times
-
         size, mtime = stat_of(path)
     else:
         st = path.stat()

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from thermrs.errors import InputError
+from thermrs.ingest import stat_of
 
 __all__ = ["RECORDING_SUFFIXES", "Source", "content_hash", "expand", "recording_id", "stat_of"]
 
@@ -112,36 +113,6 @@ def recordings_below(folder: Path) -> list[Path]:
             continue
         found += [Path(here) / f for f in files if f.endswith(RECORDING_SUFFIXES)]
     return sorted(found)
-
-
-def stat_of(path: Path) -> tuple[int, int]:
-    """Size and modification time (ns) of a recording: a file's own; a bag's files' sizes
-    summed and the latest modification of them and its ``metadata.yaml``.
-
-    Raises
-    ------
-    InputError
-        It cannot be read.
-    """
-    import thermrs._native as _native
-    from thermrs.errors import ThermrsError
-
-    try:
-        if not path.is_dir():
-            st = path.stat()
-            return st.st_size, st.st_mtime_ns
-        try:
-            parts = [Path(p) for p in _native.bag_parts(str(path))]
-        except ThermrsError as e:
-            raise InputError(str(e)) from None
-        stats = [p.stat() for p in parts if p.is_file()]
-        meta = path / "metadata.yaml"
-        mtimes = [s.st_mtime_ns for s in stats] + (
-            [meta.stat().st_mtime_ns] if meta.is_file() else []
-        )
-        return sum(s.st_size for s in stats), max(mtimes, default=path.stat().st_mtime_ns)
-    except OSError as e:
-        raise InputError(f"recording {path}: {e.strerror or e}") from None
 
 
 def content_hash(path: str | os.PathLike[str]) -> str:
