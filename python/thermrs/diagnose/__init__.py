@@ -612,34 +612,79 @@ def _final_model(
     # The parameters' intervals carry the noise (the fit's HAC covariance) and the rig's
     # stated tolerances (what they move the fitted coefficients by).
     cov = f.cov + design.tolerance_cov(x)
+    alpha_ci = _alpha_interval(f, cov)
     out: list[dict[str, Any]] = []
+    ends: list[tuple[int, dict[str, float]]] = []
     first = 0
-    for s in sel:
+    for j, s in enumerate(sel):
         fam = s["family"]
         k = s["width"]
         idx = [0, *range(1 + first, 1 + first + k)]
         params, ci = fam.params(s["eta"], f.alpha, f.beta[first : first + k], cov[np.ix_(idx, idx)])
-        others = [c for j, c in enumerate(cols) if j != len(out)]
+        others = [c for i, c in enumerate(cols) if i != j]
         prefix = np.column_stack(others) if others else None
         probe = Fit(fam.label, f.alpha, f.beta, f.cov, dict(s["eta"]), f.residual, 0.0,
                     0.0, 0.0, 0.0, 0)  # fmt: skip
-        ci = {**ci, **profile_interval(design, fam, probe, n_eff_train, prefix=prefix)}
-        alpha_ci = f.lsq.interval(0) if f.lsq is not None else (np.nan, np.nan)
-        # Widened by the tolerances' share, in quadrature with the fit's own half-width.
-        half = np.hypot((alpha_ci[1] - alpha_ci[0]) / 2.0, 1.96 * np.sqrt(cov[0, 0] - f.cov[0, 0]))
-        alpha_ci = (f.alpha - half, f.alpha + half)
-        out.append(
-            {
-                "effect": fam.effect,
-                "family": fam.label,
-                "params": params,
-                "params_ci95": ci,
-                "alpha_per_k": f.alpha,
-                "alpha_ci95": [float(alpha_ci[0]), float(alpha_ci[1])],
-            }
-        )
+        prof = profile_interval(design, fam, probe, n_eff_train, prefix=prefix)
+        ci = {**ci, **prof}
+        for key, (lo, hi) in prof.items():
+            ends += [(j, {**s["eta"], key: float(lo)}), (j, {**s["eta"], key: float(hi)})]
+        out.append({"effect": fam.effect, "family": fam.label, "params": params, "params_ci95": ci})
         first += k
+    # α and the amplitudes are fitted at the time constants found; over a time constant's
+    # interval they move with it (a slow lag trades with α): their intervals take in the
+    # fits at its ends too.
+    for j, eta_end in ends:
+        cols_end = list(cols)
+        cols_end[j] = sel[j]["family"].columns(design.vs, eta_end)
+        x_end = np.column_stack(cols_end)
+        try:
+            f_end = design.fit(x_end, eta, label="profile end")
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        cov_end = f_end.cov + design.tolerance_cov(x_end)
+        lo, hi = _alpha_interval(f_end, cov_end)
+        alpha_ci = (min(alpha_ci[0], lo), max(alpha_ci[1], hi))
+        first = sum(s["width"] for s in sel[:j])
+        k = sel[j]["width"]
+        idx = [0, *range(1 + first, 1 + first + k)]
+        _, ci_end = sel[j]["family"].params(
+            eta_end, f_end.alpha, f_end.beta[first : first + k], cov_end[np.ix_(idx, idx)]
+        )
+        out[j]["params_ci95"] = _union_ci(out[j]["params_ci95"], ci_end)
+    for o in out:
+        o["alpha_per_k"] = f.alpha
+        o["alpha_ci95"] = [float(alpha_ci[0]), float(alpha_ci[1])]
     return f, out
+
+
+def _alpha_interval(f: Fit, cov: FloatArray) -> tuple[float, float]:
+    """α's 95 % interval of a fit: its own (HAC, Student t) widened in quadrature by the rig's
+    tolerances' share (``cov`` less the fit's own covariance)."""
+    lo, hi = f.lsq.interval(0) if f.lsq is not None else (np.nan, np.nan)
+    half = float(np.hypot((hi - lo) / 2.0, 1.96 * np.sqrt(max(cov[0, 0] - f.cov[0, 0], 0.0))))
+    return (f.alpha - half, f.alpha + half)
+
+
+def _union_ci(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
+    """Intervals of ``a`` widened to take in ``b``'s (scalars, lists of pairs, dicts)."""
+
+    def merge(x: Any, y: Any) -> Any:
+        if isinstance(x, dict) and isinstance(y, dict):
+            return {k: merge(v, y[k]) if k in y else v for k, v in x.items()}
+        if (
+            isinstance(x, list | tuple)
+            and len(x) == 2
+            and all(isinstance(v, int | float) for v in x)
+            and isinstance(y, list | tuple)
+            and len(y) == 2
+        ):
+            return [float(min(x[0], y[0])), float(max(x[1], y[1]))]
+        if isinstance(x, list | tuple) and isinstance(y, list | tuple) and len(x) == len(y):
+            return [merge(u, v) for u, v in zip(x, y, strict=True)]
+        return x
+
+    return {k: merge(v, b[k]) if k in b else v for k, v in a.items()}
 
 
 def __getattr__(name: str) -> Any:
