@@ -69,7 +69,6 @@ __all__ = [
     "Visits",
     "effect_classes",
     "from_dict",
-    "instrument_advice",
     "is_instrument",
     "register",
 ]
@@ -626,6 +625,17 @@ class InstrumentEffect(Effect):
             raise InputError(f"effect {self.name}: the rig has no ROI {roi!r}")
         return self
 
+    #: The rig's ``[tolerances]`` key stating this instrument's calibration, and the factor
+    #: on it below which a fitted error is within the statement (``""``: no statement).
+    tolerance_key: ClassVar[str] = ""
+
+    def beyond_statement(self, rig: Rig) -> bool:
+        """Whether the error exceeds twice the rig's stated tolerance of it (the size a
+        rig that understates its errors twofold would have): only then is it the
+        instrument's error rather than its stated uncertainty."""
+        tol = float(rig.tolerances.get(self.tolerance_key, 0.0)) if self.tolerance_key else 0.0
+        return abs(float(getattr(self, self.size_key))) > 2.0 * tol
+
     @classmethod
     def _families(
         cls,
@@ -671,6 +681,7 @@ class IrGain(InstrumentEffect):
     name: ClassVar[str] = "ir_gain"
     bound: ClassVar[float] = 0.5
     size_key: ClassVar[str] = "gain"
+    tolerance_key: ClassVar[str] = "ir_gain"
     roi: str = ""
     gain: float = 0.0
 
@@ -730,6 +741,7 @@ class IrClock(InstrumentEffect):
     name: ClassVar[str] = "ir_clock"
     bound: ClassVar[float] = 600.0
     size_key: ClassVar[str] = "s"
+    tolerance_key: ClassVar[str] = "ir_clock_s"
     s: float = 0.0
 
     def corrected(
@@ -751,26 +763,6 @@ class IrClock(InstrumentEffect):
     @classmethod
     def families(cls, rig: Rig, visits: Visits) -> list[Family]:
         return cls._families(rig, visits, lambda x: IrClock(s=x), 10.0)
-
-
-def instrument_advice(name: str, params: Mapping[str, Any]) -> str:
-    """What to check on the instrument an instrument effect names, in one clause."""
-    p = {k: v for k, v in params.items()}
-    said = {
-        "ir_gain": lambda: (
-            f"check the emissivity of {p['roi']}: its reading of the rise above "
-            f"the room is {abs(p['gain']):.1%} {'high' if p['gain'] > 0 else 'low'}"
-        ),
-        "ir_drift": lambda: (
-            f"check the thermal camera's offset on {p['roi']}: its reading "
-            f"drifts {p['k_per_h']:+.2f} K per hour of the run"
-        ),
-        "ir_clock": lambda: (
-            f"check the thermal camera's clock: its frames are stamped "
-            f"{abs(p['s']):.0f} s {'late' if p['s'] > 0 else 'early'} against the CCD cameras'"
-        ),
-    }.get(name)
-    return "" if said is None else said() + " — an instrument error, not the robot's"
 
 
 #: The instrument effects' names (the thermal camera's, not the robot's).

@@ -29,7 +29,7 @@ import numpy.typing as npt
 from thermrs.diagnose.engine import DesignMatrix, Fit
 from thermrs.diagnose.resample import cycle_se
 from thermrs.diagnose.selection import Choice, FamilyGrid
-from thermrs.effects import EFFECT_NAMES, Family
+from thermrs.effects import EFFECT_NAMES, Family, InstrumentEffect, is_instrument
 from thermrs.effects import from_dict as effect_from_dict
 from thermrs.errors import InputError
 from thermrs.rig import Rig
@@ -91,14 +91,30 @@ def profile_interval(
     return {} if got is None else {fam.refine[0]: [got[0], got[1]]}
 
 
-def is_plausible(rig: Rig, fam: Family, params: dict[str, Any], ci: dict[str, Any]) -> bool:
-    """The candidate's parameters are physically possible (module docs)."""
+def is_plausible(
+    rig: Rig,
+    fam: Family,
+    params: dict[str, Any],
+    ci: dict[str, Any],
+    min_delay_s: float = 0.0,
+) -> bool:
+    """The candidate's parameters are physically possible (module docs); a thermal camera's
+    clock offset shorter than ``min_delay_s`` (the longest correlation the floor counts as
+    noise, below which a lag is not told from noise either) is not told from the structure's
+    own short lags."""
+    if fam.effect == "ir_clock" and abs(float(params.get("s", 0.0))) < min_delay_s:
+        return False
     w = ci.get("weight")
     if w is not None and float(np.mean(w)) <= 0:
         return False
     try:
         if fam.effect in EFFECT_NAMES:
             effect_from_dict({"name": fam.effect, **params}, rig=rig)
+        elif is_instrument(fam.effect):
+            # Within its bound, and beyond what the rig states of the instrument: a reading
+            # within twice its stated calibration is not a miscalibrated instrument.
+            e = effect_from_dict({"name": fam.effect, **params}, rig=rig)
+            return isinstance(e, InstrumentEffect) and e.beyond_statement(rig)
     except (InputError, TypeError, ValueError):
         return False
     return True
@@ -117,7 +133,7 @@ def plausibility(design: DesignMatrix, rig: Rig) -> Any:
         try:
             f = design.fit(cols, ch.eta, label=ch.label, covariance="iid")
             params, ci = _params(ch.grid.family, f, first)
-            good = is_plausible(rig, ch.grid.family, params, ci)
+            good = is_plausible(rig, ch.grid.family, params, ci, design.min_tau_min * 60.0)
         except (ValueError, np.linalg.LinAlgError, InputError):
             good = False
         cache[key] = good
@@ -184,7 +200,7 @@ def score(
                 closed_raw=raw,
                 d_aicc=aicc(f.train_rss_w, base.n_params + k)
                 - aicc(base.train_rss_w, base.n_params),
-                plausible=is_plausible(rig, fam, params, ci),
+                plausible=is_plausible(rig, fam, params, ci, design.min_tau_min * 60.0),
                 identifiable=design.identifiable(f.columns) if f.columns is not None else 0.0,
                 significant=fam.label in significant,
             )

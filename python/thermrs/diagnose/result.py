@@ -17,7 +17,7 @@ from thermrs.diagnose.engine import Fit
 from thermrs.diagnose.floor import NoiseFloor
 from thermrs.diagnose.selection import Step
 from thermrs.diagnose.verdict import summary
-from thermrs.effects import instrument_advice, is_instrument
+from thermrs.effects import is_instrument
 from thermrs.signatures import VisitSet
 
 __all__ = ["Diagnosis", "assemble"]
@@ -213,6 +213,26 @@ class Diagnosis:
                     f"({', '.join(other)} differ from the runs it diagnosed): diagnose these "
                     "runs, or give the runs it was made on"
                 )
+
+
+def instrument_advice(name: str, params: Mapping[str, Any]) -> str:
+    """What to check on the instrument an instrument effect names, in one clause."""
+    p = {k: v for k, v in params.items()}
+    said = {
+        "ir_gain": lambda: (
+            f"check the emissivity of {p['roi']}: its reading of the rise above "
+            f"the room is {abs(p['gain']):.1%} {'high' if p['gain'] > 0 else 'low'}"
+        ),
+        "ir_drift": lambda: (
+            f"check the thermal camera's offset on {p['roi']}: its reading "
+            f"drifts {p['k_per_h']:+.2f} K per hour of the run"
+        ),
+        "ir_clock": lambda: (
+            f"check the thermal camera's clock: its frames are stamped "
+            f"{abs(p['s']):.0f} s {'late' if p['s'] > 0 else 'early'} against the CCD cameras'"
+        ),
+    }.get(name)
+    return "" if said is None else said() + " — an instrument error, not the robot's"
 
 
 def _ranking_row(c: Candidate, base_rms: float, n_eff_train: float) -> dict[str, Any]:
