@@ -21,19 +21,13 @@ def render_baselines(doc: dict[str, Any]) -> None:
         t.add_column(c, overflow="fold")
     if comp["diagnosed"]:
         t.add_column("− diagnosed µm [95 %]")
+    from thermrs.diagnose.baselines import row_cells
+
+    def num(x: float, sign: bool = False) -> str:
+        return f"{x:+.2f}" if sign else f"{x:.2f}"
+
     for r in rows:
-        lo, hi = r["holdout_rms_ci95"]
-        cells = [
-            r["name"],
-            r["description"],
-            str(r["n_params"]),
-            f"{r['holdout_rms_um']:.2f} [{lo:.2f}, {hi:.2f}]",
-            *(f"{p['rms_um']:.2f}" for p in r["per_run"]),
-        ]
-        if comp["diagnosed"]:
-            d = r["minus_diagnosed_ci95"]
-            cells.append("—" if r["name"] == "diagnosed" else f"[{d[0]:+.2f}, {d[1]:+.2f}]")
-        t.add_row(*cells)
+        t.add_row(*row_cells(r, with_diagnosed=bool(comp["diagnosed"]), num=num))
     out.print(t)
     fl = comp["noise_floor_um"]
     ci = comp["noise_floor_ci95"]

@@ -42,7 +42,7 @@ The law
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -62,7 +62,14 @@ from thermrs.diagnose.baseline_models import (
 )
 from thermrs.errors import InputError
 
-__all__ = ["BaselineComparison", "ModelScore", "baselines_folds", "compare_baselines", "said"]
+__all__ = [
+    "BaselineComparison",
+    "ModelScore",
+    "baselines_folds",
+    "compare_baselines",
+    "row_cells",
+    "said",
+]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -191,6 +198,26 @@ class BaselineComparison:
                 "counted",
             },
         }
+
+
+def row_cells(r: dict[str, Any], *, with_diagnosed: bool, num: Callable[..., str]) -> list[str]:
+    """One model's cells in a comparison table (the CLI's and the report's): name, what,
+    parameters, held-out rms with its interval, per held-out run, and the interval of its
+    difference from the diagnosed model. ``num(x, sign=False)`` formats a number."""
+    lo, hi = r["holdout_rms_ci95"]
+    cells = [
+        r["name"],
+        r["description"],
+        str(r["n_params"]),
+        f"{num(r['holdout_rms_um'])} [{num(lo)}, {num(hi)}]",
+        *(num(p["rms_um"]) for p in r["per_run"]),
+    ]
+    if with_diagnosed:
+        d = r["minus_diagnosed_ci95"]
+        cells.append(
+            "—" if r["name"] == "diagnosed" else f"[{num(d[0], sign=True)}, {num(d[1], sign=True)}]"
+        )
+    return cells
 
 
 def said(doc: dict[str, Any]) -> str:

@@ -52,23 +52,10 @@ def subsection(comparison: Any) -> Section:
     if comp["diagnosed"]:
         cols.append("minus the diagnosed model, µm [95 %]")
     body = []
+    from thermrs.diagnose.baselines import row_cells
+
     for r in rows:
-        lo, hi = r["holdout_rms_ci95"]
-        cells = [
-            r["name"],
-            r["description"],
-            str(r["n_params"]),
-            f"{fmt(r['holdout_rms_um'])} [{fmt(lo)}, {fmt(hi)}]",
-            *(fmt(p["rms_um"]) for p in r["per_run"]),
-        ]
-        if comp["diagnosed"]:
-            d = r["minus_diagnosed_ci95"]
-            cells.append(
-                "—"
-                if r["name"] == "diagnosed"
-                else f"[{fmt(d[0], sign=True)}, {fmt(d[1], sign=True)}]"
-            )
-        body.append(cells)
+        body.append(row_cells(r, with_diagnosed=bool(comp["diagnosed"]), num=fmt))
     s.blocks.append(
         Table(
             "Held-out rms of the physical models and of each regression (95 % intervals: a "
