@@ -337,3 +337,24 @@ def test_the_diagnosis_of_a_bag_is_that_of_the_mcap(
         texts.append(out.read_text().replace(f"{stem}#", "REC#"))
     assert texts[1] == texts[0]
     assert texts[2] == texts[0]
+
+
+def test_a_report_of_a_bag_is_that_of_the_mcap(
+    world: World, paper_rig: thermrs.Rig, tmp_path: Path
+) -> None:
+    """`thermrs report` takes a bag folder as a RUN: its Markdown twin is the MCAP's, once the
+    recording's name is the same."""
+    texts = []
+    for rec, stem in [(world.mcap, "one"), (_form(world, "db3-bag-3-parts"), "db3-bag-3-parts")]:
+        (tmp_path / stem).mkdir()
+        out = tmp_path / stem / "r.html"
+        r = _run_cli(
+            "report", "--rig", str(paper_rig.source), "--run", str(rec), "-o", str(out), "--quiet",
+        )  # fmt: skip
+        assert r.returncode == 0, r.stderr
+        md = out.with_suffix(".md").read_text()
+        for name in (str(rec), f"{stem}#", f"-{stem}-"):
+            md = md.replace(name, name.replace(stem, "REC") if name != str(rec) else "REC")
+        # How the bytes were read (chunks, a summary) is the storage's own; the rest is the same.
+        texts.append("\n".join(x for x in md.splitlines() if not x.startswith("Read ")))
+    assert texts[1] == texts[0]

@@ -198,12 +198,13 @@ def _check_options(
         raise click.UsageError("give --run RUN… (and --rig RIG), or --demo, or --campaign DATASET")
     if not demo and rig_path is None:
         raise click.UsageError("give --rig RIG")
+    from thermrs.ingest import NOT_A_BAG, is_bag
     from thermrs.runs import split_run_spec
 
     for p in (*train, *runs) if campaign_path is None else ():
         f = split_run_spec(p)[0]
-        if f.is_dir():
-            raise InputError(f"{f}: is a directory, expected a recording (.mcap) or tables")
+        if f.is_dir() and not is_bag(f):
+            raise InputError(f"{f}: {NOT_A_BAG}")
         if not f.exists():
             raise InputError(f"{f}: no such file")
 

@@ -206,9 +206,17 @@ def _whiteness(doc: Doc) -> list[Block]:
     w = doc.get("whiteness")
     if not w:
         return []
+    p = w.get("ljung_box_p")
+    if p is None:
+        return [
+            Paragraph(
+                "Whiteness of the nominal residual: not tested (too few held-out visits per "
+                "series for a Ljung–Box test)."
+            )
+        ]
     return [
         Paragraph(
-            f"Whiteness of the nominal residual: Ljung–Box p = {float(w['ljung_box_p']):.2g}, "
+            f"Whiteness of the nominal residual: Ljung–Box p = {float(p):.2g}, "
             f"lag-1 autocorrelation {fmt(w['rho1'], 3)}, {fmt(w['n_eff'], 0)} effective "
             f"samples: {'white (noise)' if w.get('white') else 'structured (not noise)'}."
         )
