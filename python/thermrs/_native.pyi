@@ -105,6 +105,39 @@ def inventory(path: str, topics: list[str] | None = None) -> str: ...
 def content_hash(path: str) -> str: ...
 def is_bag(path: str) -> bool: ...
 def bag_parts(path: str) -> list[str]: ...
+
+class Follower:
+    """Follows an MCAP file while it is written: each ``step`` reads only the complete records
+    added since the last."""
+
+    def __init__(self, path: str, *, state: str | None = None) -> None: ...
+    def step(
+        self,
+        rig: Rig,
+        *,
+        progress: Callable[[int, int, int], object] | None = None,
+        min_sigma_px: float | None = None,
+        threshold_sigma: float | None = None,
+        verify_crc: bool = True,
+    ) -> tuple[
+        tuple[
+            dict[str, npt.NDArray[Any]],
+            dict[str, npt.NDArray[Any]],
+            dict[str, npt.NDArray[Any]],
+            dict[str, npt.NDArray[Any]],
+            str,
+        ],
+        int,
+        int,
+        bool,
+    ]: ...
+    def state_json(self) -> str: ...
+    @property
+    def position(self) -> int: ...
+    @property
+    def closed(self) -> bool: ...
+    def topics(self) -> list[str]: ...
+
 def extract(
     path: str,
     rig: Rig,

@@ -136,7 +136,7 @@ class Extraction:
     runs: pl.DataFrame = field(default_factory=lambda: pl.DataFrame(schema=RUNS_SCHEMA))
     rig: dict[str, Any] | None = None
 
-    def write(self, out: str | Path) -> dict[str, Path]:
+    def write(self, out: str | Path, *, metadata: dict[str, str] | None = None) -> dict[str, Path]:
         """Write every table, each atomically.
 
         Parameters
@@ -146,6 +146,8 @@ class Extraction:
             ``OUT.visits.parquet``, ``OUT.temperatures.parquet``, ``OUT.joints.parquet`` and
             ``OUT.runs.parquet``.
             Its folder must exist.
+        metadata
+            More Parquet key-value metadata for every table (a watch's follower state).
 
         Returns
         -------
@@ -179,6 +181,7 @@ class Extraction:
         meta = {LOSS_KEY: json.dumps(self.report.losses)}
         if self.rig is not None:
             meta[RIG_KEY] = json.dumps(self.rig)
+        meta.update(metadata or {})
         # All or nothing: every table to a temporary file first, then the renames; an error or
         # Ctrl-C on the way removes what this call wrote.
         write_all({path: self._parquet_writer(name, meta) for name, path in paths.items()})

@@ -77,9 +77,10 @@ def _register() -> None:
     from thermrs.cli.report import report
     from thermrs.cli.rig import rig
     from thermrs.cli.simulate import simulate
+    from thermrs.cli.watch import watch
 
     for command in (paper, rig, info, extract, simulate, fit, predict, compensate, drift,
-                    diagnose, design, diagnose_bench, report, campaign_command):  # fmt: skip
+                    diagnose, design, diagnose_bench, report, campaign_command, watch):  # fmt: skip
         cli.add_command(command)
 
 

@@ -55,7 +55,7 @@ fn extract<'py>(
 }
 
 /// The extraction options from `extract`'s keyword arguments (`None`: the core's default).
-fn options(
+pub(crate) fn options(
     min_sigma_px: Option<f64>,
     threshold_sigma: Option<f64>,
     verify_crc: bool,
@@ -76,7 +76,11 @@ fn options(
 }
 
 /// The tables as (frames, thermal, joints, ambient) dicts of numpy columns, and the report.
-fn to_py<'py>(py: Python<'py>, t: ingest::Tables, report: String) -> PyResult<Bound<'py, PyTuple>> {
+pub(crate) fn to_py<'py>(
+    py: Python<'py>,
+    t: ingest::Tables,
+    report: String,
+) -> PyResult<Bound<'py, PyTuple>> {
     let n = t.joints.t_ns.len();
     let joints = columns(
         py,

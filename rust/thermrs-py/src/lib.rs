@@ -10,13 +10,15 @@
 //! - [`guard`]: panics as `InternalError`, `call` = guard + mapping;
 //! - [`progress`]: GIL-free callbacks, the pending Python error, signal checks;
 //! - [`convert`]: numpy column dicts;
-//! - [`rig`], [`model`], [`effects`], [`ingest`], [`inventory`], [`simulate`]: one concept each.
+//! - [`rig`], [`model`], [`effects`], [`ingest`], [`follow`], [`inventory`], [`simulate`]: one
+//!   concept each.
 
 use pyo3::prelude::*;
 
 mod convert;
 mod effects;
 mod errors;
+mod follow;
 mod guard;
 mod ingest;
 mod inventory;
@@ -34,6 +36,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     model::register(m)?;
     effects::register(m)?;
     ingest::register(m)?;
+    follow::register(m)?;
     inventory::register(m)?;
     simulate::register(m)?;
     Ok(())

@@ -58,6 +58,11 @@ pub(super) struct Walk<'b, 'c> {
     /// Read in file order, one unit at a time, definitions taken in as they come (a file
     /// that defines an id twice).
     exact: bool,
+    /// Where in `body` the walk starts (a follower's next unread record; 0 otherwise).
+    start: usize,
+    /// The buffer stops where a recording still being written has no complete record yet: its
+    /// end is not a cut, and zeros at it are bytes not yet written, not reserved space.
+    live: bool,
 }
 
 impl<'b, 'c> Walk<'b, 'c> {
@@ -108,6 +113,8 @@ impl<'b, 'c> Walk<'b, 'c> {
                 .collect(),
             zeros_reported: false,
             exact: false,
+            start: 0,
+            live: false,
         };
         walk.read_summary();
         walk
@@ -143,6 +150,15 @@ impl<'b, 'c> Walk<'b, 'c> {
              it): each message was read with the definition before it in the file"
                 .to_string(),
         );
+    }
+
+    /// Walk a recording still being written from `start` (an offset in `body` where a record
+    /// starts), with the definitions `reg` met before it; `buf` ends at a record's end.
+    pub(super) fn follow_from(&mut self, start: usize, reg: Registry) {
+        self.start = start;
+        self.window_start = start;
+        self.live = true;
+        self.reg.merge(&reg);
     }
 
     fn read_summary(&mut self) {
@@ -201,7 +217,7 @@ impl<'b, 'c> Walk<'b, 'c> {
     /// Walk every record. `Ok(false)`: the caller asked to stop.
     pub(super) fn run(&mut self) -> bool {
         let closed = recovery::closed(self.body);
-        let mut pos = 0usize;
+        let mut pos = self.start;
         while pos < self.body.len() {
             let rec = recovery::record_at(self.body, pos);
             let mut damage = self.damage_at(pos, rec);
@@ -322,7 +338,8 @@ impl<'b, 'c> Walk<'b, 'c> {
                     // A writer that died while writing a chunk into space it had reserved
                     // leaves the chunk's length right and its data ending in zeros, with
                     // zeros after it: decoded as a cut chunk (every complete message kept).
-                    let cut = !recovery::closed(self.body)
+                    let cut = !self.live
+                        && !recovery::closed(self.body)
                         && data.len() >= 16
                         && data[data.len() - 16..].iter().all(|&b| b == 0)
                         && self.body.get(end).is_none_or(|&b| b == 0);
