@@ -7,9 +7,10 @@ its first-order heating curve fitted to the run so far (:func:`thermrs.heating.f
 at those temperatures with α (from training runs, or fitted on the run so far), anchored at
 each camera's first visit of the run, as :func:`thermrs.predict.predict` anchors it.
 
-The band is a 95 % interval by simulation: α drawn from its interval (normal, its standard
-error) and each curve's ``y0``, ``A`` and ``τ`` from their standard errors (independent
-normals, τ kept positive), 400 draws, the 2.5 and 97.5 percentiles of the drift at each time.
+The band is a 95 % prediction interval by simulation: α drawn from its interval (normal, its
+standard error), each curve's ``y0``, ``A`` and ``τ`` from their standard errors (independent
+normals, τ kept positive) and a measurement's scatter about the model (normal, the training
+fit's residual rms), 400 draws, the 2.5 and 97.5 percentiles of the drift at each time.
 A temperature whose curve cannot be fitted yet (fewer than four samples, a straight rise with
 τ beyond its bounds) is held at its last reading, and the outlook says so: the band is then
 conditional on it. When the drift leaves a tolerance: the first time the predicted drift's
@@ -163,6 +164,7 @@ def outlook(
     alpha_se: float,
     horizon_h: float,
     tolerance_um: float | None = None,
+    noise_um: float = 0.0,
     draws: int = DRAWS,
     seed: int = 0,
 ) -> Outlook:
@@ -181,6 +183,9 @@ def outlook(
         Hours after the run's first visit the outlook reaches (the run's planned length).
     tolerance_um
         A tolerance on the drift along either chip axis (µm), or None.
+    noise_um
+        The scatter of a measured drift about the model (µm; e.g. the training fit's residual
+        rms): the band is then a prediction interval for what will be measured.
     draws
         Monte Carlo draws of the band.
     seed
@@ -232,6 +237,7 @@ def outlook(
         last = run[int(idx[-1])]
         for axis, s in (("u", su), ("v", sv)):
             d = alphas[:, None] * (s.reshape(draws, GRID) - first[axis])
+            d = d + noise_um * rng.standard_normal(d.shape)
             central = alpha_per_k * (np.median(s.reshape(draws, GRID), axis=0) - first[axis])
             lo, hi = np.percentile(d, [2.5, 97.5], axis=0)
             rows += [

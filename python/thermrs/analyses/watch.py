@@ -234,11 +234,12 @@ def _latest(temps: pl.DataFrame) -> dict[str, float]:
 
 def _alpha(
     train: Sequence[pl.DataFrame], run: pl.DataFrame, rig: Rig
-) -> tuple[float, float, str] | None:
-    """α and its standard error from the training runs, else from the run so far."""
+) -> tuple[float, float, str, float] | None:
+    """α, its standard error, where it comes from and the fit's residual rms (µm), from the
+    training runs, else from the run so far."""
     if train:
         f = fit_alpha(list(train), rig)
-        return f.alpha_per_k, f.stderr, "--train"
+        return f.alpha_per_k, f.stderr, "--train", f.rms_um
     if run.height < 6:
         return None
     try:
@@ -247,7 +248,7 @@ def _alpha(
         return None
     if not (f.ci95[0] > 0 and f.stderr < 0.5 * f.alpha_per_k):
         return None  # the run so far does not determine α yet
-    return f.alpha_per_k, f.stderr, "so far"
+    return f.alpha_per_k, f.stderr, "so far", f.rms_um
 
 
 def watch(
@@ -396,7 +397,7 @@ def _update(
         return replace(base, waiting="no visit with a spot yet")
     alpha = _alpha(train, run, rig)
     if alpha is None:
-        return replace(base, waiting="α not determined yet (give --train runs)")
+        return replace(base, waiting="α not determined yet by the run so far (give --train runs)")
     horizon = planned if planned is not None else max(2.0 * base.hours, base.hours + 1.0)
     try:
         o = outlook(
@@ -406,11 +407,12 @@ def _update(
             alpha_se=alpha[1],
             horizon_h=horizon,
             tolerance_um=tolerance_um,
+            noise_um=alpha[3],
             seed=seed,
         )
     except InputError as e:
-        return replace(base, alpha=alpha, waiting=str(e))
-    return replace(base, alpha=alpha, outlook=o)
+        return replace(base, alpha=alpha[:3], waiting=str(e))
+    return replace(base, alpha=alpha[:3], outlook=o)
 
 
 def _write(f: Follower, u: WatchUpdate | None, out: Path | None, *, final: bool) -> dict[str, Path]:
