@@ -153,7 +153,7 @@ def test_until_on_a_recording_never_closed(
             until_s=3,
             sleep=lambda s: None,
             clock=lambda: float(next(ticks)),
-        )  # fmt: skip
+        )
     )
     last = updates[-1]
     assert not last.closed
@@ -178,9 +178,7 @@ def test_the_tolerance_is_left_where_the_truth_leaves_it(
     drip = Drip(runs.live, live, pieces=24)
     mid = next(
         u
-        for u in watch(
-            live, paper_rig, train=[runs.train], tolerance_um=tol, sleep=drip, poll_s=0
-        )  # fmt: skip
+        for u in watch(live, paper_rig, train=[runs.train], tolerance_um=tol, sleep=drip, poll_s=0)
         if u.hours >= 1.5 and u.outlook is not None
     )
     assert mid.outlook is not None
