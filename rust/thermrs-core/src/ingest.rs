@@ -548,7 +548,7 @@ mod tests {
     use super::*;
     use crate::record::{ImageFields, MsgType, RecordCompression, RecordOptions, RecordingWriter};
 
-    fn paper_rig() -> Rig {
+    pub(super) fn paper_rig() -> Rig {
         Rig::from_path(concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/../../python/thermrs/data/kr15-paper.toml"
@@ -557,7 +557,7 @@ mod tests {
     }
 
     /// Every column of the frame table, NaN-aware, as bits.
-    fn frame_bits(t: &FrameTable) -> Vec<Vec<u64>> {
+    pub(super) fn frame_bits(t: &FrameTable) -> Vec<Vec<u64>> {
         let f = |v: &Vec<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<u64>>();
         vec![
             t.camera.iter().map(|&c| c as u64).collect(),
@@ -574,7 +574,7 @@ mod tests {
     }
 
     /// 40 uncompressed frames of camera A in 1 MiB chunks, a spot in every third.
-    fn write_spots(path: &std::path::Path, rig: &Rig) {
+    pub(super) fn write_spots(path: &std::path::Path, rig: &Rig) {
         let cam = &rig.camera[0];
         let (w, h) = (cam.size_px[0] as usize, cam.size_px[1] as usize);
         let opts = RecordOptions {

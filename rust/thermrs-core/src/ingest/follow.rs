@@ -232,3 +232,54 @@ fn complete_records(body: &[u8], start: usize) -> (usize, bool) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ingest::tests::{frame_bits, paper_rig, write_spots};
+
+    /// A recording appended a piece at a time (pieces cut inside chunks and record headers):
+    /// each step reads from where the last stopped, claims no loss, and the steps' tables
+    /// appended are the tables of the finished file; a follower resumed from a state goes on.
+    #[test]
+    fn steps_over_a_growing_file_give_the_finished_files_tables() {
+        let rig = paper_rig();
+        let dir = std::env::temp_dir();
+        let src = dir.join(format!("thermrs-follow-src-{}.mcap", std::process::id()));
+        let live = dir.join(format!("thermrs-follow-live-{}.mcap", std::process::id()));
+        write_spots(&src, &rig);
+        let full = std::fs::read(&src).unwrap();
+        let (want, _) = extract(&src, &rig, &ExtractOptions::default(), &|_, _, _| true).unwrap();
+        std::fs::write(&live, b"").unwrap();
+        let mut f = Follow::new(&live);
+        let mut got = Tables::default();
+        let mut to = 0u64;
+        let piece = full.len() / 9 + 4099;
+        let mut at = 0;
+        while at < full.len() {
+            let end = (at + piece).min(full.len());
+            let mut fh = std::fs::OpenOptions::new()
+                .append(true)
+                .open(&live)
+                .unwrap();
+            std::io::Write::write_all(&mut fh, &full[at..end]).unwrap();
+            at = end;
+            // Half way: go on in a follower resumed from the state.
+            if at > full.len() / 2 && to > 0 && !f.closed() && f.state().pos == to {
+                f = Follow::resume(&live, &f.state());
+            }
+            let s = f
+                .step(&rig, &ExtractOptions::default(), &|_, _, _| true)
+                .unwrap();
+            assert!(s.report.losses.is_empty(), "{:?}", s.report.losses);
+            assert_eq!(s.from, to.max(MAGIC.len() as u64));
+            to = s.to;
+            got.append(&s.tables);
+            assert_eq!(s.closed, at == full.len());
+        }
+        assert!(f.closed());
+        assert_eq!(frame_bits(&got.frames), frame_bits(&want.frames));
+        std::fs::remove_file(&src).unwrap();
+        std::fs::remove_file(&live).unwrap();
+    }
+}
