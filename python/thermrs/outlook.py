@@ -156,6 +156,78 @@ def _crossing(hours: np.ndarray, drift: np.ndarray, tol: float) -> np.ndarray:
     return res
 
 
+def _foreseen(
+    run: pl.DataFrame,
+    rig: Rig,
+    names: list[str],
+    hours: np.ndarray,
+    temps: dict[str, np.ndarray],
+    alphas: np.ndarray,
+    *,
+    alpha_per_k: float,
+    noise_um: float,
+    tolerance_um: float | None,
+    rng: np.random.Generator,
+) -> tuple[list[dict[str, object]], list[dict[str, object]]]:
+    """The drift to come per camera and axis (rows of the curve) and, per camera and axis,
+    the drift now, at the horizon and when it leaves the tolerance."""
+    draws = len(alphas)
+    su_all, sv_all = sensitivities(run, rig)
+    rows: list[dict[str, object]] = []
+    cross: list[dict[str, object]] = []
+    for cam in dict.fromkeys(run["camera"].to_list()):
+        idx = np.flatnonzero((run["camera"] == cam).to_numpy())
+        first = {"u": su_all[idx[0]], "v": sv_all[idx[0]]}
+        fut = pl.DataFrame(
+            {
+                "camera": [cam] * (draws * GRID),
+                **{f"{n}_c": temps[n].ravel() for n in names},
+            }
+        )
+        su, sv = sensitivities(fut, rig)
+        last = run[int(idx[-1])]
+        for axis, s in (("u", su), ("v", sv)):
+            d = alphas[:, None] * (s.reshape(draws, GRID) - first[axis])
+            d = d + noise_um * rng.standard_normal(d.shape)
+            central = alpha_per_k * (np.median(s.reshape(draws, GRID), axis=0) - first[axis])
+            lo, hi = np.percentile(d, [2.5, 97.5], axis=0)
+            rows += [
+                {
+                    "camera": cam,
+                    "axis": axis,
+                    "hours": float(h),
+                    "predicted_um": float(p),
+                    "lo_um": float(a),
+                    "hi_um": float(b),
+                }
+                for h, p, a, b in zip(hours, central, lo, hi, strict=True)
+            ]
+            now_um = float(last[f"{axis}_um"].item()) - float(run[int(idx[0])][f"{axis}_um"].item())
+            row: dict[str, object] = {
+                "camera": cam,
+                "axis": axis,
+                "now_um": now_um,
+                "end_um": float(central[-1]),
+                "end_lo_um": float(lo[-1]),
+                "end_hi_um": float(hi[-1]),
+                "leaves_h": None,
+                "leaves_lo_h": None,
+                "leaves_hi_h": None,
+                "already": bool(tolerance_um is not None and abs(now_um) > tolerance_um),
+            }
+            if tolerance_um is not None:
+                c = _crossing(hours, central[None, :], tolerance_um)[0]
+                x = np.sort(
+                    np.where(np.isfinite(q := _crossing(hours, d, tolerance_um)), q, np.inf)
+                )
+                q_lo, q_hi = x[int(0.025 * (len(x) - 1))], x[int(np.ceil(0.975 * (len(x) - 1)))]
+                row["leaves_h"] = float(c) if math.isfinite(c) else None
+                row["leaves_lo_h"] = float(q_lo) if math.isfinite(q_lo) else None
+                row["leaves_hi_h"] = float(q_hi) if math.isfinite(q_hi) else None
+            cross.append(row)
+    return rows, cross
+
+
 def outlook(
     run: pl.DataFrame,
     rig: Rig | str,
@@ -221,59 +293,10 @@ def outlook(
     rng = np.random.default_rng(seed)
     temps = {n: _draw_curve(c, t_s, rng, draws) for n, c in curves.items()}
     alphas = alpha_per_k + alpha_se * rng.standard_normal(draws)
-    su_all, sv_all = sensitivities(run, rig)
-    rows: list[dict[str, object]] = []
-    cross: list[dict[str, object]] = []
-    for cam in dict.fromkeys(run["camera"].to_list()):
-        idx = np.flatnonzero((run["camera"] == cam).to_numpy())
-        first = {"u": su_all[idx[0]], "v": sv_all[idx[0]]}
-        fut = pl.DataFrame(
-            {
-                "camera": [cam] * (draws * GRID),
-                **{f"{n}_c": temps[n].ravel() for n in names},
-            }
-        )
-        su, sv = sensitivities(fut, rig)
-        last = run[int(idx[-1])]
-        for axis, s in (("u", su), ("v", sv)):
-            d = alphas[:, None] * (s.reshape(draws, GRID) - first[axis])
-            d = d + noise_um * rng.standard_normal(d.shape)
-            central = alpha_per_k * (np.median(s.reshape(draws, GRID), axis=0) - first[axis])
-            lo, hi = np.percentile(d, [2.5, 97.5], axis=0)
-            rows += [
-                {
-                    "camera": cam,
-                    "axis": axis,
-                    "hours": float(h),
-                    "predicted_um": float(p),
-                    "lo_um": float(a),
-                    "hi_um": float(b),
-                }
-                for h, p, a, b in zip(hours, central, lo, hi, strict=True)
-            ]
-            now_um = float(last[f"{axis}_um"].item()) - float(run[int(idx[0])][f"{axis}_um"].item())
-            row: dict[str, object] = {
-                "camera": cam,
-                "axis": axis,
-                "now_um": now_um,
-                "end_um": float(central[-1]),
-                "end_lo_um": float(lo[-1]),
-                "end_hi_um": float(hi[-1]),
-                "leaves_h": None,
-                "leaves_lo_h": None,
-                "leaves_hi_h": None,
-                "already": bool(tolerance_um is not None and abs(now_um) > tolerance_um),
-            }
-            if tolerance_um is not None:
-                c = _crossing(hours, central[None, :], tolerance_um)[0]
-                x = np.sort(
-                    np.where(np.isfinite(q := _crossing(hours, d, tolerance_um)), q, np.inf)
-                )
-                q_lo, q_hi = x[int(0.025 * (len(x) - 1))], x[int(np.ceil(0.975 * (len(x) - 1)))]
-                row["leaves_h"] = float(c) if math.isfinite(c) else None
-                row["leaves_lo_h"] = float(q_lo) if math.isfinite(q_lo) else None
-                row["leaves_hi_h"] = float(q_hi) if math.isfinite(q_hi) else None
-            cross.append(row)
+    rows, cross = _foreseen(
+        run, rig, names, hours, temps, alphas,
+        alpha_per_k=alpha_per_k, noise_um=noise_um, tolerance_um=tolerance_um, rng=rng,
+    )  # fmt: skip
     notes: list[str] = []
     trows = []
     for n, c in curves.items():

@@ -68,6 +68,10 @@ class WatchUpdate:
         ``waiting`` says why).
     look
         The sequential diagnosis's latest look (:mod:`thermrs.diagnose.sequential`), or None.
+    diagnosis
+        Once the recording is closed, with training runs and a stop rule: the diagnosis of
+        the finished run (:func:`thermrs.diagnose.diagnose` with the watch's ``exclude`` and
+        ``seed``: what ``thermrs diagnose`` gives on the finished file), else None.
     extraction
         The tables so far.
     waiting
@@ -85,6 +89,7 @@ class WatchUpdate:
     alpha: tuple[float, float, str] | None
     outlook: Outlook | None
     look: Any = None
+    diagnosis: Any = None
     extraction: Extraction | None = None
     waiting: str = ""
     written: dict[str, Path] = field(default_factory=dict)
@@ -288,17 +293,12 @@ def watch(
         Where the tables go (``OUT.parquet`` and its siblings, as ``thermrs extract -o``): when
         the recording closes, and, with the follower's state, when the watch is stopped; a
         watch given the ``out`` of a stopped one goes on where it stopped.
-    poll_s
-        Seconds between reads while nothing is added.
-    until_s
-        Stop after this many seconds of watching (the tables so far written to ``out``).
-    stop_rule
-        A sequential diagnosis (:class:`thermrs.diagnose.sequential.StopRule`): every
-        ``look_every_h`` hours of the run it looks (needs ``train``).
-    look_every_h
-        Hours of run between looks.
-    exclude
-        Effects the looks never name (SPEC §6).
+    poll_s, until_s
+        Seconds between reads while nothing is added; of watching before it stops (the
+        tables so far written to ``out``).
+    stop_rule, look_every_h, exclude
+        A sequential diagnosis (:class:`thermrs.diagnose.sequential.StopRule`; needs
+        ``train``), the hours of run between its looks, the effects it never names.
     seed
         Seed of the outlook's draws and the looks.
     sleep, clock
@@ -334,9 +334,8 @@ def watch(
     planned = hours
     if planned is None and train:
         planned = max(run_hours(t) for t in train)
+    looks = _Looks(stop_rule, train, rig, every_h=look_every_h, exclude=exclude, seed=seed)
     started = clock()
-    next_look = look_every_h
-    look: Any = None
     first = True
     try:
         while True:
@@ -344,17 +343,9 @@ def watch(
             stopping = until_s is not None and clock() - started >= until_s
             if step.bytes_read or first or step.closed or stopping:
                 first = False
-                u = _update(f, rig, name, step, train, tolerance_um, planned, seed)
-                if stop_rule is not None and train and u.hours >= next_look and u.run.height:
-                    look = stop_rule.look(
-                        train, u.run, rig, hours=u.hours, exclude=exclude, seed=seed
-                    )
-                    next_look = (int(u.hours / look_every_h) + 1) * look_every_h
-                if look is not None:
-                    u = replace(u, look=look)
+                u = looks.at(_update(f, rig, name, step, train, tolerance_um, planned, seed))
                 if step.closed or stopping:
-                    written = _write(f, u, out_p, final=step.closed)
-                    yield replace(u, written=written)
+                    yield replace(u, written=_write(f, u, out_p, final=step.closed))
                     return
                 yield u
             sleep(poll_s)
@@ -363,6 +354,41 @@ def watch(
         if out_p is not None and f.bytes_read and not f.closed:
             _write(f, None, out_p, final=False)
         raise
+
+
+class _Looks:
+    """The sequential diagnosis's looks as the run grows, and the diagnosis of the finished
+    run (the one ``thermrs diagnose`` gives on it) once the recording closes."""
+
+    def __init__(
+        self,
+        rule: Any,
+        train: Sequence[pl.DataFrame],
+        rig: Rig,
+        *,
+        every_h: float,
+        exclude: Sequence[str],
+        seed: int,
+    ) -> None:
+        self.rule, self.train, self.rig = rule, list(train), rig
+        self.every_h, self.exclude, self.seed = every_h, tuple(exclude), seed
+        self.next_h = every_h
+        self.last: Any = None
+
+    def at(self, u: WatchUpdate) -> WatchUpdate:
+        if self.rule is None or not self.train or u.run.height == 0:
+            return u
+        if not self.rule.stopped and u.hours >= self.next_h:
+            self.last = self.rule.look(
+                self.train, u.run, self.rig, hours=u.hours, exclude=self.exclude, seed=self.seed
+            )
+            self.next_h = (int(u.hours / self.every_h) + 1) * self.every_h
+        final = None
+        if u.closed:
+            from thermrs.diagnose import diagnose
+
+            final = diagnose(self.train, [u.run], self.rig, exclude=self.exclude, seed=self.seed)
+        return replace(u, look=self.last, diagnosis=final)
 
 
 def _update(

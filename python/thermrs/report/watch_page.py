@@ -6,7 +6,7 @@ another machine on a share while the robot records. It renders a
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import polars as pl
@@ -15,8 +15,9 @@ from thermrs.report.blocks import Figure, Missing, Paragraph, Section, Table
 from thermrs.report.figures import camera_colours, figure, legend, svg
 from thermrs.report.render import to_html
 
-if TYPE_CHECKING:  # pragma: no cover
-    from thermrs.analyses.watch import WatchUpdate
+#: A :class:`thermrs.analyses.watch.WatchUpdate` (the analyses stand below the report's rooms
+#: only as the report's inputs: the page takes what it renders, whatever made it).
+WatchUpdate = Any
 
 __all__ = ["watch_page"]
 
@@ -31,7 +32,7 @@ def _figure(u: WatchUpdate) -> str:
     o = u.outlook
     cams = list(dict.fromkeys(run["camera"].to_list()))
     colours = camera_colours(cams)
-    t0 = int(run["t_ns"].min())  # type: ignore[arg-type]
+    t0 = int(run["t_ns"].min())
     fig = figure(4.6)
     axes = fig.subplots(2, 1, sharex=True)
     for ax, axis in zip(axes, "uv", strict=True):
