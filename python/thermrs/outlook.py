@@ -12,10 +12,13 @@ standard error), each curve's ``y0``, ``A`` and ``τ`` from their standard error
 normals, τ kept positive) and a measurement's scatter about the model (normal, the training
 fit's residual rms), 400 draws, the 2.5 and 97.5 percentiles of the drift at each time.
 A temperature whose curve cannot be fitted yet (fewer than four samples, a straight rise with
-τ beyond its bounds) is held at its last reading, and the outlook says so: the band is then
-conditional on it. When the drift leaves a tolerance: the first time the predicted drift's
-magnitude exceeds it, with the 2.5–97.5 percentiles of that time over the draws (a draw that
-stays inside until the horizon counts as "after the horizon").
+τ beyond its bounds) leaves the drift to come undetermined: the outlook is refused with that
+reason (holding such a temperature at its last reading gave bands that missed the simulated
+truth's end drift, ``benchmarks/bench_watch.py``).
+
+When the drift leaves a tolerance: the first time the predicted drift's magnitude exceeds it,
+with the 2.5–97.5 percentiles of that time over the draws (a draw that stays inside until the
+horizon counts as "after the horizon").
 
 Example
 -------
@@ -67,11 +70,11 @@ class Outlook:
         ``already`` (the measured drift is outside now).
     temperatures
         Per mapped temperature: ``name``, ``now_c``, ``end_c`` (at the horizon), ``tau_min``
-        and ``held`` (no curve yet: held at the last reading).
+        (null for a temperature flat so far).
     tolerance_um
         The tolerance on either axis (µm), or None.
     notes
-        What the outlook assumes (temperatures held, the horizon's origin).
+        What the outlook assumes (a temperature flat so far held at its mean).
     """
 
     now_h: float
@@ -271,7 +274,8 @@ def outlook(
     Raises
     ------
     InputError
-        The run table has no visit, or lacks a temperature the rig maps.
+        The run table has no visit, lacks a temperature the rig maps, or a temperature's
+        heating curve is not determined yet.
 
     Examples
     --------
@@ -290,6 +294,12 @@ def outlook(
     hours = np.linspace(now_h, horizon_h, GRID)
     t_s = hours * 3600.0
     curves = _curves(run, names)
+    held = [n for n, c in curves.items() if not isinstance(c, Curve)]
+    if held:
+        raise InputError(
+            f"the heating curve of {', '.join(held)} is not determined yet (a straight rise "
+            "or too few readings so far): the drift to come waits for it"
+        )
     rng = np.random.default_rng(seed)
     temps = {n: _draw_curve(c, t_s, rng, draws) for n, c in curves.items()}
     alphas = alpha_per_k + alpha_se * rng.standard_normal(draws)
@@ -300,20 +310,16 @@ def outlook(
     notes: list[str] = []
     trows = []
     for n, c in curves.items():
-        col = run.sort("t_ns")[f"{n}_c"]
-        if isinstance(c, Curve):
-            end = float(c(np.array([horizon_h * 3600.0]))[0])
-            tau = c.tau_min if c.phase != "flat" else None
-        else:
-            end, tau = c, None
-            notes.append(f"{n}: no heating curve yet (held at its last reading)")
+        assert isinstance(c, Curve)
+        flat = c.phase == "flat"
+        if flat:
+            notes.append(f"{n}: no change beyond its noise so far (held at its mean)")
         trows.append(
             {
                 "name": n,
-                "now_c": float(col[-1]),
-                "end_c": end,
-                "tau_min": tau,
-                "held": not isinstance(c, Curve),
+                "now_c": float(run.sort("t_ns")[f"{n}_c"][-1]),
+                "end_c": float(c(np.array([horizon_h * 3600.0]))[0]),
+                "tau_min": None if flat else c.tau_min,
             }
         )
     lo_a, hi_a = alpha_per_k - 1.96 * alpha_se, alpha_per_k + 1.96 * alpha_se
