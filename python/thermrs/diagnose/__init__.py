@@ -57,9 +57,10 @@ from thermrs.diagnose.null import Batch
 from thermrs.diagnose.resample import cycle_units
 from thermrs.diagnose.result import Diagnosis, assemble
 from thermrs.diagnose.selection import FamilyGrid, Step, build_grids, forward_selection
+from thermrs.diagnose.tolerance_scale import tolerance_scale
 from thermrs.diagnose.tolerances import nuisance_signatures
 from thermrs.diagnose.verdict import decide
-from thermrs.effects import Effect, Family
+from thermrs.effects import Effect, Family, is_instrument
 from thermrs.memo import DiskCache
 from thermrs.rig import Rig
 from thermrs.signatures import VisitSet
@@ -340,6 +341,7 @@ def _diagnose(
         null_draws=null_draws,
         margin_um=margin,
         rng=rng,
+        scale_rng=np.random.default_rng([seed % 2**63, 45]),
         say=say,
     )
     margin = steps[0].margin_um
@@ -350,6 +352,20 @@ def _diagnose(
     final, selected = _final_model(b.design, steps, rig, n_eff_train)
     if final is not None:
         _floor_of_final_model(b, final, rig)
+        if final.columns is not None and b.floor.extra.get("tolerance_scale") is not None:
+            # What is left once the effects are fitted: is it the rig erring by more than it
+            # states? (The estimate on the nominal residual counts an effect along the
+            # tolerances' signatures as the rig's.)
+            after = tolerance_scale(
+                Batch(b.design, window_s=3.0 * b.floor.tau_c_max_s),
+                b.design,
+                b.floor,
+                np.random.default_rng([seed % 2**63, 46]),
+                columns=final.columns,
+            )
+            b.floor.extra["tolerance_scale"]["with_effects"] = (
+                None if after is None else after.to_json()
+            )
     say("verdict")
     status, reason, rivals = decide(
         steps,
@@ -427,10 +443,14 @@ def _select(
     null_draws: int,
     margin_um: float | None,
     rng: np.random.Generator,
+    scale_rng: np.random.Generator,
     say: Callable[[str], object],
 ) -> tuple[list[FamilyGrid], list[Step]]:
     """Every family of the library on these runs, and the forward selection among them
-    (each step at level / 4: Bonferroni over the four tests `none` must pass)."""
+    (each step at level / 4: Bonferroni over the four tests `none` must pass); how far the
+    rig's errors exceed what it states (:mod:`.tolerance_scale`), and where the first step
+    finds something, its tests again with the rig erring by the upper end of that factor's
+    95 % interval (:func:`_tolerance_excess`)."""
     fams: list[Family] = []
     for cls in classes.values():
         fams.extend(cls.families(rig, b.vs))
@@ -452,17 +472,32 @@ def _select(
         plausible=plausibility(b.design, rig),
         say=say,
     )
+    # How far the rig's errors exceed what it states, from the data (its own generator: the
+    # rest of the diagnosis draws what it drew before).
+    ts = tolerance_scale(batch, b.design, b.floor, scale_rng)
+    b.floor.extra["tolerance_scale"] = None if ts is None else ts.to_json()
     first = steps[0]
-    if first.significant or min(first.p_at_floor, first.p_low) < level / 4.0:
-        say("the same test with the rig's tolerances doubled")
+    found = first.significant or min(first.p_at_floor, first.p_low) < level / 4.0
+    if found and ts is not None and ts.ci95[1] > 1.0:
+        say(f"the same test with the rig's errors at {ts.ci95[1]:.2g}× its tolerances")
         b.floor.extra["tolerance_excess"] = _tolerance_excess(
-            batch, b, grids, level=level / 4.0, draws=null_draws, rng=rng, rig=rig
+            batch,
+            b,
+            grids,
+            scale=ts.ci95[1],
+            robot=sorted(
+                {
+                    st.chosen.effect
+                    for st in steps
+                    if st.chosen is not None and not is_instrument(st.chosen.effect)
+                }
+            ),
+            level=level / 4.0,
+            draws=null_draws,
+            rng=rng,
+            rig=rig,
         )
     return [g for g in grids if g.nameable], steps
-
-
-#: How much larger than stated the tolerance-excess check takes the rig's errors.
-TOLERANCE_EXCESS_SCALE = 2.0
 
 
 def _tolerance_excess(
@@ -470,21 +505,26 @@ def _tolerance_excess(
     b: _Base,
     grids: list[FamilyGrid],
     *,
+    scale: float,
+    robot: list[str],
     level: float,
     draws: int,
     rng: np.random.Generator,
     rig: Rig,
 ) -> dict[str, Any]:
-    """The first step's tests again in a null world whose rig errs by twice its stated
-    tolerances: whether what the data show is within what a rig that understates its
-    errors by that much would leave by itself (then the rig's statement is the first thing
-    to check, before any effect)."""
+    """The first step's tests again in a null world whose rig errs by ``scale`` times its
+    stated tolerances (the upper end of the 95 % interval of that factor estimated from the
+    data, :mod:`.tolerance_scale`): an effect of the robot is named only if it is still
+    significant there, so the test keeps its level on a rig that understates its errors by
+    as much as the data allow. ``explains`` is true where none of the effects of the robot
+    selected at the stated tolerances (``robot``) is significant there (where none was
+    selected: where nothing is, and the residual is at that world's floor)."""
     from thermrs.diagnose.selection import run_step
 
     saved = b.design.nuisance
     if saved.shape[1] == 0:
-        return {"scale": TOLERANCE_EXCESS_SCALE, "tested": False}
-    b.design.nuisance = saved * TOLERANCE_EXCESS_SCALE
+        return {"scale": scale, "tested": False}
+    b.design.nuisance = saved * scale
     try:
         st = run_step(
             batch,
@@ -500,14 +540,20 @@ def _tolerance_excess(
         )
     finally:
         b.design.nuisance = saved
-    explains = not st.significant and st.p_at_floor >= level and st.p_low >= level
+    effect_of = {g.family.label: g.family.effect for g in grids}
+    still = sorted({effect_of[lab] for lab in st.significant if lab in effect_of})
+    if robot:
+        explains = not set(robot) & set(still)
+    else:
+        explains = not st.significant and st.p_at_floor >= level and st.p_low >= level
     return {
-        "scale": TOLERANCE_EXCESS_SCALE,
+        "scale": scale,
         "tested": True,
         "p_at_floor": st.p_at_floor,
         "p_white_at_thermal_scales": st.p_low,
         "p_best_gain": st.p_gain,
         "significant": st.significant,
+        "significant_effects": still,
         "explains": bool(explains),
     }
 

@@ -16,7 +16,7 @@ from thermrs.diagnose.candidates import Candidate
 from thermrs.diagnose.engine import Fit
 from thermrs.diagnose.floor import NoiseFloor
 from thermrs.diagnose.selection import Step
-from thermrs.diagnose.verdict import summary
+from thermrs.diagnose.verdict import english_list, summary
 from thermrs.effects import is_instrument
 from thermrs.signatures import VisitSet
 
@@ -442,14 +442,31 @@ def assemble(
     robot = [sel for sel in selected if not is_instrument(sel["effect"])]
     exceeded = bool(excess.get("explains")) and status != "none" and bool(robot)
     if exceeded:
-        # The data do not tell an effect of the robot from a rig that errs by twice what it
-        # states: the rig's statement is what to check, not a physical effect to name.
+        # The data do not tell the effects of the robot from a rig that errs by as much more
+        # than it states as they allow: the rig's statement is what to check first.
         status = "unexplained"
         reason = (
             f"what these runs show is within what the rig leaves by itself were its errors "
-            f"{excess['scale']:g}× what it states (no effect significant then; p at the floor "
-            f"{excess['p_at_floor']:.2f}): check the rig's tolerances (docs/tolerances.md) "
-            f"before taking it for an effect; with the stated tolerances: {reason}"
+            f"{excess['scale']:.2g}× what it states (the upper end of the 95 % interval the "
+            f"data give that factor; {english_list([s['effect'] for s in robot])} not "
+            f"significant then, p at the floor {excess['p_at_floor']:.2f}): check the rig's "
+            f"tolerances (docs/tolerances.md) before taking it for an effect; with the stated "
+            f"tolerances: {reason}"
+        )
+    scale_doc = floor.extra.get("tolerance_scale") or {}
+    # What the verdict says of the rig: k on the residual of the model it reports (with the
+    # effects it names, where it names any; the nominal residual's otherwise).
+    said_scale = (
+        scale_doc.get("with_effects") if status != "unexplained" and selected else None
+    ) or scale_doc
+    errs_more = bool(said_scale.get("exceeds_stated"))
+    if errs_more:
+        lo, hi = said_scale["ci95"]
+        reason += (
+            f"; the rig's errors look {said_scale['estimate']:.2g}× what it states "
+            f"({lo:.2g}–{hi:.2g}× at 95 %{'' if said_scale['upper_bounded'] else ' or more'}, "
+            "from the residual along its tolerances' signatures): check its tolerances "
+            "(docs/tolerances.md)"
         )
     verdict_doc = {
         # SPEC §7's four statuses; a partial explanation is `unexplained` there (what is left
@@ -457,9 +474,12 @@ def assemble(
         "status": "unexplained" if status == "partially explained" else status,
         "outcome": status,
         "partially_explained": status == "partially explained",
-        # The gap is within what the rig leaves if it errs by twice its stated tolerances
-        # (tests.tolerance_excess): no effect of the robot is named.
+        # The gap is within what the rig leaves if it errs by as much more than it states as
+        # the data allow (tests.tolerance_excess): no effect of the robot is named.
         "rig_tolerances_exceeded": exceeded,
+        # The data show the rig's errors exceed what it states: the 95 % interval of the
+        # factor (tests.tolerance_scale, on the residual of the model reported) lies above 1.
+        "rig_errors_exceed_stated": errs_more,
         # The effect that explains the gap: none does where what is left is still a gap
         # ("partially explained": the effects that explain a part are in `effects`).
         "effect": None
@@ -546,7 +566,11 @@ def assemble(
             # False: the rig file states no [tolerances]; the null drew the defaults
             # (docs/tolerances.md: the published metrology each comes from).
             "tolerances_stated": tolerances[2],
-            # The first step again with the rig's errors doubled (where it found something).
+            # The factor by which the rig's errors exceed its stated tolerances, estimated
+            # from the held-out residual (:mod:`.tolerance_scale`).
+            "tolerance_scale": floor.extra.get("tolerance_scale"),
+            # The first step again with the rig erring by the upper end of that factor's
+            # interval (where it found something and that end is above 1).
             "tolerance_excess": floor.extra.get("tolerance_excess"),
             "tolerance_signatures": tolerances[1],
         },
