@@ -48,6 +48,7 @@ import numpy.typing as npt
 import polars as pl
 
 from thermrs.diagnose.candidates import Candidate, plausibility, profile_interval, score
+from thermrs.diagnose.closing import closing_interval
 from thermrs.diagnose.confounding import confounded_pairs
 from thermrs.diagnose.engine import DesignMatrix, Fit
 from thermrs.diagnose.floor import SCALE_SEPARATION, NoiseFloor, noise_floor, thermal_time_scales
@@ -332,7 +333,7 @@ def _diagnose(
     say("candidates")
     margin: float | None = None if margin_um is None else float(margin_um)
     outside = _outside(exclude, library)
-    grids, steps = _select(
+    grids, steps, batch = _select(
         b,
         classes,
         rig,
@@ -352,20 +353,13 @@ def _diagnose(
     final, selected = _final_model(b.design, steps, rig, n_eff_train)
     if final is not None:
         _floor_of_final_model(b, final, rig)
-        if final.columns is not None and b.floor.extra.get("tolerance_scale") is not None:
-            # What is left once the effects are fitted: is it the rig erring by more than it
-            # states? (The estimate on the nominal residual counts an effect along the
-            # tolerances' signatures as the rig's.)
-            after = tolerance_scale(
-                Batch(b.design, window_s=3.0 * b.floor.tau_c_max_s),
-                b.design,
-                b.floor,
-                np.random.default_rng([seed % 2**63, 46]),
-                columns=final.columns,
-            )
-            b.floor.extra["tolerance_scale"]["with_effects"] = (
-                None if after is None else after.to_json()
-            )
+        if final.columns is not None:
+            _with_final_model(b, batch, final.columns, seed)
+    first = steps[0]
+    if first.significant or min(first.p_at_floor, first.p_low) < level / 4.0:
+        _test_at_tolerance_scale(
+            b, batch, grids, steps, rig, level=level / 4.0, draws=null_draws, rng=rng, say=say
+        )
     say("verdict")
     status, reason, rivals = decide(
         steps,
@@ -445,12 +439,11 @@ def _select(
     rng: np.random.Generator,
     scale_rng: np.random.Generator,
     say: Callable[[str], object],
-) -> tuple[list[FamilyGrid], list[Step]]:
+) -> tuple[list[FamilyGrid], list[Step], Batch]:
     """Every family of the library on these runs, and the forward selection among them
-    (each step at level / 4: Bonferroni over the four tests `none` must pass); how far the
-    rig's errors exceed what it states (:mod:`.tolerance_scale`), and where the first step
-    finds something, its tests again with the rig erring by the upper end of that factor's
-    95 % interval (:func:`_tolerance_excess`)."""
+    (each step at level / 4: Bonferroni over the four tests `none` must pass), and how far
+    the rig's errors exceed what it states on the nominal residual (:mod:`.tolerance_scale`);
+    the batch of held-out fits they used."""
     fams: list[Family] = []
     for cls in classes.values():
         fams.extend(cls.families(rig, b.vs))
@@ -472,32 +465,48 @@ def _select(
         plausible=plausibility(b.design, rig),
         say=say,
     )
-    # How far the rig's errors exceed what it states, from the data (its own generator: the
-    # rest of the diagnosis draws what it drew before).
+    # How far the rig's errors exceed what it states, from the nominal residual (its own
+    # generator: the rest of the diagnosis draws what it drew before).
     ts = tolerance_scale(batch, b.design, b.floor, scale_rng)
     b.floor.extra["tolerance_scale"] = None if ts is None else ts.to_json()
-    first = steps[0]
-    found = first.significant or min(first.p_at_floor, first.p_low) < level / 4.0
-    if found and ts is not None and ts.ci95[1] > 1.0:
-        say(f"the same test with the rig's errors at {ts.ci95[1]:.2g}× its tolerances")
-        b.floor.extra["tolerance_excess"] = _tolerance_excess(
-            batch,
-            b,
-            grids,
-            scale=ts.ci95[1],
-            robot=sorted(
-                {
-                    st.chosen.effect
-                    for st in steps
-                    if st.chosen is not None and not is_instrument(st.chosen.effect)
-                }
-            ),
-            level=level / 4.0,
-            draws=null_draws,
-            rng=rng,
-            rig=rig,
-        )
-    return [g for g in grids if g.nameable], steps
+    return [g for g in grids if g.nameable], steps, batch
+
+
+def _test_at_tolerance_scale(
+    b: _Base,
+    batch: Batch,
+    grids: list[FamilyGrid],
+    steps: list[Step],
+    rig: Rig,
+    *,
+    level: float,
+    draws: int,
+    rng: np.random.Generator,
+    say: Callable[[str], object],
+) -> None:
+    """Where the first step found something: its tests again with the rig erring by the
+    upper end of the 95 % interval of the factor by which its errors exceed its statement
+    (estimated with the effects selected fitted, where there are any: an effect of the robot
+    along the tolerances' signatures would otherwise count as the rig's), when that end is
+    above 1 (:func:`_tolerance_excess`)."""
+    ts = b.floor.extra.get("tolerance_scale")
+    if ts is None:
+        return
+    use = ts.get("with_effects") or ts
+    upper = float(use["ci95"][1])
+    if upper <= 1.0:
+        return
+    robot = sorted(
+        {
+            st.chosen.effect
+            for st in steps
+            if st.chosen is not None and not is_instrument(st.chosen.effect)
+        }
+    )
+    say(f"the same test with the rig's errors at {upper:.2g}× its tolerances")
+    b.floor.extra["tolerance_excess"] = _tolerance_excess(
+        batch, b, grids, scale=upper, robot=robot, level=level, draws=draws, rng=rng, rig=rig
+    )
 
 
 def _tolerance_excess(
@@ -626,6 +635,25 @@ def _floor_of_final_model(b: _Base, final: Fit, rig: Rig) -> None:
     if fl.holdout_se_um is not None:
         se = fl.holdout_se_um
         fl.holdout_ci95 = (max(fl.holdout_um - 1.96 * se, 0.0), fl.holdout_um + 1.96 * se)
+
+
+def _with_final_model(b: _Base, batch: Batch, columns: FloatArray, seed: int) -> None:
+    """What the final model (its effect ``columns``) adds to the floor's record: the share of
+    the gap it closes with its interval (:mod:`.closing`), and how far the rig's errors
+    exceed its statement once the effects are fitted (:mod:`.tolerance_scale`; the estimate
+    on the nominal residual counts an effect along the tolerances' signatures as the
+    rig's; fitted with them, what they absorb of the tolerances' signatures is counted,
+    so the estimate holds whether they are real or not). Each from its own generator: the
+    rest of the diagnosis draws what it drew."""
+    b.floor.extra["closing"] = closing_interval(
+        batch, b.design, b.floor, columns, np.random.default_rng([seed % 2**63, 47])
+    )
+    ts = b.floor.extra.get("tolerance_scale")
+    if ts is not None:
+        after = tolerance_scale(
+            batch, b.design, b.floor, np.random.default_rng([seed % 2**63, 46]), columns=columns
+        )
+        ts["with_effects"] = None if after is None else after.to_json()
 
 
 def _final_model(

@@ -399,20 +399,19 @@ def assemble(
         if len(last) >= 19 and mid > 0
         else None
     )
-    # The gap above the floor, and the share of it closed, over the floor's 95 % interval
-    # (the floor is an estimate; the rms before and after are what these runs show).
+    # The gap above the floor, and the share of it closed with its 95 % interval: before,
+    # after and the floor uncertain together (:mod:`.closing`, Fieller's interval).
     fci = floor.holdout_ci95
     before_rms = base.holdout_rms_um
     how_far["gap_above_floor_um"] = before_rms - fl
     how_far["gap_above_floor_ci95"] = [before_rms - fci[1], before_rms - fci[0]] if fci else None
-    if fci and final is not None and before_rms > fci[1]:
-        removed = before_rms - after.holdout_rms_um
-        how_far["gap_closed_ci95"] = [
-            max(min(removed / (before_rms - fci[0]), 1.0), 0.0),
-            max(min(removed / (before_rms - fci[1]), 1.0), 0.0),
-        ]
-    else:
-        how_far["gap_closed_ci95"] = None
+    closing = floor.extra.get("closing") if final is not None else None
+    ci = None if closing is None else closing.get("ci95")
+    how_far["gap_closed_ci95"] = (
+        None if ci is None else [max(min(ci[0], 1.0), 0.0), max(min(ci[1], 1.0), 0.0)]
+    )
+    how_far["gap_closed_raw_ci95"] = ci
+    how_far["gap_closed_interval"] = closing
     how_far["holdout_rms_after_ci95_note"] = (
         "95 % of sets of held-out runs like these keep an rms in this range once the model "
         "is applied: the rms it left here, spread as the held-out rms spreads in the model's "
