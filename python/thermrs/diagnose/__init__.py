@@ -496,13 +496,10 @@ def _test_at_tolerance_scale(
     upper = float(use["ci95"][1])
     if upper <= 1.0:
         return
-    robot = sorted(
-        {
-            st.chosen.effect
-            for st in steps
-            if st.chosen is not None and not is_instrument(st.chosen.effect)
-        }
-    )
+    # Every effect of the robot the verdict may name: the selected ones and their rivals.
+    named = {st.chosen.effect for st in steps if st.chosen is not None}
+    named |= {r for st in steps for r in st.rivals}
+    robot = sorted(e for e in named if not is_instrument(e))
     say(f"the same test with the rig's errors at {upper:.2g}× its tolerances")
     b.floor.extra["tolerance_excess"] = _tolerance_excess(
         batch, b, grids, scale=upper, robot=robot, level=level, draws=draws, rng=rng, rig=rig
@@ -526,8 +523,9 @@ def _tolerance_excess(
     data, :mod:`.tolerance_scale`): an effect of the robot is named only if it is still
     significant there, so the test keeps its level on a rig that understates its errors by
     as much as the data allow. ``explains`` is true where none of the effects of the robot
-    selected at the stated tolerances (``robot``) is significant there (where none was
-    selected: where nothing is, and the residual is at that world's floor)."""
+    the verdict would name at the stated tolerances (``robot``: selected, or their rivals)
+    is significant there (where it would name none: where nothing is, and the residual is at
+    that world's floor)."""
     from thermrs.diagnose.selection import run_step
 
     saved = b.design.nuisance

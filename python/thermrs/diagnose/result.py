@@ -438,7 +438,11 @@ def assemble(
     if advice and status != "none":
         reason = f"{reason}; {'; '.join(advice)}"
     excess = floor.extra.get("tolerance_excess") or {}
-    robot = [sel for sel in selected if not is_instrument(sel["effect"])]
+    robot = [
+        e
+        for e in dict.fromkeys([*(sel["effect"] for sel in selected), *rivals])
+        if not is_instrument(e)
+    ]
     exceeded = bool(excess.get("explains")) and status != "none" and bool(robot)
     if exceeded:
         # The data do not tell the effects of the robot from a rig that errs by as much more
@@ -447,7 +451,7 @@ def assemble(
         reason = (
             f"what these runs show is within what the rig leaves by itself were its errors "
             f"{excess['scale']:.2g}× what it states (the upper end of the 95 % interval the "
-            f"data give that factor; {english_list([s['effect'] for s in robot])} not "
+            f"data give that factor; {english_list(robot)} not "
             f"significant then, p at the floor {excess['p_at_floor']:.2f}): check the rig's "
             f"tolerances (docs/tolerances.md) before taking it for an effect; with the stated "
             f"tolerances: {reason}"
