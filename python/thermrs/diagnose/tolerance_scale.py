@@ -104,7 +104,8 @@ def _loglik(c2: FloatArray, lam: FloatArray, k: FloatArray) -> FloatArray:
     """Log-likelihood (up to a constant) of components with squares ``c2`` (m × B) at every
     scale of ``k`` (G): G × B."""
     v = 1.0 + np.outer(k * k, lam)  # G × m
-    return -0.5 * (np.log(v).sum(axis=1)[:, None] + (1.0 / v) @ c2)
+    out: FloatArray = -0.5 * (np.log(v).sum(axis=1)[:, None] + (1.0 / v) @ c2)
+    return out
 
 
 def _fit(c2: FloatArray, lam: FloatArray, grid: FloatArray) -> tuple[FloatArray, FloatArray]:
