@@ -485,7 +485,7 @@ def _test_at_tolerance_scale(
     say: Callable[[str], object],
 ) -> None:
     """Where the first step found something: its tests again with the rig erring by the
-    upper end of the 95 % interval of the factor by which its errors exceed its statement
+    95 % upper confidence bound of the factor by which its errors exceed its statement
     (estimated with the effects selected fitted, where there are any: an effect of the robot
     along the tolerances' signatures would otherwise count as the rig's), when that end is
     above 1 (:func:`_tolerance_excess`)."""
@@ -493,7 +493,7 @@ def _test_at_tolerance_scale(
     if ts is None:
         return
     use = ts.get("with_effects") or ts
-    upper = float(use["ci95"][1])
+    upper = float(use["upper95"])
     if upper <= 1.0:
         return
     # Every effect of the robot the verdict may name: the selected ones and their rivals.
@@ -519,7 +519,7 @@ def _tolerance_excess(
     rig: Rig,
 ) -> dict[str, Any]:
     """The first step's tests again in a null world whose rig errs by ``scale`` times its
-    stated tolerances (the upper end of the 95 % interval of that factor estimated from the
+    stated tolerances (the 95 % upper confidence bound of that factor estimated from the
     data, :mod:`.tolerance_scale`): an effect of the robot is named only if it is still
     significant there, so the test keeps its level on a rig that understates its errors by
     as much as the data allow. ``explains`` is true where none of the effects of the robot

@@ -450,8 +450,8 @@ def assemble(
         status = "unexplained"
         reason = (
             f"what these runs show is within what the rig leaves by itself were its errors "
-            f"{excess['scale']:.2g}× what it states (the upper end of the 95 % interval the "
-            f"data give that factor; {english_list(robot)} not "
+            f"{excess['scale']:.2g}× what it states (the 95 % upper confidence bound the data "
+            f"give that factor; {english_list(robot)} not "
             f"significant then, p at the floor {excess['p_at_floor']:.2f}): check the rig's "
             f"tolerances (docs/tolerances.md) before taking it for an effect; with the stated "
             f"tolerances: {reason}"
@@ -572,8 +572,8 @@ def assemble(
             # The factor by which the rig's errors exceed its stated tolerances, estimated
             # from the held-out residual (:mod:`.tolerance_scale`).
             "tolerance_scale": floor.extra.get("tolerance_scale"),
-            # The first step again with the rig erring by the upper end of that factor's
-            # interval (where it found something and that end is above 1).
+            # The first step again with the rig erring by that factor's 95 % upper bound
+            # (where it found something and that bound is above 1).
             "tolerance_excess": floor.extra.get("tolerance_excess"),
             "tolerance_signatures": tolerances[1],
         },
