@@ -120,7 +120,7 @@ def test_the_factor_by_which_the_rig_errs_is_estimated_and_said(
         lo, hi = ts["ci95"]
         assert 0.0 <= lo <= ts["estimate"] <= hi <= K_MAX
         covered += lo <= 3.0 <= hi
-        if ts["exceeds_stated"] and d["verdict"]["status"] != "identified":
+        if ts["exceeds_stated"] and not d["selected"]:
             assert d["verdict"]["rig_errors_exceed_stated"]
             assert "the rig's errors look" in d["verdict"]["reason"]
     # Each interval covers 3 with probability 95 %: four or fewer of six has probability 3 %.

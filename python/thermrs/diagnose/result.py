@@ -457,20 +457,30 @@ def assemble(
             f"tolerances: {reason}"
         )
     scale_doc = floor.extra.get("tolerance_scale") or {}
-    # What the verdict says of the rig: k on the residual of the model it reports (with the
-    # effects it names, where it names any; the nominal residual's otherwise).
-    said_scale = (
-        scale_doc.get("with_effects") if status != "unexplained" and selected else None
-    ) or scale_doc
+    # What the verdict says of the rig: k on the residual of the model with the effects
+    # selected, where there are any (the one the test used); the nominal residual's otherwise.
+    with_effects = scale_doc.get("with_effects")
+    said_scale = with_effects or scale_doc
     errs_more = bool(said_scale.get("exceeds_stated"))
     if errs_more:
         lo, hi = said_scale["ci95"]
-        reason += (
-            f"; the rig's errors look {said_scale['estimate']:.2g}× what it states "
-            f"({lo:.2g}–{hi:.2g}× at 95 %{'' if said_scale['upper_bounded'] else ' or more'}, "
-            "from the residual along its tolerances' signatures): check its tolerances "
-            "(docs/tolerances.md)"
+        size = (
+            f"{said_scale['estimate']:.2g}× what it states ({lo:.2g}–{hi:.2g}× at 95 %"
+            f"{'' if said_scale['upper_bounded'] else ' or more'})"
         )
+        if with_effects:
+            names = english_list([s["effect"] for s in selected])
+            reason += (
+                f"; once {names} {'is' if len(selected) == 1 else 'are'} fitted, what is left "
+                f"along the rig's tolerances' signatures is {size}: the rig errs by more than "
+                f"it states, or {names} fit{'s' if len(selected) == 1 else ''} the data only "
+                "in part; check its tolerances (docs/tolerances.md)"
+            )
+        else:
+            reason += (
+                f"; the rig's errors look {size}, from the residual along its tolerances' "
+                "signatures: check its tolerances (docs/tolerances.md)"
+            )
     verdict_doc = {
         # SPEC §7's four statuses; a partial explanation is `unexplained` there (what is left
         # is still a gap) and says so in `outcome` and `partially_explained`.
