@@ -5,12 +5,13 @@ The share is ``(B − A) / (B − F)``: B the nominal model's held-out rms, A th
 effects, F the noise floor. B and A are one draw each of what runs like these give (the
 noise they happened to get), and F is estimated from the same residual. Their joint spread is
 measured where the truth is known: in the world where the final model is the truth, with the
-floor's noise model (:func:`.null.draw_noise`; the rig as it is, so no tolerance draws: the
-share is this rig's), every replicate refitted both ways and its floor estimated again on the
-final model's residual, as the diagnosis does.
+floor's noise model (:func:`.null.draw_noise`) and the rig drawn within its stated
+tolerances (the null world's), every replicate refitted both ways and its floor estimated
+again on the final model's residual, as the diagnosis does.
 
 The interval is Fieller's for the ratio of the two differences ``D = B − A`` and
-``G = B − F``, with their covariance from those replicates: the shares x for which
+``G = B − F``, with their covariance from those replicates (F's variance at least the
+square of the floor's own standard error, ``holdout_se_um``): the shares x for which
 ``D − x·G`` is within 1.96 of its standard deviation of 0 (the delta method made exact for
 a ratio). Where the denominator is not itself significant (the gap above the floor within
 its uncertainty), the interval is unbounded and none is stated.
@@ -84,7 +85,10 @@ def closing_interval(
     obs = batch.fit(columns, y, keep=True)
     if obs is None or obs.fitted is None or not np.isfinite(floor.holdout_um):
         return None
-    ys = np.column_stack([y, obs.fitted + draw_noise(design, floor, draws, rng)])
+    sim = obs.fitted + draw_noise(design, floor, draws, rng)
+    if design.nuisance.shape[1]:
+        sim = sim + design.nuisance @ rng.standard_normal((design.nuisance.shape[1], draws))
+    ys = np.column_stack([y, sim])
     before = batch.fit(None, ys)
     after = batch.fit(columns, ys)
     if before is None or after is None or after.hold_resid is None:
@@ -99,11 +103,17 @@ def closing_interval(
     if ok.sum() < 19:
         return None
     d_rep = (b[1:] - a[1:])[ok]
-    g_rep = (b[1:] - fl)[ok]
-    cov = np.cov(np.vstack([d_rep, g_rep]))
+    c = np.cov(np.vstack([d_rep, b[1:][ok], fl[ok]]))  # D, B, F
+    # The floor at least as uncertain as its own 95 % interval says (its spread in the
+    # nominal model's null world), which covers the world's repeatability on the bench.
+    var_f = max(float(c[2, 2]), float(floor.holdout_se_um or 0.0) ** 2)
+    var_g = float(c[1, 1] + var_f - 2.0 * c[1, 2])
+    cov_dg = float(c[0, 1] - c[0, 2])
+    cov = np.array([[c[0, 0], cov_dg], [cov_dg, var_g]])
+    bias = float(np.mean(fl[ok]) - floor.holdout_um)
     d0 = float(b[0] - a[0])
     g0 = float(b[0] - floor.holdout_um)
-    ci = fieller(d0, g0, float(cov[0, 0]), float(cov[1, 1]), float(cov[0, 1]))
+    ci = fieller(d0, g0, float(cov[0, 0]), var_g, cov_dg)
     return {
         "share": d0 / g0 if g0 > 0 else None,
         "ci95": None if ci is None else [float(ci[0]), float(ci[1])],
@@ -112,10 +122,11 @@ def closing_interval(
         "correlation": float(cov[0, 1] / np.sqrt(cov[0, 0] * cov[1, 1]))
         if cov[0, 0] > 0 and cov[1, 1] > 0
         else None,
-        "floor_bias_um": float(np.mean(fl[ok]) - floor.holdout_um),
+        "floor_bias_um": bias,
         "draws": int(ok.sum()),
         "method": "Fieller's interval for (before − after) / (before − floor), the covariance "
         "of the two differences from replicates of the world where the final model is the "
-        "truth (the floor's noise model; each replicate refitted with and without the "
-        "effects and its floor estimated again)",
+        "truth (the floor's noise model, the rig within its stated tolerances; each replicate "
+        "refitted with and without the effects and its floor estimated again), the floor's "
+        "variance at least its own standard error squared",
     }
