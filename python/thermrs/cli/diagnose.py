@@ -169,6 +169,12 @@ def _say_verdict(doc: dict[str, Any]) -> None:
 
     gap = hf.get("gap_closed_raw", hf["gap_closed"])  # uncapped: the display says why it caps
     shown = gap_closed(gap, hf["holdout_rms_after_um"], hf.get("noise_floor_um"))
+    ci = hf.get("gap_closed_ci95")
+    if gap is not None and ci:
+        shown += (
+            f" ({100 * ci[0]:.0f}–{100 * ci[1]:.0f} % at 95 %, before, after and the floor "
+            "uncertain together)"
+        )
     out.print(
         f"How far: held-out rms {hf['holdout_rms_before_um']:.2f} → "
         f"{hf['holdout_rms_after_um']:.2f} µm, max {hf['holdout_max_before_um']:.2f} → "

@@ -48,6 +48,7 @@ import numpy.typing as npt
 import polars as pl
 
 from thermrs.diagnose.candidates import Candidate, plausibility, profile_interval, score
+from thermrs.diagnose.closing import closing_interval
 from thermrs.diagnose.confounding import confounded_pairs
 from thermrs.diagnose.engine import DesignMatrix, Fit
 from thermrs.diagnose.floor import SCALE_SEPARATION, NoiseFloor, noise_floor, thermal_time_scales
@@ -57,9 +58,10 @@ from thermrs.diagnose.null import Batch
 from thermrs.diagnose.resample import cycle_units
 from thermrs.diagnose.result import Diagnosis, assemble
 from thermrs.diagnose.selection import FamilyGrid, Step, build_grids, forward_selection
+from thermrs.diagnose.tolerance_scale import tolerance_scale
 from thermrs.diagnose.tolerances import nuisance_signatures
 from thermrs.diagnose.verdict import decide
-from thermrs.effects import Effect, Family
+from thermrs.effects import Effect, Family, is_instrument
 from thermrs.memo import DiskCache
 from thermrs.rig import Rig
 from thermrs.signatures import VisitSet
@@ -331,7 +333,7 @@ def _diagnose(
     say("candidates")
     margin: float | None = None if margin_um is None else float(margin_um)
     outside = _outside(exclude, library)
-    grids, steps = _select(
+    grids, steps, batch = _select(
         b,
         classes,
         rig,
@@ -340,6 +342,7 @@ def _diagnose(
         null_draws=null_draws,
         margin_um=margin,
         rng=rng,
+        scale_rng=np.random.default_rng([seed % 2**63, 45]),
         say=say,
     )
     margin = steps[0].margin_um
@@ -350,6 +353,13 @@ def _diagnose(
     final, selected = _final_model(b.design, steps, rig, n_eff_train)
     if final is not None:
         _floor_of_final_model(b, final, rig)
+        if final.columns is not None:
+            _with_final_model(b, batch, final.columns, seed)
+    first = steps[0]
+    if first.significant or min(first.p_at_floor, first.p_low) < level / 4.0:
+        _test_at_tolerance_scale(
+            b, batch, grids, steps, rig, level=level / 4.0, draws=null_draws, rng=rng, say=say
+        )
     say("verdict")
     status, reason, rivals = decide(
         steps,
@@ -427,10 +437,13 @@ def _select(
     null_draws: int,
     margin_um: float | None,
     rng: np.random.Generator,
+    scale_rng: np.random.Generator,
     say: Callable[[str], object],
-) -> tuple[list[FamilyGrid], list[Step]]:
+) -> tuple[list[FamilyGrid], list[Step], Batch]:
     """Every family of the library on these runs, and the forward selection among them
-    (each step at level / 4: Bonferroni over the four tests `none` must pass)."""
+    (each step at level / 4: Bonferroni over the four tests `none` must pass), and how far
+    the rig's errors exceed what it states on the nominal residual (:mod:`.tolerance_scale`);
+    the batch of held-out fits they used."""
     fams: list[Family] = []
     for cls in classes.values():
         fams.extend(cls.families(rig, b.vs))
@@ -452,17 +465,45 @@ def _select(
         plausible=plausibility(b.design, rig),
         say=say,
     )
-    first = steps[0]
-    if first.significant or min(first.p_at_floor, first.p_low) < level / 4.0:
-        say("the same test with the rig's tolerances doubled")
-        b.floor.extra["tolerance_excess"] = _tolerance_excess(
-            batch, b, grids, level=level / 4.0, draws=null_draws, rng=rng, rig=rig
-        )
-    return [g for g in grids if g.nameable], steps
+    # How far the rig's errors exceed what it states, from the nominal residual (its own
+    # generator: the rest of the diagnosis draws what it drew before).
+    ts = tolerance_scale(batch, b.design, b.floor, scale_rng)
+    b.floor.extra["tolerance_scale"] = None if ts is None else ts.to_json()
+    return [g for g in grids if g.nameable], steps, batch
 
 
-#: How much larger than stated the tolerance-excess check takes the rig's errors.
-TOLERANCE_EXCESS_SCALE = 2.0
+def _test_at_tolerance_scale(
+    b: _Base,
+    batch: Batch,
+    grids: list[FamilyGrid],
+    steps: list[Step],
+    rig: Rig,
+    *,
+    level: float,
+    draws: int,
+    rng: np.random.Generator,
+    say: Callable[[str], object],
+) -> None:
+    """Where the first step found something: its tests again with the rig erring by the
+    95 % upper confidence bound of the factor by which its errors exceed its statement
+    (estimated with the effects selected fitted, where there are any: an effect of the robot
+    along the tolerances' signatures would otherwise count as the rig's), when that end is
+    above 1 (:func:`_tolerance_excess`)."""
+    ts = b.floor.extra.get("tolerance_scale")
+    if ts is None:
+        return
+    use = ts.get("with_effects") or ts
+    upper = float(use["upper95"])
+    if upper <= 1.0:
+        return
+    # Every effect of the robot the verdict may name: the selected ones and their rivals.
+    named = {st.chosen.effect for st in steps if st.chosen is not None}
+    named |= {r for st in steps for r in st.rivals}
+    robot = sorted(e for e in named if not is_instrument(e))
+    say(f"the same test with the rig's errors at {upper:.2g}× its tolerances")
+    b.floor.extra["tolerance_excess"] = _tolerance_excess(
+        batch, b, grids, scale=upper, robot=robot, level=level, draws=draws, rng=rng, rig=rig
+    )
 
 
 def _tolerance_excess(
@@ -470,21 +511,27 @@ def _tolerance_excess(
     b: _Base,
     grids: list[FamilyGrid],
     *,
+    scale: float,
+    robot: list[str],
     level: float,
     draws: int,
     rng: np.random.Generator,
     rig: Rig,
 ) -> dict[str, Any]:
-    """The first step's tests again in a null world whose rig errs by twice its stated
-    tolerances: whether what the data show is within what a rig that understates its
-    errors by that much would leave by itself (then the rig's statement is the first thing
-    to check, before any effect)."""
+    """The first step's tests again in a null world whose rig errs by ``scale`` times its
+    stated tolerances (the 95 % upper confidence bound of that factor estimated from the
+    data, :mod:`.tolerance_scale`): an effect of the robot is named only if it is still
+    significant there, so the test keeps its level on a rig that understates its errors by
+    as much as the data allow. ``explains`` is true where none of the effects of the robot
+    the verdict would name at the stated tolerances (``robot``: selected, or their rivals)
+    is significant there (where it would name none: where nothing is, and the residual is at
+    that world's floor)."""
     from thermrs.diagnose.selection import run_step
 
     saved = b.design.nuisance
     if saved.shape[1] == 0:
-        return {"scale": TOLERANCE_EXCESS_SCALE, "tested": False}
-    b.design.nuisance = saved * TOLERANCE_EXCESS_SCALE
+        return {"scale": scale, "tested": False}
+    b.design.nuisance = saved * scale
     try:
         st = run_step(
             batch,
@@ -500,14 +547,20 @@ def _tolerance_excess(
         )
     finally:
         b.design.nuisance = saved
-    explains = not st.significant and st.p_at_floor >= level and st.p_low >= level
+    effect_of = {g.family.label: g.family.effect for g in grids}
+    still = sorted({effect_of[lab] for lab in st.significant if lab in effect_of})
+    if robot:
+        explains = not set(robot) & set(still)
+    else:
+        explains = not st.significant and st.p_at_floor >= level and st.p_low >= level
     return {
-        "scale": TOLERANCE_EXCESS_SCALE,
+        "scale": scale,
         "tested": True,
         "p_at_floor": st.p_at_floor,
         "p_white_at_thermal_scales": st.p_low,
         "p_best_gain": st.p_gain,
         "significant": st.significant,
+        "significant_effects": still,
         "explains": bool(explains),
     }
 
@@ -580,6 +633,25 @@ def _floor_of_final_model(b: _Base, final: Fit, rig: Rig) -> None:
     if fl.holdout_se_um is not None:
         se = fl.holdout_se_um
         fl.holdout_ci95 = (max(fl.holdout_um - 1.96 * se, 0.0), fl.holdout_um + 1.96 * se)
+
+
+def _with_final_model(b: _Base, batch: Batch, columns: FloatArray, seed: int) -> None:
+    """What the final model (its effect ``columns``) adds to the floor's record: the share of
+    the gap it closes with its interval (:mod:`.closing`), and how far the rig's errors
+    exceed its statement once the effects are fitted (:mod:`.tolerance_scale`; the estimate
+    on the nominal residual counts an effect along the tolerances' signatures as the
+    rig's; fitted with them, what they absorb of the tolerances' signatures is counted,
+    so the estimate holds whether they are real or not). Each from its own generator: the
+    rest of the diagnosis draws what it drew."""
+    b.floor.extra["closing"] = closing_interval(
+        batch, b.design, b.floor, columns, np.random.default_rng([seed % 2**63, 47])
+    )
+    ts = b.floor.extra.get("tolerance_scale")
+    if ts is not None:
+        after = tolerance_scale(
+            batch, b.design, b.floor, np.random.default_rng([seed % 2**63, 46]), columns=columns
+        )
+        ts["with_effects"] = None if after is None else after.to_json()
 
 
 def _final_model(

@@ -16,7 +16,7 @@ from thermrs.diagnose.candidates import Candidate
 from thermrs.diagnose.engine import Fit
 from thermrs.diagnose.floor import NoiseFloor
 from thermrs.diagnose.selection import Step
-from thermrs.diagnose.verdict import summary
+from thermrs.diagnose.verdict import english_list, summary
 from thermrs.effects import is_instrument
 from thermrs.signatures import VisitSet
 
@@ -310,6 +310,82 @@ def _tests(steps: list[Step], level: float) -> dict[str, Any]:
     }
 
 
+def _rig_statement(
+    status: str,
+    reason: str,
+    selected: list[dict[str, Any]],
+    rivals: list[str],
+    floor: NoiseFloor,
+) -> tuple[str, str, bool, bool]:
+    """The verdict with what the data say of the rig's errors against its statement:
+    ``unexplained`` where the effects of the robot it would name are not significant against
+    a rig erring by the factor's 95 % upper bound (``tests.tolerance_excess``), and the
+    factor said where its interval lies above 1. Returns (status, reason, exceeded,
+    errs_more)."""
+    excess = floor.extra.get("tolerance_excess") or {}
+    robot = [
+        e
+        for e in dict.fromkeys([*(sel["effect"] for sel in selected), *rivals])
+        if not is_instrument(e)
+    ]
+    exceeded = bool(excess.get("explains")) and status != "none" and bool(robot)
+    if exceeded:
+        # The data do not tell the effects of the robot from a rig that errs by as much more
+        # than it states as they allow: the rig's statement is what to check first.
+        status = "unexplained"
+        reason = (
+            f"what these runs show is within what the rig leaves by itself were its errors "
+            f"{excess['scale']:.2g}× what it states (the 95 % upper confidence bound the data "
+            f"give that factor; {english_list(robot)} not "
+            f"significant then, p at the floor {excess['p_at_floor']:.2f}): check the rig's "
+            f"tolerances (docs/tolerances.md) before taking it for an effect; with the stated "
+            f"tolerances: {reason}"
+        )
+    scale_doc = floor.extra.get("tolerance_scale") or {}
+    # What the verdict says of the rig: k on the residual of the model with the effects
+    # selected, where there are any (the one the test used); the nominal residual's otherwise.
+    with_effects = scale_doc.get("with_effects")
+    said_scale = with_effects or scale_doc
+    errs_more = bool(said_scale.get("exceeds_stated"))
+    if errs_more:
+        lo, hi = said_scale["ci95"]
+        size = (
+            f"{said_scale['estimate']:.2g}× what it states ({lo:.2g}–{hi:.2g}× at 95 %"
+            f"{'' if said_scale['upper_bounded'] else ' or more'})"
+        )
+        if with_effects:
+            names = english_list([s["effect"] for s in selected])
+            reason += (
+                f"; once {names} {'is' if len(selected) == 1 else 'are'} fitted, what is left "
+                f"along the rig's tolerances' signatures is {size}: the rig errs by more than "
+                f"it states, or {names} fit{'s' if len(selected) == 1 else ''} the data only "
+                "in part; check its tolerances (docs/tolerances.md)"
+            )
+        else:
+            reason += (
+                f"; the rig's errors look {size}, from the residual along its tolerances' "
+                "signatures: check its tolerances (docs/tolerances.md)"
+            )
+    return status, reason, exceeded, errs_more
+
+
+def _closing(how_far: dict[str, Any], base: Fit, floor: NoiseFloor, final: Fit | None) -> None:
+    """The gap above the floor and the share of it closed, with its 95 % interval (before,
+    after and the floor uncertain together: :mod:`.closing`), into ``how_far``."""
+    fl = floor.holdout_um
+    fci = floor.holdout_ci95
+    before_rms = base.holdout_rms_um
+    how_far["gap_above_floor_um"] = before_rms - fl
+    how_far["gap_above_floor_ci95"] = [before_rms - fci[1], before_rms - fci[0]] if fci else None
+    closing = floor.extra.get("closing") if final is not None else None
+    ci = None if closing is None else closing.get("ci95")
+    how_far["gap_closed_ci95"] = (
+        None if ci is None else [max(min(ci[0], 1.0), 0.0), max(min(ci[1], 1.0), 0.0)]
+    )
+    how_far["gap_closed_raw_ci95"] = ci
+    how_far["gap_closed_interval"] = closing
+
+
 def _how_far(base: Fit, after: Fit, fl: float, changed: bool) -> dict[str, Any]:
     base_rms = base.holdout_rms_um
     gap = base_rms - fl
@@ -399,20 +475,7 @@ def assemble(
         if len(last) >= 19 and mid > 0
         else None
     )
-    # The gap above the floor, and the share of it closed, over the floor's 95 % interval
-    # (the floor is an estimate; the rms before and after are what these runs show).
-    fci = floor.holdout_ci95
-    before_rms = base.holdout_rms_um
-    how_far["gap_above_floor_um"] = before_rms - fl
-    how_far["gap_above_floor_ci95"] = [before_rms - fci[1], before_rms - fci[0]] if fci else None
-    if fci and final is not None and before_rms > fci[1]:
-        removed = before_rms - after.holdout_rms_um
-        how_far["gap_closed_ci95"] = [
-            max(min(removed / (before_rms - fci[0]), 1.0), 0.0),
-            max(min(removed / (before_rms - fci[1]), 1.0), 0.0),
-        ]
-    else:
-        how_far["gap_closed_ci95"] = None
+    _closing(how_far, base, floor, final)
     how_far["holdout_rms_after_ci95_note"] = (
         "95 % of sets of held-out runs like these keep an rms in this range once the model "
         "is applied: the rms it left here, spread as the held-out rms spreads in the model's "
@@ -438,28 +501,19 @@ def assemble(
                 )
     if advice and status != "none":
         reason = f"{reason}; {'; '.join(advice)}"
-    excess = floor.extra.get("tolerance_excess") or {}
-    robot = [sel for sel in selected if not is_instrument(sel["effect"])]
-    exceeded = bool(excess.get("explains")) and status != "none" and bool(robot)
-    if exceeded:
-        # The data do not tell an effect of the robot from a rig that errs by twice what it
-        # states: the rig's statement is what to check, not a physical effect to name.
-        status = "unexplained"
-        reason = (
-            f"what these runs show is within what the rig leaves by itself were its errors "
-            f"{excess['scale']:g}× what it states (no effect significant then; p at the floor "
-            f"{excess['p_at_floor']:.2f}): check the rig's tolerances (docs/tolerances.md) "
-            f"before taking it for an effect; with the stated tolerances: {reason}"
-        )
+    status, reason, exceeded, errs_more = _rig_statement(status, reason, selected, rivals, floor)
     verdict_doc = {
         # SPEC §7's four statuses; a partial explanation is `unexplained` there (what is left
         # is still a gap) and says so in `outcome` and `partially_explained`.
         "status": "unexplained" if status == "partially explained" else status,
         "outcome": status,
         "partially_explained": status == "partially explained",
-        # The gap is within what the rig leaves if it errs by twice its stated tolerances
-        # (tests.tolerance_excess): no effect of the robot is named.
+        # The gap is within what the rig leaves if it errs by as much more than it states as
+        # the data allow (tests.tolerance_excess): no effect of the robot is named.
         "rig_tolerances_exceeded": exceeded,
+        # The data show the rig's errors exceed what it states: the 95 % interval of the
+        # factor (tests.tolerance_scale, on the residual of the model reported) lies above 1.
+        "rig_errors_exceed_stated": errs_more,
         # The effect that explains the gap: none does where what is left is still a gap
         # ("partially explained": the effects that explain a part are in `effects`).
         "effect": None
@@ -546,7 +600,11 @@ def assemble(
             # False: the rig file states no [tolerances]; the null drew the defaults
             # (docs/tolerances.md: the published metrology each comes from).
             "tolerances_stated": tolerances[2],
-            # The first step again with the rig's errors doubled (where it found something).
+            # The factor by which the rig's errors exceed its stated tolerances, estimated
+            # from the held-out residual (:mod:`.tolerance_scale`).
+            "tolerance_scale": floor.extra.get("tolerance_scale"),
+            # The first step again with the rig erring by that factor's 95 % upper bound
+            # (where it found something and that bound is above 1).
             "tolerance_excess": floor.extra.get("tolerance_excess"),
             "tolerance_signatures": tolerances[1],
         },

@@ -276,7 +276,13 @@ def summary(d: Any) -> str:
             )
         elif closed is not None:
             ci = hf.get("gap_closed_ci95")
-            within = f" ({ci[0]:.0%}–{ci[1]:.0%} over the floor's 95 % interval)" if ci else ""
+            within = (
+                f" ({ci[0]:.0%}–{ci[1]:.0%} at 95 %, before, after and the floor uncertain "
+                "together)"
+                if ci
+                else " (no interval: the gap is not told from 0 once before, after and the "
+                "floor are uncertain together)"
+            )
             share = f", closing {closed:.0%}{within} of the gap above the floor"
         else:
             share = ""
