@@ -252,12 +252,9 @@ def outlook(
         mapped temperatures).
     rig
         The rig (a :class:`~thermrs.Rig` or the path of a rig file).
-    alpha_per_k, alpha_se
-        α (1/K) and its standard error.
-    horizon_h
-        Hours after the run's first visit the outlook reaches (the run's planned length).
-    tolerance_um
-        A tolerance on the drift along either chip axis (µm), or None.
+    alpha_per_k, alpha_se, horizon_h, tolerance_um
+        α (1/K) and its standard error; the hours after the run's first visit the outlook
+        reaches (the run's planned length); a tolerance on either chip axis (µm), or None.
     noise_um
         The scatter of a measured drift about the model (µm; e.g. the training fit's residual
         rms): the band is then a prediction interval for what will be measured.
