@@ -371,20 +371,7 @@ class StopRule:
         end = h >= self.planned_hours - _EPS_H
         runs = _usable_runs(truncate_run(holdout_so_far, hours=h))
         if not runs:
-            lk = Look(
-                hours=h,
-                level=0.0,
-                level_spent=self.spent_so_far,
-                status="too little data",
-                named=(),
-                detectable_95_um=None,
-                stop=end,
-                settled=False,
-                message=f"{h:g} h: too little of the held-out recording yet for a diagnosis "
-                f"({MIN_VISITS} visits per camera); nothing of the error budget spent",
-            )
-            self.looks.append(lk)
-            return lk
+            return self._record(self._too_little(h, end=end))
         cum = spent(h / self.planned_hours, level=self.level)
         lvl = cum - self.spent_so_far
         d = diagnose(
@@ -400,17 +387,7 @@ class StopRule:
         named = _named(d) if status in ("identified", "ambiguous") else ()
         d95 = _detectable_95(d)
         prev = next((x for x in reversed(self.looks) if x.diagnosis is not None), None)
-        same = prev is not None and prev.status == status and prev.named == named
-        settled = same and (
-            bool(named)
-            or (
-                status == "none"
-                and h >= self.none_after_h - _EPS_H
-                and self.care_um is not None
-                and d95 is not None
-                and d95 <= self.care_um
-            )
-        )
+        settled = self._settles(h, status, named, d95, prev)
         msg = self._message(h, status, named, d95, settled, end, prev)
         lk = Look(
             hours=h,
@@ -424,8 +401,48 @@ class StopRule:
             message=msg,
             diagnosis=d,
         )
+        return self._record(lk)
+
+    def _record(self, lk: Look) -> Look:
         self.looks.append(lk)
         return lk
+
+    def _too_little(self, h: float, *, end: bool) -> Look:
+        """A look at a recording too short for a diagnosis: nothing spent."""
+        return Look(
+            hours=h,
+            level=0.0,
+            level_spent=self.spent_so_far,
+            status="too little data",
+            named=(),
+            detectable_95_um=None,
+            stop=end,
+            settled=False,
+            message=f"{h:g} h: too little of the held-out recording yet for a diagnosis "
+            f"({MIN_VISITS} visits per camera); nothing of the error budget spent",
+        )
+
+    def _settles(
+        self,
+        h: float,
+        status: str,
+        named: tuple[str, ...],
+        d95: float | None,
+        prev: Look | None,
+    ) -> bool:
+        """The stop rule (module docs): the same verdict as the last look, and either effects
+        named or a ``none`` with the power to see ``care_um`` from ``none_after_h`` on."""
+        if prev is None or prev.status != status or prev.named != named:
+            return False
+        if named:
+            return True
+        return (
+            status == "none"
+            and h >= self.none_after_h - _EPS_H
+            and self.care_um is not None
+            and d95 is not None
+            and d95 <= self.care_um
+        )
 
     def _message(
         self,
