@@ -9,7 +9,11 @@ looks every ``--look-every-h`` hours of it until it says stop; the verdict at th
 scored as the bench scores a diagnosis (:func:`thermrs.diagnose.bench_world.score.outcome`),
 and so is the fixed protocol's (the whole recording diagnosed once at the full level).
 
-    python benchmarks/bench_stop.py --seeds 2 --first-seed 4800000 --jobs 2 --json stop.json
+    python benchmarks/bench_stop.py --seeds 2 --first-seed 4810000 --jobs 2 --jsonl stop.jsonl
+    python benchmarks/bench_stop.py --summarize stop.jsonl
+
+Each finished case is appended to ``--jsonl`` as it comes (a run cut short keeps what it did);
+``--summarize`` counts a file of them.
 
 Seeds 1000–4999 are the diagnoser's rules' own and are refused.
 """
@@ -22,7 +26,7 @@ import os
 import statistics
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from multiprocessing import get_context
 from typing import Any
@@ -69,6 +73,9 @@ def run(job: Job) -> dict[str, Any]:
     )
     truths, snrs, _ = case_truths(wrig, scene, case.effects, case.target_snr, case.seed)
     row: dict[str, Any] = {
+        "hours": case.campaign.hours,
+        "look_every_h": job.look_every_h,
+        "level": job.level,
         "kind": case.kind,
         "world": case.world,
         "truth": list(case.effects),
@@ -183,7 +190,8 @@ def _counts(xs: list[str]) -> dict[str, int]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--seeds", type=int, default=1)
-    ap.add_argument("--first-seed", type=int, required=True)
+    ap.add_argument("--first-seed", type=int, default=None)
+    ap.add_argument("--summarize", default=None, help="count the cases of a --jsonl file")
     ap.add_argument("--snr", type=float, nargs="+", default=[1.0, 2.0])
     ap.add_argument("--effect", nargs="*", default=None, help="default: every effect")
     ap.add_argument("--worlds", nargs="+", default=["white", "ar1"])
@@ -194,8 +202,16 @@ def main() -> None:
     ap.add_argument("--level", type=float, default=0.05)
     ap.add_argument("--care-um", type=float, default=None)
     ap.add_argument("--jobs", type=int, default=1)
-    ap.add_argument("--json", default=None)
+    ap.add_argument("--jsonl", default=None, help="append each case's row to this file")
     args = ap.parse_args()
+    if args.summarize:
+        with open(args.summarize) as f:
+            found = [json.loads(line) for line in f if line.strip()]
+        print(json.dumps(summarize(found), indent=2, ensure_ascii=False))
+        print(f"{len(found)} cases")
+        return
+    if args.first_seed is None:
+        raise SystemExit("give --first-seed (fresh seeds: not 1000–4999)")
     last = args.first_seed + 1000 * args.seeds
     if args.first_seed <= 4999 and last > 1000:
         raise SystemExit("seeds 1000–4999 are the diagnoser's rules' own: give fresh ones")
@@ -219,6 +235,9 @@ def main() -> None:
 
     def done(r: dict[str, Any]) -> None:
         rows.append(r)
+        if args.jsonl:
+            with open(args.jsonl, "a") as f:
+                f.write(json.dumps(r, default=float) + "\n")
         truth = "+".join(r["truth"]) or "none"
         got = (
             "skipped"
@@ -235,22 +254,10 @@ def main() -> None:
             done(run(j))
     else:
         with ProcessPoolExecutor(args.jobs, get_context("spawn"), initializer=worker_init) as pool:
-            for r in pool.map(run, jobs):
-                done(r)
-    doc = {
-        "setup": {**vars(args), "planned_hours": 2 * args.hours},
-        "seconds": time.perf_counter() - t0,
-        "summary": summarize(rows),
-        "results": rows,
-    }
-    print(json.dumps(doc["summary"], indent=2, ensure_ascii=False))
-    print(f"{len(rows)} cases in {doc['seconds']:.0f} s")
-    if args.json:
-        from pathlib import Path
-
-        from thermrs.atomic import write_text
-
-        write_text(Path(args.json), json.dumps(doc, indent=2, default=float))
+            for fut in as_completed([pool.submit(run, j) for j in jobs]):
+                done(fut.result())
+    print(json.dumps(summarize(rows), indent=2, ensure_ascii=False))
+    print(f"{len(rows)} cases in {time.perf_counter() - t0:.0f} s")
 
 
 if __name__ == "__main__":
