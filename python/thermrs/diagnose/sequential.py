@@ -34,9 +34,10 @@ Each look's null has enough draws to resolve its level (:data:`RESOLVE`).
 
 **The stop rule.** A look *settles* the verdict when
 
-- it names effects (``identified`` or ``ambiguous``) and the look before named the same set
-  with the same status (each at its own spent level): a named effect is significant at the
-  look's level and stable; or
+- it names effects (``identified``, or ``ambiguous`` unless ``settle_ambiguous`` is off, as
+  for a run planned by ``thermrs design`` to separate the rivals) and the look before named
+  the same set with the same status (each at its own spent level): a named effect is
+  significant at the look's level and stable; or
 - it is ``none``, the look before was ``none`` too, the recording is at least ``none_after_h``
   long, and the data had the power to see what the user cares about (``care_um``, an rms of
   drift in µm): every effect of the library (its hardest family) would have been named from
@@ -255,6 +256,10 @@ class StopRule:
     none_after_h
         Hours from which a ``none`` may settle: by then the recording has been through every
         thermal condition the question is about (module docs). Default: ``planned_hours``.
+    settle_ambiguous
+        Whether an ``ambiguous`` verdict (rivals the data cannot reject) may settle. False
+        for a run ``thermrs design`` planned to separate them: its question is which one, and
+        only ``identified`` answers it.
     min_null_draws
         Null draws of a look at least (more where its level needs them: :data:`RESOLVE`).
 
@@ -273,6 +278,7 @@ class StopRule:
         level: float = LEVEL,
         care_um: float | None = None,
         none_after_h: float | None = None,
+        settle_ambiguous: bool = True,
         min_null_draws: int = NULL_DRAWS,
     ) -> None:
         if not (math.isfinite(planned_hours) and planned_hours > 0):
@@ -293,6 +299,7 @@ class StopRule:
         self.level = float(level)
         self.care_um = care_um
         self.none_after_h = float(planned_hours if none_after_h is None else none_after_h)
+        self.settle_ambiguous = bool(settle_ambiguous)
         self.min_null_draws = int(min_null_draws)
         self.looks: list[Look] = []
 
@@ -435,7 +442,7 @@ class StopRule:
         if prev is None or prev.status != status or prev.named != named:
             return False
         if named:
-            return True
+            return status == "identified" or self.settle_ambiguous
         return (
             status == "none"
             and h >= self.none_after_h - _EPS_H
@@ -459,8 +466,8 @@ class StopRule:
         if settled and named:
             return (
                 f"{what} {status} after {h:g} h (and at the look before, {prev.hours:g} h); "  # type: ignore[union-attr]
-                f"the error over every look is held at {self.level:g}: the verdict stands at "
-                f"{conf} and further data will not be needed to change it"
+                f"with the error over every look held at {self.level:g}, the verdict stands at "
+                f"{conf}: further data are not needed"
                 + (
                     "; the data cannot tell these apart (thermrs design finds the measurement "
                     "that would)"
@@ -484,6 +491,11 @@ class StopRule:
             )
         left = self.planned_hours - h
         nxt = min(h + self.look_every_h, self.planned_hours)
+        if status == "ambiguous" and not self.settle_ambiguous:
+            return (
+                f"{what} at {h:g} h: the data cannot reject the rivals yet, and the question "
+                f"is which; open until a look identifies one ({left:g} h of the plan left)"
+            )
         if named:
             return (
                 f"{what} {status} at {h:g} h (level {self.spent_so_far_after(h):.3g} spent); "
