@@ -69,6 +69,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -331,7 +332,7 @@ class StopRule:
         self,
         train: Sequence[pl.DataFrame],
         holdout_so_far: pl.DataFrame,
-        rig: Rig,
+        rig: Rig | str | os.PathLike[str],
         *,
         hours: float,
         exclude: Sequence[str] = (),
@@ -347,7 +348,7 @@ class StopRule:
             The held-out recording so far: one table, one run or several recorded one after
             the other (``run`` column); cut at ``hours`` since its first visit.
         rig
-            The rig.
+            The rig, or the path of its file.
         hours
             Hours of the recording at this look; more than at the last look.
         exclude
@@ -374,6 +375,9 @@ class StopRule:
         last_h = self.looks[-1].hours if self.looks else 0.0
         if hours <= last_h:
             raise ValueError(f"hours {hours:g} is not past the last look's ({last_h:g} h)")
+        from thermrs.rig import as_rig
+
+        rig = as_rig(rig)
         h = min(float(hours), self.planned_hours)
         end = h >= self.planned_hours - _EPS_H
         runs = _usable_runs(truncate_run(holdout_so_far, hours=h))
