@@ -155,6 +155,8 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
                 sum(r["stop_outcome"] in WRONG for r in sel if r["settled"]),
                 sum(r["settled"] for r in sel),
             ),
+            "identified_truth_alone_at_stop": _ci(sum(_alone(r, "stop") for r in sel), n),
+            "identified_truth_alone_fixed": _ci(sum(_alone(r, "fixed") for r in sel), n),
             "stop_outcomes": _counts([r["stop_outcome"] for r in sel]),
             "fixed_outcomes": _counts([r["fixed_outcome"] for r in sel]),
             "median_hours_saved": statistics.median([r["hours_saved"] for r in sel])
@@ -178,6 +180,12 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
     }
     out["skipped"] = len(rows) - len(done)
     return out
+
+
+def _alone(r: dict[str, Any], which: str) -> bool:
+    """``identified`` with exactly the true effects named (the bench's strict right)."""
+    named = set(r[f"{which}_named"])
+    return r[f"{which}_status"] == "identified" and bool(named) and named == set(r["truth"])
 
 
 def _counts(xs: list[str]) -> dict[str, int]:
