@@ -489,9 +489,9 @@ class StopRule:
         if end:
             said = f"{status}" + (f" ({what})" if named else "")
             return (
-                f"the planned {self.planned_hours:g} h are in: the verdict is {said}, at the "
-                f"{self.level - (self.spent_so_far):.3g} of the error budget left for this "
-                "look; it did not settle before"
+                f"the planned {self.planned_hours:g} h are in: the verdict is {said}, at level "
+                f"{self.level - self.spent_so_far:.3g} (what the budget left for this last "
+                "look); it had not settled before"
             )
         left = self.planned_hours - h
         nxt = min(h + self.look_every_h, self.planned_hours)
