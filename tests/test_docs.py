@@ -8,6 +8,7 @@ import inspect
 import pytest
 import thermrs
 import thermrs.atomic
+import thermrs.diagnose.sequential
 import thermrs.heating
 import thermrs.ingest
 import thermrs.iso9283
@@ -29,6 +30,7 @@ import thermrs.rig
         thermrs.predict,
         thermrs.ingest,
         thermrs.atomic,
+        thermrs.diagnose.sequential,
     ],
 )
 def test_docstring_examples(module: object) -> None:
