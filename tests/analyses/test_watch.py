@@ -11,6 +11,7 @@ to leave a tolerance is where the truth leaves it.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -185,3 +186,28 @@ def test_the_tolerance_is_left_where_the_truth_leaves_it(
     row = mid.outlook.crossings.filter((pl.col("camera") == "A") & (pl.col("axis") == axis))
     lo, hi = row["leaves_lo_h"].item(), row["leaves_hi_h"].item()
     assert lo is not None and lo <= crossed and (hi is None or crossed <= hi)
+
+
+def test_the_sequential_diagnosis_and_the_finished_runs(
+    tmp_path: Path, runs: Runs, paper_rig: thermrs.Rig
+) -> None:
+    """With training runs the watch looks every 2 h (one error budget over the looks) and,
+    once the recording closes, gives the diagnosis `thermrs diagnose` gives on the finished
+    file (the same runs, options and seed)."""
+    from thermrs.diagnose import diagnose
+
+    live = tmp_path / "live.mcap"
+    drip = Drip(runs.live, live, pieces=12)
+    updates = list(
+        watch(live, paper_rig, train=[runs.train], sleep=drip, poll_s=0, look_every_h=2.0)
+    )
+    looks = [u.look for u in updates if u.look is not None]
+    assert looks, "no look was taken"
+    spent = [lk.level_spent for lk in dict.fromkeys(looks)]
+    assert all(b > a for a, b in itertools.pairwise(spent)) and spent[-1] <= 0.05
+    final = updates[-1].diagnosis
+    assert final is not None
+    held = thermrs.runs.load_runs(runs.live, paper_rig).tables
+    want = diagnose([runs.train], held, paper_rig)
+    assert final.outcome == want.outcome
+    assert final.to_json()["verdict"] == want.to_json()["verdict"]

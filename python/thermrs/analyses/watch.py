@@ -108,7 +108,8 @@ class WatchUpdate:
             ``recording``, ``closed``, ``bytes_read``, ``hours``, ``visits``,
             ``temperatures_c``, ``alpha`` (``value``, ``stderr``, ``source``), ``outlook``
             (``horizon_h``, ``tolerance_um``, ``crossings``, ``temperatures``, ``notes``),
-            ``look`` and ``waiting``.
+            ``look``, ``diagnosis`` (at close, ``thermrs diagnose --json``'s document) and
+            ``waiting``.
         """
         o = self.outlook
         look = self.look.to_json() if hasattr(self.look, "to_json") else None
@@ -133,6 +134,7 @@ class WatchUpdate:
                 "notes": list(o.notes),
             },
             "look": look,
+            "diagnosis": None if self.diagnosis is None else self.diagnosis.to_json(),
             "waiting": self.waiting or None,
             "written": {k: str(v) for k, v in self.written.items()},
         }
@@ -267,7 +269,10 @@ def watch(
     poll_s: float = 5.0,
     until_s: float | None = None,
     stop_rule: Any = None,
+    sequential: bool = True,
     look_every_h: float = 1.0,
+    care_um: float | None = None,
+    settle_ambiguous: bool = True,
     exclude: Sequence[str] = (),
     seed: int = 0,
     sleep: Callable[[float], object] = time.sleep,
@@ -296,9 +301,12 @@ def watch(
     poll_s, until_s
         Seconds between reads while nothing is added; of watching before it stops (the
         tables so far written to ``out``).
-    stop_rule, look_every_h, exclude
-        A sequential diagnosis (:class:`thermrs.diagnose.sequential.StopRule`; needs
-        ``train``), the hours of run between its looks, the effects it never names.
+    stop_rule, sequential, look_every_h, care_um, settle_ambiguous, exclude
+        The sequential diagnosis (needs ``train``): a
+        :class:`thermrs.diagnose.sequential.StopRule` given, else with ``sequential`` one
+        made over the planned hours with a look every ``look_every_h`` hours of run (its
+        ``care_um`` and ``settle_ambiguous``: False for a run ``thermrs design`` planned);
+        the effects it never names.
     seed
         Seed of the outlook's draws and the looks.
     sleep, clock
@@ -320,20 +328,14 @@ def watch(
     rig = as_rig(rig)
     p = Path(path)
     out_p = Path(out) if out is not None else None
-    state = read_partial(out_p) if out_p is not None else None
-    if out_p is not None and not out_p.parent.is_dir():
-        raise InputError(f"-o {out_p}: no such folder {out_p.parent}")
-    f = Follower(
-        p,
-        rig,
-        state=state[1] if state else None,
-        resumed=state[0] if state else None,
-    )
+    f = _follower(p, rig, out_p)
     name = run_name(p) if p.suffix == ".mcap" else p.name
     train = list(train)
     planned = hours
     if planned is None and train:
         planned = max(run_hours(t) for t in train)
+    if stop_rule is None and sequential and train:
+        stop_rule = _rule(planned or 15.0, look_every_h, care_um, settle_ambiguous)
     looks = _Looks(stop_rule, train, rig, every_h=look_every_h, exclude=exclude, seed=seed)
     started = clock()
     first = True
@@ -354,6 +356,31 @@ def watch(
         if out_p is not None and f.bytes_read and not f.closed:
             _write(f, None, out_p, final=False)
         raise
+
+
+def _follower(path: Path, rig: Rig, out: Path | None) -> Follower:
+    """A follower of ``path``, going on from the tables a stopped watch left at ``out``."""
+    if out is not None and not out.parent.is_dir():
+        raise InputError(f"-o {out}: no such folder {out.parent}")
+    state = read_partial(out) if out is not None else None
+    if state is None:
+        return Follower(path, rig)
+    return Follower(path, rig, state=state[1], resumed=state[0])
+
+
+def _rule(planned_h: float, every_h: float, care_um: float | None, settle: bool) -> Any:
+    """The stop rule over the planned hours (bad options as one line)."""
+    from thermrs.diagnose.sequential import StopRule
+
+    try:
+        return StopRule(
+            planned_hours=planned_h,
+            look_every_h=min(every_h, planned_h),
+            care_um=care_um,
+            settle_ambiguous=settle,
+        )
+    except ValueError as e:
+        raise InputError(f"the sequential diagnosis: {e}") from None
 
 
 class _Looks:

@@ -106,7 +106,9 @@ def _view(u: WatchUpdate) -> RenderableType:
             )
         )
     if u.look is not None and hasattr(u.look, "message"):
-        parts.append(Text(f"diagnosis: {u.look.message}", style="bold"))
+        parts.append(Text(f"sequential diagnosis: {u.look.message}", style="bold"))
+    if u.diagnosis is not None:
+        parts.append(Text(f"the finished run's diagnosis: {u.diagnosis.summary}"))
     return Group(*parts)
 
 
@@ -169,6 +171,26 @@ def _view(u: WatchUpdate) -> RenderableType:
     help="With --train: hours of run between the sequential diagnosis's looks.",
 )
 @click.option(
+    "--care-um",
+    type=click.FloatRange(min=0, min_open=True),
+    default=None,
+    help="With --train: the smallest rms of drift (µm) you need to see; an effect-free "
+    "verdict settles early only once every effect that large would have been named with 95 % "
+    "power (else only at the plan's end).",
+)
+@click.option(
+    "--designed",
+    is_flag=True,
+    help="A run `thermrs design` planned to separate rival effects: only `identified` "
+    "settles it (an ambiguous verdict does not).",
+)
+@click.option(
+    "--exclude",
+    "exclude",
+    multiple=True,
+    help="Effects the sequential diagnosis never names (SPEC §6 names), as for diagnose.",
+)
+@click.option(
     "--diagnose/--no-diagnose",
     "diagnose",
     default=True,
@@ -179,7 +201,7 @@ def watch(
     recording: Path, rig_path: Path, train: tuple[Path, ...], tolerance_um: float | None,
     hours: float | None, out_path: Path | None, html_path: Path | None,
     json_path: Path | None, every_s: float, until: str | None, look_every_h: float,
-    diagnose: bool,
+    care_um: float | None, designed: bool, exclude: tuple[str, ...], diagnose: bool,
 ) -> None:  # fmt: skip
     """Follow RECORDING (an MCAP file or a bag folder of MCAP parts) while it is written:
     the drift so far per camera and chip axis with the ROI temperatures, the forward model's
@@ -201,17 +223,6 @@ def watch(
     until_s = _duration_s(until)
     r = load_rig(rig_path)
     tables = file_tables(train, r, "--train")[0] if train else []
-    rule = None
-    if diagnose and tables:
-        try:
-            from thermrs.diagnose.sequential import StopRule
-        except ImportError:  # pragma: no cover - the rule ships with the diagnoser
-            StopRule = None
-        if StopRule is not None:
-            from thermrs.outlook import run_hours
-
-            planned = hours or max((run_hours(t) for t in tables), default=15.0)
-            rule = StopRule(planned_hours=planned, look_every_h=look_every_h)
     updates = run_watch(
         recording,
         r,
@@ -221,8 +232,11 @@ def watch(
         out=out_path,
         poll_s=every_s,
         until_s=until_s,
-        stop_rule=rule,
+        sequential=diagnose,
         look_every_h=look_every_h,
+        care_um=care_um,
+        settle_ambiguous=not designed,
+        exclude=exclude,
     )
     last = None
     con = console()

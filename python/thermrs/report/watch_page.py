@@ -153,8 +153,13 @@ def _sections(u: WatchUpdate) -> list[Section]:
             cols = ["name", "now (°C)"]
         out.append(Section("temperatures", "Temperatures", [Table("Latest readings", cols, trows)]))
     look = u.look
+    diag: list[Any] = []
     if look is not None and hasattr(look, "message"):
-        out.append(Section("diagnosis", "Sequential diagnosis", [Paragraph(str(look.message))]))
+        diag.append(Paragraph(str(look.message)))
+    if u.diagnosis is not None:
+        diag.append(Paragraph(f"The finished run's diagnosis: {u.diagnosis.summary}"))
+    if diag:
+        out.append(Section("diagnosis", "Diagnosis", diag))
     return out
 
 
