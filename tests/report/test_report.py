@@ -27,7 +27,9 @@ from urllib.parse import unquote
 import polars as pl
 import pytest
 import thermrs
-from thermrs.report import find_chromium, load_run, write_report
+from thermrs.analyses.report import write_report
+from thermrs.analyses.report_runs import load_run
+from thermrs.report import find_chromium
 from thermrs.report.document import SECTION_IDS
 
 from tests.support.scenarios import FAST_NODES, WARM_UP_90_MIN
