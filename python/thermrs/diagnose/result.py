@@ -380,116 +380,9 @@ def assemble(
     fl = floor.holdout_um
     ranking = [_ranking_row(c, base_rms, n_eff_train) for c in cands]
     after = final if final is not None else base
-    how_far = _how_far(base, after, fl, final is not None)
-    # What held-out runs like these keep after the model: the rms the model left on them,
-    # with the relative spread the held-out rms has from one set of runs to another (the
-    # last step's null world, where the final model is the truth: the floor's noise, the
-    # rig's tolerances, the model refitted).
-    spread = steps[-1].null_hold_ms_profiled
-    spread = spread if len(spread) else steps[-1].null_hold_ms
-    last = np.sqrt(spread[np.isfinite(spread)])
-    mid = float(np.median(last)) if len(last) else 0.0
-    # The rms left here is itself one draw: a new set of runs differs from it by the
-    # difference of two independent draws, √2 times one draw's spread.
-    how_far["holdout_rms_after_ci95"] = (
-        [
-            after.holdout_rms_um * (1.0 + np.sqrt(2.0) * (float(np.quantile(last, q)) / mid - 1.0))
-            for q in (0.025, 0.975)
-        ]
-        if len(last) >= 19 and mid > 0
-        else None
-    )
-    # The gap above the floor, and the share of it closed, over the floor's 95 % interval
-    # (the floor is an estimate; the rms before and after are what these runs show).
-    fci = floor.holdout_ci95
-    before_rms = base.holdout_rms_um
-    how_far["gap_above_floor_um"] = before_rms - fl
-    how_far["gap_above_floor_ci95"] = [before_rms - fci[1], before_rms - fci[0]] if fci else None
-    if fci and final is not None and before_rms > fci[1]:
-        removed = before_rms - after.holdout_rms_um
-        how_far["gap_closed_ci95"] = [
-            max(min(removed / (before_rms - fci[0]), 1.0), 0.0),
-            max(min(removed / (before_rms - fci[1]), 1.0), 0.0),
-        ]
-    else:
-        how_far["gap_closed_ci95"] = None
-    how_far["holdout_rms_after_ci95_note"] = (
-        "95 % of sets of held-out runs like these keep an rms in this range once the model "
-        "is applied: the rms it left here, spread as the held-out rms spreads in the model's "
-        "null world (the floor's noise, the rig's tolerances, the model refitted, its last "
-        "effect's time constant or choice profiled again)"
-    )
-    first = selected[0] if selected else None
-    advice = [
-        instrument_advice(sel["effect"], sel["params"])
-        for sel in selected
-        if is_instrument(sel["effect"])
-    ]
-    if status == "ambiguous":
-        # An instrument among the confounded effects is the first thing to check: it costs an
-        # afternoon with a contact probe, not a designed run of the robot.
-        for name in rivals:
-            row = next((r for r in ranking if r["effect"] == name), None)
-            if is_instrument(name) and row is not None:
-                advice.append(
-                    "the thermal camera's error explains it as well — "
-                    + instrument_advice(name, row["params"])
-                    + "; check it before designing a run of the robot"
-                )
-    if advice and status != "none":
-        reason = f"{reason}; {'; '.join(advice)}"
-    excess = floor.extra.get("tolerance_excess") or {}
-    robot = [sel for sel in selected if not is_instrument(sel["effect"])]
-    exceeded = bool(excess.get("explains")) and status != "none" and bool(robot)
-    if exceeded:
-        # The data do not tell an effect of the robot from a rig that errs by twice what it
-        # states: the rig's statement is what to check, not a physical effect to name.
-        status = "unexplained"
-        reason = (
-            f"what these runs show is within what the rig leaves by itself were its errors "
-            f"{excess['scale']:g}× what it states (no effect significant then; p at the floor "
-            f"{excess['p_at_floor']:.2f}): check the rig's tolerances (docs/tolerances.md) "
-            f"before taking it for an effect; with the stated tolerances: {reason}"
-        )
-    verdict_doc = {
-        # SPEC §7's four statuses; a partial explanation is `unexplained` there (what is left
-        # is still a gap) and says so in `outcome` and `partially_explained`.
-        "status": "unexplained" if status == "partially explained" else status,
-        "outcome": status,
-        "partially_explained": status == "partially explained",
-        # The gap is within what the rig leaves if it errs by twice its stated tolerances
-        # (tests.tolerance_excess): no effect of the robot is named.
-        "rig_tolerances_exceeded": exceeded,
-        # The effect that explains the gap: none does where what is left is still a gap
-        # ("partially explained": the effects that explain a part are in `effects`).
-        "effect": None
-        if first is None or status in ("unexplained", "partially explained")
-        else first["effect"],
-        "effects": [s["effect"] for s in selected],
-        # Those of them that are the thermal camera's errors, not the robot's.
-        "instruments": [s["effect"] for s in selected if is_instrument(s["effect"])],
-        # SPEC §7: no parameters without their effect (a partial explanation's are in
-        # `selected`).
-        "params": {} if first is None or status == "partially explained" else first["params"],
-        "params_ci95": {}
-        if first is None or status == "partially explained"
-        else first["params_ci95"],
-        # The effect's other discrete choices (joint, temperature, length, camera) the data
-        # cannot reject as the truth: its family labels.
-        "params_alternatives": []
-        if first is None or status == "partially explained"
-        else first.get("alternatives", []),
-        "confounded_with": rivals if status == "ambiguous" else [],
-        # Excluded effects (never named) that explain the gap as well as the effects
-        # selected and that the data cannot reject: those effects may only stand in for them.
-        "stand_in_for": sorted({e for s in steps for e in s.outside}),
-        # α fitted together with the effects named (the joint fit; its interval from the joint
-        # fit's covariance), where the verdict names one: the α of the diagnosed model.
-        "alpha_per_k": None if first is None else first.get("alpha_per_k"),
-        "alpha_ci95": None if first is None else first.get("alpha_ci95"),
-        "holdout_rms_um": after.holdout_rms_um,
-        "reason": reason,
-    }
+    how_far = _how_far_spread(base, after, floor, final is not None, steps)
+    status, reason, exceeded = _advised(status, reason, selected, rivals, ranking, floor)
+    verdict_doc = _verdict_doc(status, reason, exceeded, selected, rivals, steps, after)
     baseline = {
         "alpha_per_k": {
             "value": base.alpha,
@@ -532,27 +425,182 @@ def assemble(
         summary="",
         residuals=residuals,
         noise_floor=floor.to_json(),
-        tests={
-            **_tests(steps, level),
-            "margin_um": margin_um,
-            "detectable_um": steps[0].detectable_um,
-            "detectable_um_note": "the held-out rms the null's threshold gain removes (or the "
-            "practical margin, if more): no effect of the library took more than this off the "
-            "held-out rms; it is not an effect size",
-            # Per effect: the rms of drift (µm) an effect must have to be named with 80 %
-            # power at the first step, over its families (which camera, joint, length).
-            "detectable_rms_um_80": _detectable_by_effect(steps[0], cands),
-            "tolerances": tolerances[0],
-            # False: the rig file states no [tolerances]; the null drew the defaults
-            # (docs/tolerances.md: the published metrology each comes from).
-            "tolerances_stated": tolerances[2],
-            # The first step again with the rig's errors doubled (where it found something).
-            "tolerance_excess": floor.extra.get("tolerance_excess"),
-            "tolerance_signatures": tolerances[1],
-        },
+        tests=_tests_doc(steps, cands, level, margin_um, floor, tolerances),
     )
     d.summary = summary(d)
     return d
+
+
+def _how_far_spread(
+    base: Fit, after: Fit, floor: NoiseFloor, named: bool, steps: list[Step]
+) -> dict[str, Any]:
+    """How far the model gets (:func:`_how_far`), with the 95 % ranges of what held-out runs
+    like these keep after it and of the gap above the floor (``named``: an effect was)."""
+    how_far = _how_far(base, after, floor.holdout_um, named)
+    # What held-out runs like these keep after the model: the rms the model left on them,
+    # with the relative spread the held-out rms has from one set of runs to another (the
+    # last step's null world, where the final model is the truth: the floor's noise, the
+    # rig's tolerances, the model refitted).
+    spread = steps[-1].null_hold_ms_profiled
+    spread = spread if len(spread) else steps[-1].null_hold_ms
+    last = np.sqrt(spread[np.isfinite(spread)])
+    mid = float(np.median(last)) if len(last) else 0.0
+    # The rms left here is itself one draw: a new set of runs differs from it by the
+    # difference of two independent draws, √2 times one draw's spread.
+    how_far["holdout_rms_after_ci95"] = (
+        [
+            after.holdout_rms_um * (1.0 + np.sqrt(2.0) * (float(np.quantile(last, q)) / mid - 1.0))
+            for q in (0.025, 0.975)
+        ]
+        if len(last) >= 19 and mid > 0
+        else None
+    )
+    # The gap above the floor, and the share of it closed, over the floor's 95 % interval
+    # (the floor is an estimate; the rms before and after are what these runs show).
+    fci = floor.holdout_ci95
+    before_rms = base.holdout_rms_um
+    how_far["gap_above_floor_um"] = before_rms - floor.holdout_um
+    how_far["gap_above_floor_ci95"] = [before_rms - fci[1], before_rms - fci[0]] if fci else None
+    if fci and named and before_rms > fci[1]:
+        removed = before_rms - after.holdout_rms_um
+        how_far["gap_closed_ci95"] = [
+            max(min(removed / (before_rms - fci[0]), 1.0), 0.0),
+            max(min(removed / (before_rms - fci[1]), 1.0), 0.0),
+        ]
+    else:
+        how_far["gap_closed_ci95"] = None
+    how_far["holdout_rms_after_ci95_note"] = (
+        "95 % of sets of held-out runs like these keep an rms in this range once the model "
+        "is applied: the rms it left here, spread as the held-out rms spreads in the model's "
+        "null world (the floor's noise, the rig's tolerances, the model refitted, its last "
+        "effect's time constant or choice profiled again)"
+    )
+    return how_far
+
+
+def _advised(
+    status: str,
+    reason: str,
+    selected: list[dict[str, Any]],
+    rivals: list[str],
+    ranking: list[dict[str, Any]],
+    floor: NoiseFloor,
+) -> tuple[str, str, bool]:
+    """The verdict's status and reason with the instruments' advice, and whether the rig's
+    tolerances, exceeded, explain what was seen (then ``unexplained``)."""
+    advice = [
+        instrument_advice(sel["effect"], sel["params"])
+        for sel in selected
+        if is_instrument(sel["effect"])
+    ]
+    if status == "ambiguous":
+        # An instrument among the confounded effects is the first thing to check: it costs an
+        # afternoon with a contact probe, not a designed run of the robot.
+        for name in rivals:
+            row = next((r for r in ranking if r["effect"] == name), None)
+            if is_instrument(name) and row is not None:
+                advice.append(
+                    "the thermal camera's error explains it as well — "
+                    + instrument_advice(name, row["params"])
+                    + "; check it before designing a run of the robot"
+                )
+    if advice and status != "none":
+        reason = f"{reason}; {'; '.join(advice)}"
+    excess = floor.extra.get("tolerance_excess") or {}
+    robot = [sel for sel in selected if not is_instrument(sel["effect"])]
+    exceeded = bool(excess.get("explains")) and status != "none" and bool(robot)
+    if exceeded:
+        # The data do not tell an effect of the robot from a rig that errs by twice what it
+        # states: the rig's statement is what to check, not a physical effect to name.
+        status = "unexplained"
+        reason = (
+            f"what these runs show is within what the rig leaves by itself were its errors "
+            f"{excess['scale']:g}× what it states (no effect significant then; p at the floor "
+            f"{excess['p_at_floor']:.2f}): check the rig's tolerances (docs/tolerances.md) "
+            f"before taking it for an effect; with the stated tolerances: {reason}"
+        )
+    return status, reason, exceeded
+
+
+def _verdict_doc(
+    status: str,
+    reason: str,
+    exceeded: bool,
+    selected: list[dict[str, Any]],
+    rivals: list[str],
+    steps: list[Step],
+    after: Fit,
+) -> dict[str, Any]:
+    """The ``verdict`` of the document (SPEC §7)."""
+    first = selected[0] if selected else None
+    return {
+        # SPEC §7's four statuses; a partial explanation is `unexplained` there (what is left
+        # is still a gap) and says so in `outcome` and `partially_explained`.
+        "status": "unexplained" if status == "partially explained" else status,
+        "outcome": status,
+        "partially_explained": status == "partially explained",
+        # The gap is within what the rig leaves if it errs by twice its stated tolerances
+        # (tests.tolerance_excess): no effect of the robot is named.
+        "rig_tolerances_exceeded": exceeded,
+        # The effect that explains the gap: none does where what is left is still a gap
+        # ("partially explained": the effects that explain a part are in `effects`).
+        "effect": None
+        if first is None or status in ("unexplained", "partially explained")
+        else first["effect"],
+        "effects": [s["effect"] for s in selected],
+        # Those of them that are the thermal camera's errors, not the robot's.
+        "instruments": [s["effect"] for s in selected if is_instrument(s["effect"])],
+        # SPEC §7: no parameters without their effect (a partial explanation's are in
+        # `selected`).
+        "params": {} if first is None or status == "partially explained" else first["params"],
+        "params_ci95": {}
+        if first is None or status == "partially explained"
+        else first["params_ci95"],
+        # The effect's other discrete choices (joint, temperature, length, camera) the data
+        # cannot reject as the truth: its family labels.
+        "params_alternatives": []
+        if first is None or status == "partially explained"
+        else first.get("alternatives", []),
+        "confounded_with": rivals if status == "ambiguous" else [],
+        # Excluded effects (never named) that explain the gap as well as the effects
+        # selected and that the data cannot reject: those effects may only stand in for them.
+        "stand_in_for": sorted({e for s in steps for e in s.outside}),
+        # α fitted together with the effects named (the joint fit; its interval from the joint
+        # fit's covariance), where the verdict names one: the α of the diagnosed model.
+        "alpha_per_k": None if first is None else first.get("alpha_per_k"),
+        "alpha_ci95": None if first is None else first.get("alpha_ci95"),
+        "holdout_rms_um": after.holdout_rms_um,
+        "reason": reason,
+    }
+
+
+def _tests_doc(
+    steps: list[Step],
+    cands: list[Candidate],
+    level: float,
+    margin_um: float,
+    floor: NoiseFloor,
+    tolerances: tuple[dict[str, float], list[str], bool],
+) -> dict[str, Any]:
+    """The ``tests`` of the document: the steps' tests, what was detectable, the tolerances."""
+    return {
+        **_tests(steps, level),
+        "margin_um": margin_um,
+        "detectable_um": steps[0].detectable_um,
+        "detectable_um_note": "the held-out rms the null's threshold gain removes (or the "
+        "practical margin, if more): no effect of the library took more than this off the "
+        "held-out rms; it is not an effect size",
+        # Per effect: the rms of drift (µm) an effect must have to be named with 80 %
+        # power at the first step, over its families (which camera, joint, length).
+        "detectable_rms_um_80": _detectable_by_effect(steps[0], cands),
+        "tolerances": tolerances[0],
+        # False: the rig file states no [tolerances]; the null drew the defaults
+        # (docs/tolerances.md: the published metrology each comes from).
+        "tolerances_stated": tolerances[2],
+        # The first step again with the rig's errors doubled (where it found something).
+        "tolerance_excess": floor.extra.get("tolerance_excess"),
+        "tolerance_signatures": tolerances[1],
+    }
 
 
 def _detectable_by_effect(step: Step, cands: list[Candidate]) -> dict[str, Any]:

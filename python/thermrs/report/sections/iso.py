@@ -24,9 +24,9 @@ def section(d: ReportData, colours: Mapping[str, str]) -> Section:
             + (f" ({spans} here)" if spans else "")
             + "; RP = l̄ + 3·S_l, the spread of a window's visits about their barycentre; cold: "
             "the run's first window, warm: its last; settled: the barycentre stays within "
-            f"{fmt(d.iso['tolerance_um'], 1)} µm of the final one (as `thermrs drift --json` gives "
-            "them). A spot that drifts during a window counts as spread: RP cold, taken while "
-            "the robot warms up, holds the warm-up drift inside its window besides the "
+            f"{fmt(d.iso['tolerance_um'], 1)} µm of the final one (as `thermrs drift --json` "
+            "gives them). A spot that drifts during a window counts as spread: RP cold, taken "
+            "while the robot warms up, holds the warm-up drift inside its window besides the "
             "repeatability, and dRP compares it with a warm window that drifts less."
         )
     )
