@@ -104,6 +104,7 @@ def report_data(
         _check_given(diagnosis, split, rig, exclude)
     say("checking the rig")
     rig_view = rig.check()
+    say("fitting α")
     fitted = _prediction(split, rig, paper_reference=paper_reference, say=say)
     say("fitting heating curves")
     drift = drift_tables([r.table for r in runs], window=ISO_WINDOW, tolerance_um=ISO_TOLERANCE_UM)
