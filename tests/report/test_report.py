@@ -465,7 +465,14 @@ def test_diagnosis_section_renders(campaign: dict[str, Any], paper_rig: thermrs.
     runs = [load_run(campaign["paths"][k]["tables"], paper_rig.source) for k in ("warm", "fast")]
     out = campaign["dir"] / "diag.html"
     diag = _HandMadeDiagnosis([r.name for r in runs])
-    write_report(out, runs=runs, rig=paper_rig.source, diagnosis=diag, markdown=True)
+    # A stand-in of the Diagnosis interface, not a Diagnosis.
+    write_report(
+        out,
+        runs=runs,
+        rig=paper_rig.source,
+        diagnosis=diag,  # type: ignore[arg-type]
+        markdown=True,
+    )
     html = out.read_text()
     sec = html[html.index('<section id="diagnosis">') : html.index('<section id="extraction">')]
     text = visible_text(sec)
