@@ -66,13 +66,11 @@ def report_data(
     exclude
         Effects the diagnosis made here may not name (``thermrs diagnose --exclude``); with a
         ``diagnosis`` given, they must be the ones it excluded.
-    title
-        The report's title.
+    title, step
+        The report's title; called with a short description before each stage (progress).
     paper_reference
         Show the paper's printed Table 4 beside the runs' and predict along v, the paper's
         axis, with u beside it (the simulated paper runs).
-    step
-        Called with a short description before each stage (progress).
     baselines
         Also the regressions of the drift on the temperatures, scored beside the diagnosis.
 
@@ -84,8 +82,7 @@ def report_data(
     Raises
     ------
     InputError
-        No runs, two runs of one name, a training run not among them, a diagnosis of other
-        runs or of other exclusions.
+        No runs; two of one name; a training run not among them; a diagnosis of others.
 
     Examples
     --------
@@ -111,7 +108,7 @@ def report_data(
     diag, note = diagnosis, None
     if diag is None:
         diag, note = _diagnosis(split, rig, exclude, fitted.note, say)
-    return ReportData(
+    data = ReportData(
         rig=rig,
         rig_view=rig_view,
         runs=list(runs),
@@ -132,8 +129,10 @@ def report_data(
         exclude=list(exclude),
         title=title or f"Thermal drift of {rig.name or rig.model}",
         paper_reference=paper_reference,
-        **_from_diagnosis(diag, split, rig, baselines=baselines, say=say),
     )
+    if diag is not None:
+        _follow_diagnosis(data, diag, split, baselines=baselines, say=say)
+    return data
 
 
 def report_split(runs: Sequence[RunInput], train: Sequence[str] | None = None) -> Split:
@@ -269,33 +268,25 @@ def _diagnosis(
     return diagnosis, None
 
 
-def _from_diagnosis(
-    diag: Diagnosis | None,
+def _follow_diagnosis(
+    data: ReportData,
+    diag: Diagnosis,
     split: Split,
-    rig: Rig,
     *,
     baselines: bool,
     say: Callable[[str], object],
-) -> dict[str, Any]:
-    """What the report shows that the diagnosis leads to: the diagnosed prediction, the
-    design of an ambiguous one (its rivals' drift, or why there is none) and, with
-    ``baselines``, the regressions scored beside it (:class:`ReportData`'s fields)."""
-    if diag is None:
-        return {}
-    designed, design_note = _design(split, rig, diag, say)
-    compared = None
+) -> None:
+    """What the report shows that the diagnosis leads to, set on ``data``: the diagnosed
+    prediction, the design of an ambiguous one (its rivals' drift, or why there is none) and,
+    with ``baselines``, the regressions scored beside it."""
+    data.diagnosed_prediction = _diagnosed_prediction(diag, split, data.rig)
+    data.design, data.design_note = _design(split, data.rig, diag, say)
+    data.design_drift = _rival_drift(data.design)
     if baselines and split.holdout:
         from thermrs.analyses.baselines import baselines_folds
 
         say("fitting the regressions beside the physical model")
-        (compared,) = baselines_folds([DiagnosisFold(split, diag)], rig)
-    return {
-        "diagnosed_prediction": _diagnosed_prediction(diag, split, rig),
-        "design": designed,
-        "design_drift": _rival_drift(designed),
-        "design_note": design_note,
-        "baselines": compared,
-    }
+        (data.baselines,) = baselines_folds([DiagnosisFold(split, diag)], data.rig)
 
 
 def _diagnosed_prediction(diag: Diagnosis | None, split: Split, rig: Rig) -> pl.DataFrame | None:
