@@ -1,10 +1,11 @@
 """The report's numbers are the commands' (issue #46): on a simulated recording of two runs, the
-page ``thermrs report`` writes (its Markdown twin) against the ``--json`` documents of ``thermrs
-fit``, ``predict``, ``drift`` and ``diagnose`` run on the same runs, each in its own process
-with no cache on disk, so that no command reads what another computed. Every number compared
-is the command's, rounded to the digits the page prints; the diagnosis' own summary stands on
-the page word for word. ``report --exclude X`` gives ``diagnose --exclude X``'s diagnosis, and
-the page says what was excluded (also what a ``--diagnosis`` file excluded)."""
+page ``thermrs report --baselines`` writes (its Markdown twin) against the ``--json`` documents
+of ``thermrs fit``, ``predict``, ``drift`` and ``diagnose --baselines`` run on the same runs,
+each in its own process with no cache on disk, so that no command reads what another computed.
+Every number compared is the command's, rounded to the digits the page prints; the diagnosis'
+own summary stands on the page word for word. ``report --exclude X`` gives ``diagnose
+--exclude X``'s diagnosis, and the page says what was excluded (also what a ``--diagnosis``
+file excluded)."""
 
 from __future__ import annotations
 
@@ -46,7 +47,8 @@ def world(two_runs: dict[str, Path], tmp_path_factory: pytest.TempPathFactory) -
     rig, t = str(two_runs["rig"]), str(two_runs["tables"])
     a, b = f"{t}#a", f"{t}#b"
     diagnosed = ("--rig", rig, "--train", a, "--holdout", b)
-    _run("report", "--rig", rig, "--run", a, "--run", b, "-o", str(tmp / "r.html"), "--quiet")
+    _run("report", "--rig", rig, "--run", a, "--run", b, "--baselines", "-o", str(tmp / "r.html"),
+         "--quiet")  # fmt: skip
     _run("report", "--rig", rig, "--run", a, "--run", b, "--exclude", EXCLUDED,
          "-o", str(tmp / "x.html"), "--quiet")  # fmt: skip
     return {
@@ -59,7 +61,7 @@ def world(two_runs: dict[str, Path], tmp_path_factory: pytest.TempPathFactory) -
         "fit": _json(tmp, "fit", "fit", "--rig", rig, "--train", a),
         "predict": _json(tmp, "predict", "predict", "--rig", rig, "--train", a, "--run", b),
         "drift": _json(tmp, "drift", "drift", "--rig", rig, "--run", a, "--run", b),
-        "diagnose": _json(tmp, "diag", "diagnose", *diagnosed),
+        "diagnose": _json(tmp, "diag", "diagnose", *diagnosed, "--baselines"),
         "diagnose_x": _json(tmp, "diag-x", "diagnose", *diagnosed, "--exclude", EXCLUDED),
     }
 
@@ -149,6 +151,22 @@ def test_the_diagnosis_is_diagnose_s(world: dict[str, Any]) -> None:
     )
     assert doc["excluded"] == []
     assert "Excluded effects (`--exclude`): none." in world["md"]
+
+
+def test_the_regressions_are_diagnose_baselines(world: dict[str, Any]) -> None:
+    rows = {r["model"]: r for r in _table(world["md"], "model", "what", "parameters")}
+    want = world["diagnose"]["baselines"]
+    assert {b["name"] for b in want} <= set(rows) and len(want) >= 4
+    for cmd in want:
+        page = rows[cmd["name"]]
+        assert int(page["parameters"]) == cmd["n_params"]
+        rms, ci = page["held-out rms, µm [95 %]"].split(" [")
+        _same(rms, cmd["holdout_rms_um"])
+        for cell, value in zip(ci.rstrip("]").split(", "), cmd["holdout_rms_ci95"], strict=True):
+            _same(cell, value)
+        minus = page["minus the diagnosed model, µm [95 %]"].strip("[]").split(", ")
+        for cell, value in zip(minus, cmd["minus_diagnosed_ci95"], strict=True):
+            _same(cell, value)
 
 
 def test_report_exclude_is_diagnose_exclude(world: dict[str, Any]) -> None:
