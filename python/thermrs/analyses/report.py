@@ -193,6 +193,7 @@ def load_campaign_runs(
         without a visit with a spot.
     """
     from thermrs.analyses.inputs import open_dataset, pick_runs, selected
+    from thermrs.analyses.report_runs import frames_by_status
     from thermrs.campaigns.select import campaign_runs
     from thermrs.report.data import RunInput
 
@@ -219,7 +220,6 @@ def load_campaign_runs(
                 & pl.col("t_ns").is_between(r["start_ns"], r["end_ns"])
             )
 
-        counts = cut(frames).group_by("status").len().sort("status").iter_rows()
         out.append(
             RunInput(
                 name=str(t["run"][0]),
@@ -227,7 +227,7 @@ def load_campaign_runs(
                 source=f"{ds.root}: {r['recording']}",
                 temperatures=cut(temps).drop("recording", "run"),
                 joints=cut(joints).height,
-                frames_by_status={str(k): int(v) for k, v in counts},
+                frames_by_status=frames_by_status(cut(frames)),
                 extract_report=reports.get(str(r["recording"])),
                 data_loss=bool(r["losses"]),
                 recording=str(r["recording"]),

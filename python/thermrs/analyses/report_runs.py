@@ -23,6 +23,7 @@ from thermrs.rig import Rig
 __all__ = [
     "ReportRuns",
     "SpecRead",
+    "frames_by_status",
     "load_run",
     "load_runs",
     "read_report_runs",
@@ -54,20 +55,25 @@ def run_from_extraction(
         # Drift is anchored at the run's first visit (SPEC §4): re-anchor the cut.
         visits = _reanchor(visits)
     table = run_table_from(visits, temps, rig, run=name)
-    counts = (
-        dict(frames.group_by("status").len().sort("status").iter_rows()) if frames.height else {}
-    )
     return RunInput(
         name=name,
         table=table,
         source=source,
         temperatures=temps,
         joints=joints.height,
-        frames_by_status={str(k): int(v) for k, v in counts.items()},
+        frames_by_status=frames_by_status(frames),
         extract_report=ex.report,
         data_loss=ex.report.data_loss,
         recording=recording or source,
     )
+
+
+def frames_by_status(frames: pl.DataFrame) -> dict[str, int]:
+    """A frames table's CCD frames counted by status (``ok``, ``no_spot``, …), as the
+    report's extraction section shows them."""
+    if not frames.height:
+        return {}
+    return {str(k): int(v) for k, v in frames.group_by("status").len().sort("status").iter_rows()}
 
 
 def _reanchor(visits: pl.DataFrame) -> pl.DataFrame:
@@ -157,12 +163,6 @@ def load_runs(
         def cut(df: pl.DataFrame, w: tuple[int, int] | None = w) -> pl.DataFrame:
             return df if w is None else df.filter(pl.col("t_ns").is_between(*w))
 
-        fbs = None
-        if frames is not None:
-            fbs = {
-                str(k): int(v)
-                for k, v in cut(frames).group_by("status").len().sort("status").iter_rows()
-            }
         out.append(
             RunInput(
                 name=str(t["run"][0]),
@@ -170,7 +170,7 @@ def load_runs(
                 source=str(path),
                 temperatures=cut(temps),
                 joints=None if joints_t is None else cut(joints_t).height,
-                frames_by_status=fbs,
+                frames_by_status=None if frames is None else frames_by_status(cut(frames)),
                 data_loss=rt.data_loss,
                 recording=str(path),
             )
