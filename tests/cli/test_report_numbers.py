@@ -33,10 +33,11 @@ def _run(*args: str) -> None:
 
 
 def _json(tmp: Path, name: str, *args: str) -> dict[str, Any]:
+    """The command's ``--json`` document, with what it printed under ``"screen"``."""
     out = tmp / f"{name}.json"
-    _run(*args, "--json", str(out))
+    screen = ok(cli(*args, "--json", str(out), env=NO_CACHE)).stdout
     doc: dict[str, Any] = json.loads(out.read_text())
-    return doc
+    return {**doc, "screen": screen}
 
 
 @pytest.fixture(scope="module")
@@ -179,6 +180,9 @@ def test_report_exclude_is_diagnose_exclude(world: dict[str, Any]) -> None:
     assert re.search(rf"Verdict — {re.escape(status)}\b", world["md_x"])
     said = f"Excluded effects (`--exclude`): {EXCLUDED} — the diagnosis was made without them"
     assert said in world["md_x"] and said not in world["md"]
+    # diagnose says it on the screen too.
+    assert f"Excluded (--exclude, never named): {EXCLUDED}" in doc["screen"]
+    assert "Excluded" not in plain["screen"]
 
 
 def test_a_diagnosis_given_says_what_it_excluded(world: dict[str, Any]) -> None:
