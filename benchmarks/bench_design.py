@@ -26,9 +26,9 @@ import time
 from pathlib import Path
 
 import thermrs
+from thermrs.analyses.demo import simulate_demo
 from thermrs.design import design
 from thermrs.memo import CACHE_ENV
-from thermrs.report.demo import simulate_demo
 
 # Timed from scratch: no diagnosis is read from the on-disk cache (thermrs.memo).
 os.environ[CACHE_ENV] = "off"

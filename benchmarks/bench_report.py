@@ -4,9 +4,9 @@ Benchmark of `thermrs report` (issue #11).
 
 1. The report of three 15-hour runs once they are extracted (must reach: under 30 s): the
    paper's three runs are simulated from the packaged demo scenario and extracted (not timed),
-   then :func:`thermrs.report.write_report` is timed end to end (fit, start/end, prediction
-   tables, heating curves, ISO 9283, the diagnosis where the diagnoser exists, figures, HTML,
-   Markdown and SVG files), best of ``--repeat``.
+   then :func:`thermrs.analyses.report.write_report` is timed end to end (fit, start/end,
+   prediction tables, heating curves, ISO 9283, the diagnosis where the diagnoser exists,
+   figures, HTML, Markdown and SVG files), best of ``--repeat``.
 2. ``thermrs report --demo`` end to end as a user runs it (must reach: under a minute), with
    the size of the HTML it writes (must be small enough to mail).
 
@@ -56,8 +56,8 @@ def main() -> None:
     args.dir.mkdir(parents=True, exist_ok=True)
 
     import thermrs
-    from thermrs.report import write_report
-    from thermrs.report.demo import simulate_demo
+    from thermrs.analyses.demo import simulate_demo
+    from thermrs.analyses.report import write_report
 
     rig = thermrs.load_rig()
     d = simulate_demo(args.dir / "work", scenario=args.scenario, reuse=args.reuse)

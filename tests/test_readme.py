@@ -139,7 +139,7 @@ def test_every_module_the_readme_names_is_reachable_after_import() -> None:
         " 'compensate'):\n"
         "    getattr(thermrs, m)\n"
         "assert issubclass(thermrs.InternalError, thermrs.ThermrsError)\n"
-        "assert callable(thermrs.diagnose.diagnose) and callable(thermrs.report.write_report)\n"
+        "assert callable(thermrs.diagnose.diagnose) and callable(thermrs.report.write_document)\n"
     )
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert p.returncode == 0, p.stderr

@@ -330,7 +330,7 @@ def test_report_from_the_catalog_is_the_report_of_the_files(
     camp: dict[str, Path], tmp_path: Path
 ) -> None:
     from thermrs.analyses.report import campaign_report_runs
-    from thermrs.report.data import load_runs as report_runs
+    from thermrs.analyses.report_runs import load_runs as report_runs
 
     rig = thermrs.load_rig()
     got, train = campaign_report_runs(camp["ds"], rig, train=["r2#run2"], runs=["r1"])

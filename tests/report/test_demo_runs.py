@@ -32,7 +32,7 @@ def demo(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
 
 
 def test_every_truth_frame_is_a_visit_of_its_run(demo: dict[str, Any]) -> None:
-    from thermrs.report.demo import simulate_demo
+    from thermrs.analyses.demo import simulate_demo
 
     d = simulate_demo(demo["work"], reuse=True)
     truth = pl.read_parquet(demo["work"] / "demo.truth.parquet")

@@ -12,8 +12,8 @@ import numpy as np
 import polars as pl
 import thermrs
 import tomli_w
+from thermrs.analyses.demo import demo_scenario_path
 from thermrs.design.files import rig_dict
-from thermrs.report.demo import demo_scenario_path
 from thermrs.runs import load_runs
 
 from tests.support.coverage import random_rig

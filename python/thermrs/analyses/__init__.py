@@ -15,7 +15,11 @@ these and renders what they return; a number in the report is the number the com
 - :mod:`thermrs.analyses.design`: a design per split (:func:`design`);
 - :mod:`thermrs.analyses.baselines`: regressions of the drift on the temperatures beside the
   physical models on the same held-out runs (:func:`compare_baselines`);
-- :mod:`thermrs.analyses.report`: the report of a campaign's runs (:func:`report`).
+- :mod:`thermrs.analyses.report`: a report written (:func:`~thermrs.analyses.report.write_report`),
+  the report of a campaign's runs (:func:`report`); its runs read from files
+  (:mod:`thermrs.analyses.report_runs`), its numbers built from the analyses above
+  (:mod:`thermrs.analyses.report_data`), the demo (:mod:`thermrs.analyses.demo`), each loaded
+  when a report is made.
 
 Each analysis has two forms: ``*_splits`` takes splits however they were made (from a dataset
 by :func:`~thermrs.analyses.inputs.splits`, or from files by

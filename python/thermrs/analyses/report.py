@@ -1,7 +1,10 @@
-"""``thermrs report --campaign``: the report a person reads, of a campaign's runs, and those runs
-read from the dataset: one :class:`~thermrs.report.data.RunInput` per run, as
-:func:`thermrs.report.data.load_runs` makes from a recording (the run table, the temperatures,
-joint states and frames of the run's span), named ``<recording>#<run>``
+"""``thermrs report``: the report a person reads, written — every number computed by
+:func:`thermrs.analyses.report_data.report_data` from the results the commands render, then
+rendered by :func:`thermrs.report.write_document` (:func:`write_report`) — of runs read from
+files (:mod:`thermrs.analyses.report_runs`) or of a campaign's runs (:func:`report`), read from
+the dataset: one :class:`~thermrs.report.data.RunInput` per run, as
+:func:`thermrs.analyses.report_runs.load_runs` makes from a recording (the run table, the
+temperatures, joint states and frames of the run's span), named ``<recording>#<run>``
 (:mod:`thermrs.analyses.inputs`)."""
 
 from __future__ import annotations
@@ -20,10 +23,104 @@ from thermrs.rig import Rig
 if TYPE_CHECKING:
     # The report package is read when a report is made, not when thermrs.analyses is
     # imported: ``thermrs fit`` and the other commands load no report module.
-    from thermrs.report import Written
-    from thermrs.report.data import RunInput
+    import os
 
-__all__ = ["campaign_report_runs", "load_campaign_runs", "report"]
+    from thermrs.diagnose.result import Diagnosis
+    from thermrs.report import Written
+    from thermrs.report.data import RunInput, Step
+
+__all__ = ["campaign_report_runs", "load_campaign_runs", "report", "write_report"]
+
+
+def write_report(
+    out: str | Path,
+    *,
+    runs: Sequence[RunInput],
+    rig: Rig | str | os.PathLike[str],
+    train: Sequence[str] | None = None,
+    diagnosis: Diagnosis | None = None,
+    exclude: Sequence[str] = (),
+    title: str | None = None,
+    intro: str | None = None,
+    markdown: bool = True,
+    pdf: bool = False,
+    paper_reference: bool = False,
+    step: Step | None = None,
+    baselines: bool = False,
+) -> Written:
+    """Write the report of ``runs``: every number computed
+    (:func:`thermrs.analyses.report_data.report_data`), then the document rendered and
+    written (:func:`thermrs.report.write_document`).
+
+    Parameters
+    ----------
+    out
+        The HTML file. The Markdown twin is written beside it (``OUT.md``, figures in
+        ``OUT_files/``), and with ``pdf`` the PDF (``OUT.pdf``).
+    runs
+        The runs (:func:`thermrs.analyses.report_runs.load_runs`), in the order shown.
+    rig
+        The rig they were recorded on.
+    train
+        Runs α is fitted on (default: the first); the others are held out, predicted and
+        diagnosed.
+    diagnosis
+        A diagnosis already made (default: made here when runs are held out).
+    exclude
+        Effects the diagnosis may not name (``thermrs diagnose --exclude``); the page says
+        which were excluded.
+    title
+        The report's title.
+    intro
+        A paragraph placed first in the summary (e.g. what a demo simulated).
+    markdown
+        Also write the Markdown twin.
+    pdf
+        Also print the HTML to PDF with headless Chromium.
+    paper_reference
+        Show the paper's printed Table 4 beside the runs' (for the paper's runs).
+    step
+        Called with a short description before each stage.
+    baselines
+        Also show regressions of the drift on the temperatures beside the physical models.
+
+    Returns
+    -------
+    Written
+        The files written.
+
+    Raises
+    ------
+    InputError
+        No runs, a training run that is not given, two runs of one name, a diagnosis of other
+        runs or exclusions, or (``pdf``) no Chromium to print with.
+
+    Examples
+    --------
+    >>> from thermrs.analyses.report_runs import load_runs
+    >>> rig = thermrs.load_rig()  # doctest: +SKIP
+    >>> write_report("report.html", runs=load_runs("rec.mcap", rig), rig=rig)  # doctest: +SKIP
+    """
+    from thermrs.analyses.report_data import report_data
+    from thermrs.errors import InputError
+    from thermrs.report import find_chromium, write_document
+    from thermrs.rig import as_rig
+
+    r = as_rig(rig)
+    if pdf and find_chromium() is None:
+        raise InputError("--pdf needs Chromium (`chromium` on PATH, or THERMRS_CHROMIUM)")
+    data = report_data(
+        runs,
+        r,
+        train=train,
+        diagnosis=diagnosis,
+        exclude=exclude,
+        title=title,
+        paper_reference=paper_reference,
+        step=step,
+        baselines=baselines,
+    )
+    return write_document(data, out, intro=intro, markdown=markdown, pdf=pdf, step=step)
 
 
 def report(
@@ -44,20 +141,20 @@ def report(
     dataset, rig, where
         As :func:`thermrs.analyses.fit.fit`.
     out
-        The HTML file (the Markdown twin beside it, see :func:`thermrs.report.write_report`).
+        The HTML file (the Markdown twin beside it, see :func:`write_report`).
     runs
         The runs shown, by name (default: every run chosen).
     train
         The runs α is fitted on, by name (default: the first run); the others are held out,
         predicted and diagnosed.
     **options
-        :func:`thermrs.report.write_report`'s keywords (``title``, ``markdown``, ``pdf``,
+        :func:`write_report`'s keywords (``title``, ``markdown``, ``pdf``,
         ``step``, …).
 
     Returns
     -------
     Written
-        What was written (:func:`thermrs.report.write_report`).
+        What was written (:func:`write_report`).
 
     Raises
     ------
@@ -69,8 +166,6 @@ def report(
     >>> thermrs.analyses.report("campaign/", rig, "november.html",
     ...                          where="date>=2026-11-01", train=["r1#run1"])  # doctest: +SKIP
     """
-    from thermrs.report import write_report
-
     loaded, train_names = campaign_report_runs(dataset, rig, where=where, runs=runs, train=train)
     return write_report(out, runs=loaded, rig=rig, train=train_names or None, **options)
 
@@ -98,6 +193,7 @@ def load_campaign_runs(
         without a visit with a spot.
     """
     from thermrs.analyses.inputs import open_dataset, pick_runs, selected
+    from thermrs.analyses.report_runs import frames_by_status
     from thermrs.campaigns.select import campaign_runs
     from thermrs.report.data import RunInput
 
@@ -124,7 +220,6 @@ def load_campaign_runs(
                 & pl.col("t_ns").is_between(r["start_ns"], r["end_ns"])
             )
 
-        counts = cut(frames).group_by("status").len().sort("status").iter_rows()
         out.append(
             RunInput(
                 name=str(t["run"][0]),
@@ -132,7 +227,7 @@ def load_campaign_runs(
                 source=f"{ds.root}: {r['recording']}",
                 temperatures=cut(temps).drop("recording", "run"),
                 joints=cut(joints).height,
-                frames_by_status={str(k): int(v) for k, v in counts},
+                frames_by_status=frames_by_status(cut(frames)),
                 extract_report=reports.get(str(r["recording"])),
                 data_loss=bool(r["losses"]),
                 recording=str(r["recording"]),

@@ -6,6 +6,7 @@ robot change over weeks?), and the held-out check of a rule
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -17,9 +18,11 @@ from thermrs.campaigns.select import campaign_runs, folds, run_tables
 __all__ = [
     "ALPHA_BY_RUN_SCHEMA",
     "HOLDOUT_SCHEMA",
+    "CampaignSummary",
     "alpha_by_run",
     "alpha_trend",
     "by_group",
+    "campaign_summary",
     "fold_synthesis",
     "holdout_by_rule",
     "predict_synthesis",
@@ -425,3 +428,65 @@ def predict_synthesis(preds: Sequence[Any], *, label: str = "series") -> dict[st
         "worst_fold": preds[worst].split.name,
         "sentence": sentence,
     }
+
+
+@dataclass(frozen=True)
+class CampaignSummary:
+    """What ``thermrs campaign`` prints and its page shows, computed once.
+
+    Attributes
+    ----------
+    per_run
+        α and the largest drift per run (:func:`alpha_by_run`).
+    trend
+        α's trend over time (:func:`alpha_trend`).
+    standouts
+        The runs that stand out (:func:`standouts`).
+    by_day, by_speed
+        Per day and per speed (:func:`by_group`).
+    speed
+        The speed the runs are compared by: its column and unit (:func:`speed_axis`).
+    folds
+        The held-out check of a rule (:func:`holdout_by_rule`), or None.
+    """
+
+    per_run: pl.DataFrame
+    trend: dict[str, Any]
+    standouts: list[dict[str, Any]]
+    by_day: pl.DataFrame
+    by_speed: pl.DataFrame
+    speed: tuple[str, str]
+    folds: pl.DataFrame | None = None
+
+
+def campaign_summary(
+    per_run: pl.DataFrame, *, folds: pl.DataFrame | None = None
+) -> CampaignSummary:
+    """Everything ``thermrs campaign`` says of its runs (:class:`CampaignSummary`).
+
+    Parameters
+    ----------
+    per_run
+        :func:`alpha_by_run`'s table.
+    folds
+        :func:`holdout_by_rule`'s table, if a rule was given.
+
+    Returns
+    -------
+    CampaignSummary
+        The trend, the runs that stand out, the per-day and per-speed tables.
+
+    Examples
+    --------
+    >>> s = campaign_summary(alpha_by_run(ds, rig))  # doctest: +SKIP
+    >>> s.trend["sentence"]  # doctest: +SKIP
+    """
+    return CampaignSummary(
+        per_run=per_run,
+        trend=alpha_trend(per_run),
+        standouts=standouts(per_run),
+        by_day=by_group(per_run, "date"),
+        by_speed=by_group(per_run, "speed"),
+        speed=speed_axis(per_run),
+        folds=folds,
+    )

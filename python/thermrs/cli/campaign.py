@@ -205,7 +205,7 @@ def campaign_command(
     """α and drift per run across a campaign dataset (written by `thermrs extract` on many
     recordings), runs chosen by query, with the held-out check of a rule."""
     from thermrs.campaigns import Dataset
-    from thermrs.campaigns.summary import alpha_by_run, holdout_by_rule
+    from thermrs.campaigns.summary import alpha_by_run, campaign_summary, holdout_by_rule
     from thermrs.cli.common import console, table, writable
     from thermrs.rig import load_rig
 
@@ -219,6 +219,7 @@ def campaign_command(
     rig = load_rig(rig_path)
     per_run = alpha_by_run(ds, rig, query=query)
     folds = holdout_by_rule(ds, rig, rule=rule, query=query) if rule else None
+    summary = campaign_summary(per_run, folds=folds)
     out = console()
     t = table(
         "α and drift per run",
@@ -245,10 +246,8 @@ def campaign_command(
             f"{r['drift_um']:.2f}",
         )
     out.print(t)
-    from thermrs.campaigns.summary import alpha_trend, standouts
-
-    out.print(f"Over time: {alpha_trend(per_run)['sentence']}.")
-    for o in standouts(per_run):
+    out.print(f"Over time: {summary.trend['sentence']}.")
+    for o in summary.standouts:
         out.print(f"Stands out: {o['recording']}#{o['run']}: {o['why']}.")
     if folds is not None:
         f = table(
@@ -261,4 +260,4 @@ def campaign_command(
     if out_path is not None:
         from thermrs.report.campaign_page import write_campaign_page
 
-        click.echo(f"wrote {write_campaign_page(per_run, out_path, folds=folds)}", err=True)
+        click.echo(f"wrote {write_campaign_page(summary, out_path)}", err=True)

@@ -21,6 +21,7 @@ from thermrs.cli.common import (
     stages,
     verbose_option,
 )
+from thermrs.defaults import DESIGN_BUDGET_H
 
 
 def render_design(doc: dict[str, Any], out_dir: Path) -> None:
@@ -109,7 +110,7 @@ def render_design(doc: dict[str, Any], out_dir: Path) -> None:
 @click.option(
     "--budget-h",
     "budget_h",
-    default=24.0,
+    default=DESIGN_BUDGET_H,
     show_default=True,
     type=click.FloatRange(1.0, 1000.0),
     help="Most recording hours to ask for.",

@@ -53,6 +53,8 @@ def render_diagnosis(doc: dict[str, Any]) -> None:
             f"to separate them: {c['separate_by']}"
         )
     _say_verdict(doc)
+    if doc.get("excluded"):
+        out.print(f"Excluded (--exclude, never named): {', '.join(doc['excluded'])}")
 
 
 def _say_baseline(doc: dict[str, Any]) -> None:

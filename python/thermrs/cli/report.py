@@ -1,6 +1,6 @@
-"""``thermrs report``: parse, call :func:`thermrs.report.write_report` (or the demo), show
-progress and what was written. The report's own modules (and matplotlib) load only when it
-runs."""
+"""``thermrs report``: parse, call :func:`thermrs.analyses.report.write_report` (or the demo,
+:func:`thermrs.analyses.demo.run_demo`), show progress and what was written. The report's own
+modules (and matplotlib) load only when it runs."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ from thermrs.cli.common import (
     CAMPAIGN_NAMES_HELP,
     EXIT_DATA_LOSS,
     campaign_options,
+    exclude_option,
     no_campaign,
     out_option,
     writable,
@@ -91,6 +92,11 @@ class _Stage(Protocol):
     help="A `thermrs diagnose --json` file of the same runs: the report shows it (and designs "
     "from it) instead of diagnosing the runs again, so its numbers are the file's.",
 )
+@exclude_option(
+    "Effects the report's diagnosis may not name (SPEC §6 names; --exclude A B or repeats), as "
+    "`thermrs diagnose --exclude`; the page says which were excluded. With --diagnosis: the "
+    "ones that diagnosis excluded."
+)
 @click.option(
     "--baselines",
     is_flag=True,
@@ -112,6 +118,7 @@ def report(
     title: str | None,
     workdir: Path | None,
     diagnosis_path: Path | None,
+    exclude: tuple[str, ...],
     baselines: bool,
     quiet: bool,
     verbose: bool,
@@ -133,6 +140,8 @@ def report(
     _check_options(demo, rig_path, runs, train, campaign_path, query)
     if demo and diagnosis_path is not None:
         raise click.UsageError("--demo takes no --diagnosis (it diagnoses the runs it simulates)")
+    if demo and exclude:
+        raise click.UsageError("--demo takes no --exclude (its report is written as it is)")
     if demo and baselines:
         raise click.UsageError("--baselines needs runs: the demo's report is written as it is")
     given = None
@@ -148,12 +157,12 @@ def report(
     with _progress(err, quiet, verbose) as stage:
         loss = False
         if demo:
-            from thermrs.report.demo import run_demo
+            from thermrs.analyses.demo import run_demo
 
             res = run_demo(out, workdir=workdir, pdf=pdf, markdown=not no_markdown, progress=stage)
             written = res.written
         else:
-            from thermrs.report import write_report
+            from thermrs.analyses.report import write_report
             from thermrs.rig import load_rig
 
             assert rig_path is not None
@@ -170,6 +179,7 @@ def report(
                 rig=rig,
                 train=train_names or None,
                 diagnosis=given,
+                exclude=exclude,
                 title=title,
                 markdown=not no_markdown,
                 pdf=pdf,
@@ -266,9 +276,9 @@ def _file_runs(
     train: tuple[Path, ...],
     stage: _Stage,
 ) -> tuple[list[RunInput], list[str], bool]:
-    """The report's runs from files (:func:`thermrs.report.inputs.read_report_runs`), each
+    """The report's runs from files (:func:`thermrs.analyses.report_runs.read_report_runs`), each
     spec's runs listed on stderr; the training runs' names; whether data was lost."""
-    from thermrs.report.inputs import SpecRead, read_report_runs
+    from thermrs.analyses.report_runs import SpecRead, read_report_runs
 
     def said(s: SpecRead) -> None:
         click.echo(

@@ -38,6 +38,7 @@ from typing import Any
 
 import polars as pl
 
+from thermrs.defaults import DESIGN_BUDGET_H
 from thermrs.design.files import rig_toml, scenario_toml, write_text_atomic
 from thermrs.design.measurements import DEFAULT_LIMITS_DEG, Candidate
 from thermrs.design.search import NOT_SEARCHED, Z_TARGET, search
@@ -244,7 +245,7 @@ def design(
     *,
     exclude: Sequence[str] = (),
     between: Sequence[str] | None = None,
-    budget_h: float = 24.0,
+    budget_h: float = DESIGN_BUDGET_H,
     cycle_s: float = 300.0,
     limits_deg: Sequence[tuple[float, float]] | None = None,
     prove_it: bool = True,

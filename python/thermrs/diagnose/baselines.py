@@ -372,23 +372,11 @@ def compare_baselines(
     >>> c = thermrs.analyses.compare_baselines([run1], [run2, run3], rig)  # doctest: +SKIP
     >>> [(b.name, round(b.holdout_rms_um, 2)) for b in c.baselines]  # doctest: +SKIP
     """
-    from thermrs.diagnose.engine import DesignMatrix
-    from thermrs.diagnose.floor import noise_floor
     from thermrs.diagnose.location import phases
     from thermrs.rig import as_rig
 
     r = as_rig(rig)
-    if not train:
-        raise InputError("no training run: the baselines are fitted on --train runs")
-    if not holdout:
-        raise InputError("no held-out run: the baselines are scored on runs they never saw")
-    for m in models:
-        if m not in MODELS:
-            raise InputError(f"baseline {m!r}: not one of {', '.join(MODELS)}")
-    names_t = sorted({str(n) for t in train for n in t["run"].unique().to_list()})
-    names_h = sorted({str(n) for t in holdout for n in t["run"].unique().to_list()})
-    if diagnosis is not None:
-        diagnosis.check_runs(names_t, names_h)
+    names_t, names_h = _run_names(train, holdout, models, diagnosis)
     feats = features([*train, *holdout], r, taus_min=taus_min, smooth=smooth)
     vs = feats.visits
     is_train = np.isin(vs.run, names_t)
@@ -399,28 +387,8 @@ def compare_baselines(
             f"held-out camera(s) {', '.join(missing)}: no training run visits them, so no "
             "baseline can be fitted for them"
         )
-    n = vs.n
 
-    # The physical models on the same visits: the nominal fit as the diagnosis makes it, the
-    # diagnosed model's residual from the diagnosis itself.
-    design = DesignMatrix(vs, set(names_t))
-    base = design.fit(None, {}, label="nominal")
-    resids: dict[str, FloatArray] = {
-        "nominal": _centred(np.column_stack([base.residual[:n], base.residual[n:]]), vs)
-    }
-    n_par: dict[str, int] = {"nominal": 1}
-    if diagnosis is not None:
-        resids["diagnosed"] = _centred(_diagnosed_residual(diagnosis, vs), vs)
-        n_par["diagnosed"] = 1 + sum(
-            sum(isinstance(v, int | float) and not isinstance(v, bool) for v in p.values())
-            for p in (s.get("params") or {} for s in diagnosis.selected)
-        )
-        floor_um = float(diagnosis.noise_floor_um)
-        fci = (diagnosis.noise_floor or {}).get("holdout_ci95")
-        floor_ci = None if not fci else (float(fci[0]), float(fci[1]))
-    else:
-        fl = noise_floor(vs, base.residual, set(names_h), r.mapped_temperatures)
-        floor_um, floor_ci = float(fl.holdout_um), None
+    resids, n_par, floor_um, floor_ci = _physical(vs, names_t, names_h, r, diagnosis)
 
     fitted: list[FittedBaseline] = []
     for m in models:
@@ -432,6 +400,95 @@ def compare_baselines(
     boot = _bootstrap(resids, vs, hold, draws=draws, rng=np.random.default_rng(seed))
     # The diagnosis's phases (warm-up, plateau, cool-down) of every visit.
     phase = phases(vs, r.mapped_temperatures)
+    scores = _scores(models, resids, n_par, boot, vs, is_train, phase, diagnosis)
+
+    from thermrs.diagnose.baseline_law import _best_law
+
+    return BaselineComparison(
+        baselines=scores[0],
+        nominal=scores[1],
+        diagnosed=scores[2],
+        noise_floor_um=floor_um,
+        noise_floor_ci95=floor_ci,
+        cv=next((f.cv for f in fitted if f.cv), None),
+        features={
+            "temperatures": feats.names("ols"),
+            "lowpass": feats.names("lowpass_ols"),
+        },
+        fitted=fitted,
+        series=_series(feats, resids, is_train),
+        law=_best_law(fitted, resids, hold, feats, is_train, seed=seed),
+    )
+
+
+def _run_names(
+    train: Sequence[pl.DataFrame],
+    holdout: Sequence[pl.DataFrame],
+    models: Sequence[str],
+    diagnosis: Any,
+) -> tuple[list[str], list[str]]:
+    """The training and held-out runs' names, once the runs, the models and the diagnosis
+    are checked (:func:`compare_baselines`' ``InputError``)."""
+    if not train:
+        raise InputError("no training run: the baselines are fitted on --train runs")
+    if not holdout:
+        raise InputError("no held-out run: the baselines are scored on runs they never saw")
+    for m in models:
+        if m not in MODELS:
+            raise InputError(f"baseline {m!r}: not one of {', '.join(MODELS)}")
+    names_t = sorted({str(n) for t in train for n in t["run"].unique().to_list()})
+    names_h = sorted({str(n) for t in holdout for n in t["run"].unique().to_list()})
+    if diagnosis is not None:
+        diagnosis.check_runs(names_t, names_h)
+    return names_t, names_h
+
+
+def _physical(
+    vs: Any, names_t: list[str], names_h: list[str], r: Any, diagnosis: Any
+) -> tuple[dict[str, FloatArray], dict[str, int], float, tuple[float, float] | None]:
+    """The physical models on the baselines' visits: the nominal fit as the diagnosis makes
+    it and the diagnosed model's residual from the diagnosis itself (centred), their
+    parameter counts, and the noise floor (the diagnosis', else computed as it computes it)
+    with its 95 % interval where known."""
+    from thermrs.diagnose.engine import DesignMatrix
+    from thermrs.diagnose.floor import noise_floor
+
+    n = vs.n
+    base = DesignMatrix(vs, set(names_t)).fit(None, {}, label="nominal")
+    resids: dict[str, FloatArray] = {
+        "nominal": _centred(np.column_stack([base.residual[:n], base.residual[n:]]), vs)
+    }
+    n_par: dict[str, int] = {"nominal": 1}
+    if diagnosis is None:
+        fl = noise_floor(vs, base.residual, set(names_h), r.mapped_temperatures)
+        return resids, n_par, float(fl.holdout_um), None
+    resids["diagnosed"] = _centred(_diagnosed_residual(diagnosis, vs), vs)
+    n_par["diagnosed"] = 1 + sum(
+        sum(isinstance(v, int | float) and not isinstance(v, bool) for v in p.values())
+        for p in (s.get("params") or {} for s in diagnosis.selected)
+    )
+    fci = (diagnosis.noise_floor or {}).get("holdout_ci95")
+    return (
+        resids,
+        n_par,
+        float(diagnosis.noise_floor_um),
+        (None if not fci else (float(fci[0]), float(fci[1]))),
+    )
+
+
+def _scores(
+    models: Sequence[str],
+    resids: dict[str, FloatArray],
+    n_par: dict[str, int],
+    boot: dict[str, FloatArray],
+    vs: Any,
+    is_train: npt.NDArray[np.bool_],
+    phase: Any,
+    diagnosis: Any,
+) -> tuple[list[ModelScore], ModelScore, ModelScore | None]:
+    """Every model scored on the held-out visits: the baselines, the nominal model and (with
+    a diagnosis) the diagnosed one."""
+    hold = ~is_train
     nominal_rms = _rms(resids["nominal"][hold])
 
     def score(name: str, kind: str, description: str) -> ModelScore:
@@ -452,29 +509,17 @@ def compare_baselines(
             per_run=_per_run(rr, vs, hold, phase),
         )
 
-    from thermrs.diagnose.baseline_law import _best_law
-
     eff = [s.get("effect") for s in diagnosis.selected] if diagnosis is not None else []
-    return BaselineComparison(
-        baselines=[score(m, "regression", DESCRIPTIONS[m]) for m in models],
-        nominal=score("nominal", "physical", "the rig's forward model, α fitted"),
-        diagnosed=score(
+    return (
+        [score(m, "regression", DESCRIPTIONS[m]) for m in models],
+        score("nominal", "physical", "the rig's forward model, α fitted"),
+        score(
             "diagnosed",
             "physical",
             "the forward model with " + (" + ".join(str(e) for e in eff) or "no effect added"),
         )
         if diagnosis is not None
         else None,
-        noise_floor_um=floor_um,
-        noise_floor_ci95=floor_ci,
-        cv=next((f.cv for f in fitted if f.cv), None),
-        features={
-            "temperatures": feats.names("ols"),
-            "lowpass": feats.names("lowpass_ols"),
-        },
-        fitted=fitted,
-        series=_series(feats, resids, is_train),
-        law=_best_law(fitted, resids, hold, feats, is_train, seed=seed),
     )
 
 

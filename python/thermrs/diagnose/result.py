@@ -456,94 +456,10 @@ def assemble(
     fl = floor.holdout_um
     ranking = [_ranking_row(c, base_rms, n_eff_train) for c in cands]
     after = final if final is not None else base
-    how_far = _how_far(base, after, fl, final is not None)
-    # What held-out runs like these keep after the model: the rms the model left on them,
-    # with the relative spread the held-out rms has from one set of runs to another (the
-    # last step's null world, where the final model is the truth: the floor's noise, the
-    # rig's tolerances, the model refitted).
-    spread = steps[-1].null_hold_ms_profiled
-    spread = spread if len(spread) else steps[-1].null_hold_ms
-    last = np.sqrt(spread[np.isfinite(spread)])
-    mid = float(np.median(last)) if len(last) else 0.0
-    # The rms left here is itself one draw: a new set of runs differs from it by the
-    # difference of two independent draws, √2 times one draw's spread.
-    how_far["holdout_rms_after_ci95"] = (
-        [
-            after.holdout_rms_um * (1.0 + np.sqrt(2.0) * (float(np.quantile(last, q)) / mid - 1.0))
-            for q in (0.025, 0.975)
-        ]
-        if len(last) >= 19 and mid > 0
-        else None
-    )
+    how_far = _how_far_spread(base, after, floor, final is not None, steps)
     _closing(how_far, base, floor, final)
-    how_far["holdout_rms_after_ci95_note"] = (
-        "95 % of sets of held-out runs like these keep an rms in this range once the model "
-        "is applied: the rms it left here, spread as the held-out rms spreads in the model's "
-        "null world (the floor's noise, the rig's tolerances, the model refitted, its last "
-        "effect's time constant or choice profiled again)"
-    )
-    first = selected[0] if selected else None
-    advice = [
-        instrument_advice(sel["effect"], sel["params"])
-        for sel in selected
-        if is_instrument(sel["effect"])
-    ]
-    if status == "ambiguous":
-        # An instrument among the confounded effects is the first thing to check: it costs an
-        # afternoon with a contact probe, not a designed run of the robot.
-        for name in rivals:
-            row = next((r for r in ranking if r["effect"] == name), None)
-            if is_instrument(name) and row is not None:
-                advice.append(
-                    "the thermal camera's error explains it as well — "
-                    + instrument_advice(name, row["params"])
-                    + "; check it before designing a run of the robot"
-                )
-    if advice and status != "none":
-        reason = f"{reason}; {'; '.join(advice)}"
-    status, reason, exceeded, errs_more = _rig_statement(status, reason, selected, rivals, floor)
-    verdict_doc = {
-        # SPEC §7's four statuses; a partial explanation is `unexplained` there (what is left
-        # is still a gap) and says so in `outcome` and `partially_explained`.
-        "status": "unexplained" if status == "partially explained" else status,
-        "outcome": status,
-        "partially_explained": status == "partially explained",
-        # The gap is within what the rig leaves if it errs by as much more than it states as
-        # the data allow (tests.tolerance_excess): no effect of the robot is named.
-        "rig_tolerances_exceeded": exceeded,
-        # The data show the rig's errors exceed what it states: the 95 % interval of the
-        # factor (tests.tolerance_scale, on the residual of the model reported) lies above 1.
-        "rig_errors_exceed_stated": errs_more,
-        # The effect that explains the gap: none does where what is left is still a gap
-        # ("partially explained": the effects that explain a part are in `effects`).
-        "effect": None
-        if first is None or status in ("unexplained", "partially explained")
-        else first["effect"],
-        "effects": [s["effect"] for s in selected],
-        # Those of them that are the thermal camera's errors, not the robot's.
-        "instruments": [s["effect"] for s in selected if is_instrument(s["effect"])],
-        # SPEC §7: no parameters without their effect (a partial explanation's are in
-        # `selected`).
-        "params": {} if first is None or status == "partially explained" else first["params"],
-        "params_ci95": {}
-        if first is None or status == "partially explained"
-        else first["params_ci95"],
-        # The effect's other discrete choices (joint, temperature, length, camera) the data
-        # cannot reject as the truth: its family labels.
-        "params_alternatives": []
-        if first is None or status == "partially explained"
-        else first.get("alternatives", []),
-        "confounded_with": rivals if status == "ambiguous" else [],
-        # Excluded effects (never named) that explain the gap as well as the effects
-        # selected and that the data cannot reject: those effects may only stand in for them.
-        "stand_in_for": sorted({e for s in steps for e in s.outside}),
-        # α fitted together with the effects named (the joint fit; its interval from the joint
-        # fit's covariance), where the verdict names one: the α of the diagnosed model.
-        "alpha_per_k": None if first is None else first.get("alpha_per_k"),
-        "alpha_ci95": None if first is None else first.get("alpha_ci95"),
-        "holdout_rms_um": after.holdout_rms_um,
-        "reason": reason,
-    }
+    status, reason, exceeded, errs_more = _advised(status, reason, selected, rivals, ranking, floor)
+    verdict_doc = _verdict_doc(status, reason, exceeded, errs_more, selected, rivals, steps, after)
     baseline = {
         "alpha_per_k": {
             "value": base.alpha,
@@ -586,31 +502,164 @@ def assemble(
         summary="",
         residuals=residuals,
         noise_floor=floor.to_json(),
-        tests={
-            **_tests(steps, level),
-            "margin_um": margin_um,
-            "detectable_um": steps[0].detectable_um,
-            "detectable_um_note": "the held-out rms the null's threshold gain removes (or the "
-            "practical margin, if more): no effect of the library took more than this off the "
-            "held-out rms; it is not an effect size",
-            # Per effect: the rms of drift (µm) an effect must have to be named with 80 %
-            # power at the first step, over its families (which camera, joint, length).
-            "detectable_rms_um_80": _detectable_by_effect(steps[0], cands),
-            "tolerances": tolerances[0],
-            # False: the rig file states no [tolerances]; the null drew the defaults
-            # (docs/tolerances.md: the published metrology each comes from).
-            "tolerances_stated": tolerances[2],
-            # The factor by which the rig's errors exceed its stated tolerances, estimated
-            # from the held-out residual (:mod:`.tolerance_scale`).
-            "tolerance_scale": floor.extra.get("tolerance_scale"),
-            # The first step again with the rig erring by that factor's 95 % upper bound
-            # (where it found something and that bound is above 1).
-            "tolerance_excess": floor.extra.get("tolerance_excess"),
-            "tolerance_signatures": tolerances[1],
-        },
+        tests=_tests_doc(steps, cands, level, margin_um, floor, tolerances),
     )
     d.summary = summary(d)
     return d
+
+
+def _how_far_spread(
+    base: Fit, after: Fit, floor: NoiseFloor, named: bool, steps: list[Step]
+) -> dict[str, Any]:
+    """How far the model gets (:func:`_how_far`), with the 95 % range of what held-out runs
+    like these keep after it (``named``: an effect was); the gap and the share closed are
+    :func:`_closing`'s."""
+    how_far = _how_far(base, after, floor.holdout_um, named)
+    # What held-out runs like these keep after the model: the rms the model left on them,
+    # with the relative spread the held-out rms has from one set of runs to another (the
+    # last step's null world, where the final model is the truth: the floor's noise, the
+    # rig's tolerances, the model refitted).
+    spread = steps[-1].null_hold_ms_profiled
+    spread = spread if len(spread) else steps[-1].null_hold_ms
+    last = np.sqrt(spread[np.isfinite(spread)])
+    mid = float(np.median(last)) if len(last) else 0.0
+    # The rms left here is itself one draw: a new set of runs differs from it by the
+    # difference of two independent draws, √2 times one draw's spread.
+    how_far["holdout_rms_after_ci95"] = (
+        [
+            after.holdout_rms_um * (1.0 + np.sqrt(2.0) * (float(np.quantile(last, q)) / mid - 1.0))
+            for q in (0.025, 0.975)
+        ]
+        if len(last) >= 19 and mid > 0
+        else None
+    )
+    how_far["holdout_rms_after_ci95_note"] = (
+        "95 % of sets of held-out runs like these keep an rms in this range once the model "
+        "is applied: the rms it left here, spread as the held-out rms spreads in the model's "
+        "null world (the floor's noise, the rig's tolerances, the model refitted, its last "
+        "effect's time constant or choice profiled again)"
+    )
+    return how_far
+
+
+def _advised(
+    status: str,
+    reason: str,
+    selected: list[dict[str, Any]],
+    rivals: list[str],
+    ranking: list[dict[str, Any]],
+    floor: NoiseFloor,
+) -> tuple[str, str, bool, bool]:
+    """The verdict's status and reason with the instruments' advice and what the data say of
+    the rig's errors (:func:`_rig_statement`: (status, reason, exceeded, errs_more))."""
+    advice = [
+        instrument_advice(sel["effect"], sel["params"])
+        for sel in selected
+        if is_instrument(sel["effect"])
+    ]
+    if status == "ambiguous":
+        # An instrument among the confounded effects is the first thing to check: it costs an
+        # afternoon with a contact probe, not a designed run of the robot.
+        for name in rivals:
+            row = next((r for r in ranking if r["effect"] == name), None)
+            if is_instrument(name) and row is not None:
+                advice.append(
+                    "the thermal camera's error explains it as well — "
+                    + instrument_advice(name, row["params"])
+                    + "; check it before designing a run of the robot"
+                )
+    if advice and status != "none":
+        reason = f"{reason}; {'; '.join(advice)}"
+    return _rig_statement(status, reason, selected, rivals, floor)
+
+
+def _verdict_doc(
+    status: str,
+    reason: str,
+    exceeded: bool,
+    errs_more: bool,
+    selected: list[dict[str, Any]],
+    rivals: list[str],
+    steps: list[Step],
+    after: Fit,
+) -> dict[str, Any]:
+    """The ``verdict`` of the document (SPEC §7)."""
+    first = selected[0] if selected else None
+    return {
+        # SPEC §7's four statuses; a partial explanation is `unexplained` there (what is left
+        # is still a gap) and says so in `outcome` and `partially_explained`.
+        "status": "unexplained" if status == "partially explained" else status,
+        "outcome": status,
+        "partially_explained": status == "partially explained",
+        # The gap is within what the rig leaves if it errs by as much more than it states as
+        # the data allow (tests.tolerance_excess): no effect of the robot is named.
+        "rig_tolerances_exceeded": exceeded,
+        # The data show the rig's errors exceed what it states: the 95 % interval of the
+        # factor (tests.tolerance_scale, on the residual of the model reported) lies above 1.
+        "rig_errors_exceed_stated": errs_more,
+        # The effect that explains the gap: none does where what is left is still a gap
+        # ("partially explained": the effects that explain a part are in `effects`).
+        "effect": None
+        if first is None or status in ("unexplained", "partially explained")
+        else first["effect"],
+        "effects": [s["effect"] for s in selected],
+        # Those of them that are the thermal camera's errors, not the robot's.
+        "instruments": [s["effect"] for s in selected if is_instrument(s["effect"])],
+        # SPEC §7: no parameters without their effect (a partial explanation's are in
+        # `selected`).
+        "params": {} if first is None or status == "partially explained" else first["params"],
+        "params_ci95": {}
+        if first is None or status == "partially explained"
+        else first["params_ci95"],
+        # The effect's other discrete choices (joint, temperature, length, camera) the data
+        # cannot reject as the truth: its family labels.
+        "params_alternatives": []
+        if first is None or status == "partially explained"
+        else first.get("alternatives", []),
+        "confounded_with": rivals if status == "ambiguous" else [],
+        # Excluded effects (never named) that explain the gap as well as the effects
+        # selected and that the data cannot reject: those effects may only stand in for them.
+        "stand_in_for": sorted({e for s in steps for e in s.outside}),
+        # α fitted together with the effects named (the joint fit; its interval from the joint
+        # fit's covariance), where the verdict names one: the α of the diagnosed model.
+        "alpha_per_k": None if first is None else first.get("alpha_per_k"),
+        "alpha_ci95": None if first is None else first.get("alpha_ci95"),
+        "holdout_rms_um": after.holdout_rms_um,
+        "reason": reason,
+    }
+
+
+def _tests_doc(
+    steps: list[Step],
+    cands: list[Candidate],
+    level: float,
+    margin_um: float,
+    floor: NoiseFloor,
+    tolerances: tuple[dict[str, float], list[str], bool],
+) -> dict[str, Any]:
+    """The ``tests`` of the document: the steps' tests, what was detectable, the tolerances."""
+    return {
+        **_tests(steps, level),
+        "margin_um": margin_um,
+        "detectable_um": steps[0].detectable_um,
+        "detectable_um_note": "the held-out rms the null's threshold gain removes (or the "
+        "practical margin, if more): no effect of the library took more than this off the "
+        "held-out rms; it is not an effect size",
+        # Per effect: the rms of drift (µm) an effect must have to be named with 80 %
+        # power at the first step, over its families (which camera, joint, length).
+        "detectable_rms_um_80": _detectable_by_effect(steps[0], cands),
+        "tolerances": tolerances[0],
+        # False: the rig file states no [tolerances]; the null drew the defaults
+        # (docs/tolerances.md: the published metrology each comes from).
+        "tolerances_stated": tolerances[2],
+        # The factor by which the rig's errors exceed its stated tolerances, estimated
+        # from the held-out residual (:mod:`.tolerance_scale`).
+        "tolerance_scale": floor.extra.get("tolerance_scale"),
+        # The first step again with the rig erring by that factor's 95 % upper bound
+        # (where it found something and that bound is above 1).
+        "tolerance_excess": floor.extra.get("tolerance_excess"),
+        "tolerance_signatures": tolerances[1],
+    }
 
 
 def _detectable_by_effect(step: Step, cands: list[Candidate]) -> dict[str, Any]:

@@ -32,7 +32,7 @@ printed below what the draws resolve (``< 0.005`` with 199 draws).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -111,41 +111,97 @@ def decide(
     at_floor = p_floor >= lvl
     white = p_low >= lvl
     if not chosen:
-        contradicted = first.p_floor_contradicted < lvl
-        if first.p_at_floor >= lvl and first.p_low >= lvl and not contradicted:
-            return (
-                "none",
-                f"no effect found at {1 - level:.0%}: the held-out "
-                f"residual ({base_rms:.2f} µm) is within what noise (floor {floor_um:.2f} µm) "
-                f"and {tolerances} leave "
-                f"(p {fp(first.p_at_floor)}), white at the thermal time scales "
-                f"(p {fp(first.p_low)}), and no effect of the library takes more off it than "
-                "that null world lets one take (the most any took: "
-                f"{_best_removal(first):.2f} µm; p {fp(first.p_gain)}"
-                + (f"; practical margin {margin_um:.2f} µm" if margin_um > 0 else "")
-                + ")"
-                + _detectable_sizes(first),
-                [],
-            )
-        why = []
-        if first.p_at_floor < lvl:
-            why.append(f"above the noise floor ({floor_um:.2f} µm; p {fp(first.p_at_floor)})")
-        if first.p_low < lvl:
-            why.append(f"slow at the thermal time scales (p {fp(first.p_low)})")
-        if contradicted:
-            why.append(
-                "a candidate takes it further below the floor than noise would "
-                f"(p {fp(first.p_floor_contradicted)}), so it is not noise"
-            )
+        return _nothing_chosen(
+            first,
+            level=level,
+            base_rms=base_rms,
+            floor_um=floor_um,
+            margin_um=margin_um,
+            tolerances=tolerances,
+            fp=fp,
+        )
+    return _chosen(
+        steps,
+        [c.label for c in chosen],
+        base_rms=base_rms,
+        floor_um=floor_um,
+        floor_se_um=floor_se_um,
+        p_floor=p_floor,
+        p_low=p_low,
+        fp=fp,
+        at_floor=at_floor,
+        white=white,
+    )
+
+
+def _nothing_chosen(
+    first: Step,
+    *,
+    level: float,
+    base_rms: float,
+    floor_um: float,
+    margin_um: float,
+    tolerances: str,
+    fp: Callable[[float], str],
+) -> tuple[str, str, list[str]]:
+    """(status, reason, rivals) when no effect was chosen: ``none`` (the residual is noise and
+    the rig's tolerances, white, and nothing takes more off it than noise lets one take) or
+    ``unexplained`` (it is not, and no candidate removes it)."""
+    lvl = level / 4.0
+    contradicted = first.p_floor_contradicted < lvl
+    if first.p_at_floor >= lvl and first.p_low >= lvl and not contradicted:
         return (
-            "unexplained",
-            f"the held-out residual ({base_rms:.2f} µm) is {english_list(why)}, and no candidate "
-            "removes a significant, physically plausible part of it",
+            "none",
+            f"no effect found at {1 - level:.0%}: the held-out "
+            f"residual ({base_rms:.2f} µm) is within what noise (floor {floor_um:.2f} µm) "
+            f"and {tolerances} leave "
+            f"(p {fp(first.p_at_floor)}), white at the thermal time scales "
+            f"(p {fp(first.p_low)}), and no effect of the library takes more off it than "
+            "that null world lets one take (the most any took: "
+            f"{_best_removal(first):.2f} µm; p {fp(first.p_gain)}"
+            + (f"; practical margin {margin_um:.2f} µm" if margin_um > 0 else "")
+            + ")"
+            + _detectable_sizes(first),
             [],
         )
+    why = []
+    if first.p_at_floor < lvl:
+        why.append(f"above the noise floor ({floor_um:.2f} µm; p {fp(first.p_at_floor)})")
+    if first.p_low < lvl:
+        why.append(f"slow at the thermal time scales (p {fp(first.p_low)})")
+    if contradicted:
+        why.append(
+            "a candidate takes it further below the floor than noise would "
+            f"(p {fp(first.p_floor_contradicted)}), so it is not noise"
+        )
+    return (
+        "unexplained",
+        f"the held-out residual ({base_rms:.2f} µm) is {english_list(why)}, and no candidate "
+        "removes a significant, physically plausible part of it",
+        [],
+    )
+
+
+def _chosen(
+    steps: list[Step],
+    names: list[str],
+    *,
+    base_rms: float,
+    floor_um: float,
+    floor_se_um: float | None,
+    p_floor: float,
+    p_low: float,
+    fp: Callable[[float], str],
+    at_floor: bool,
+    white: bool,
+) -> tuple[str, str, list[str]]:
+    """(status, reason, rivals) when effects were chosen (``names``): ``partially
+    explained`` (an excluded effect explains it as well, little of the gap may be closed, or
+    what is left is not noise), ``ambiguous`` (rivals the data cannot reject) or
+    ``identified``."""
+    last = steps[-1]
     rivals = sorted({r for s in steps for r in s.rivals})
     outside = sorted({r for s in steps for r in s.outside})
-    names = [c.label for c in chosen]
     after = last.hold_ms**0.5
     if outside:
         ps = {e: fp(s.rival_p[e]) for s in steps for e in s.outside}

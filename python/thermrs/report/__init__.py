@@ -11,15 +11,19 @@ Markdown twin with its figures as SVG files beside it, for one run or a campaign
 - what extraction skipped and why.
 
 A section whose input is missing (no thermal readings, one run only, no joint states, no
-diagnoser) says so where it would be. Every number is computed once by
-:func:`thermrs.report.data.gather`, with the functions the commands call (the prediction by
-:func:`thermrs.predict.predict_held_out`, as ``thermrs predict``); the document
+diagnoser) says so where it would be. This package renders and computes nothing: every number
+is in a :class:`~thermrs.report.data.ReportData` that
+:func:`thermrs.analyses.report_data.report_data` builds from the results the commands render
+(``thermrs predict``, ``drift``, ``diagnose``, ``design``); the document
 :mod:`thermrs.report.document`, figures :mod:`thermrs.report.figures`, rendering
-:mod:`thermrs.report.render`, the demo :mod:`thermrs.report.demo`.
+:mod:`thermrs.report.render`. Reading runs and writing a report:
+:mod:`thermrs.analyses.report_runs`, :func:`thermrs.analyses.report.write_report`; the demo
+:mod:`thermrs.analyses.demo`.
 
 Example
 -------
->>> from thermrs.report import load_runs, write_report  # doctest: +SKIP
+>>> from thermrs.analyses.report import write_report  # doctest: +SKIP
+>>> from thermrs.analyses.report_runs import load_runs  # doctest: +SKIP
 >>> rig = thermrs.load_rig()  # doctest: +SKIP
 >>> runs = load_runs("campaign.mcap", rig)  # each run of the file  # doctest: +SKIP
 >>> write_report("report.html", runs=runs, rig=rig)  # doctest: +SKIP
@@ -31,7 +35,7 @@ import os
 import shutil
 import subprocess
 import tempfile
-from collections.abc import Sequence
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -39,30 +43,47 @@ from typing import Any
 from thermrs.atomic import write_atomic, write_dir, write_text
 from thermrs.errors import InputError
 from thermrs.report.blocks import Paragraph, Section
-from thermrs.report.data import (
-    ReportData,
-    RunInput,
-    Step,
-    gather,
-    load_run,
-    load_runs,
-    run_from_extraction,
-)
+from thermrs.report.data import ReportData, RunInput, Step
 from thermrs.report.document import compose
 from thermrs.report.render import to_html, to_markdown
-from thermrs.rig import Rig
 
 __all__ = [
+    "ReportData",
     "RunInput",
     "Written",
     "find_chromium",
-    "load_run",
-    "load_runs",
     "print_pdf",
-    "run_from_extraction",
     "write_document",
-    "write_report",
 ]
+
+#: The version in which the names that moved to :mod:`thermrs.analyses` stop being handed on
+#: from here.
+MOVED_NAMES_REMOVED_IN = "0.2.0"
+
+#: Names that moved to :mod:`thermrs.analyses` (they read runs or compute), each with its new
+#: module. Handed on when first asked, with a warning: this package renders, sits below
+#: :mod:`thermrs.analyses` and imports nothing of it.
+MOVED_TO_ANALYSES = {
+    "write_report": "thermrs.analyses.report",
+    "load_runs": "thermrs.analyses.report_runs",
+    "load_run": "thermrs.analyses.report_runs",
+    "run_from_extraction": "thermrs.analyses.report_runs",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in MOVED_TO_ANALYSES:
+        import importlib
+
+        home = MOVED_TO_ANALYSES[name]
+        warnings.warn(
+            f"thermrs.report.{name} moved to {home}.{name}: import it from {home} "
+            f"(thermrs.report.{name} goes in thermrs {MOVED_NAMES_REMOVED_IN})",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return getattr(importlib.import_module(home), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @dataclass(frozen=True)
@@ -94,9 +115,10 @@ def write_document(
     pdf: bool = False,
     step: Step | None = None,
 ) -> Written:
-    """Render a report whose numbers are computed (:func:`thermrs.report.data.gather`) and
-    write it: the HTML file, its Markdown twin (``OUT.md``, figures in ``OUT_files/``),
-    with ``pdf`` the PDF (``OUT.pdf``), each atomically.
+    """Render a report whose numbers are computed
+    (:func:`thermrs.analyses.report_data.report_data`) and write it: the HTML file, its
+    Markdown twin (``OUT.md``, figures in ``OUT_files/``), with ``pdf`` the PDF
+    (``OUT.pdf``), each atomically.
 
     Parameters
     ----------
@@ -123,8 +145,8 @@ def write_document(
 
     Examples
     --------
-    >>> from thermrs.report.data import gather
-    >>> write_document(gather(runs, rig), "report.html")  # doctest: +SKIP
+    >>> from thermrs.analyses.report_data import report_data
+    >>> write_document(report_data(runs, rig), "report.html")  # doctest: +SKIP
     """
     out = Path(out)
     _say(step, "drawing figures")
@@ -143,91 +165,6 @@ def write_document(
     return Written(
         html=out, markdown=md_path, figures=figures, pdf=pdf_path, html_bytes=len(text.encode())
     )
-
-
-def write_report(
-    out: str | Path,
-    *,
-    runs: Sequence[RunInput],
-    rig: Rig | str | os.PathLike[str],
-    train: Sequence[str] | None = None,
-    diagnosis: Any | None = None,
-    title: str | None = None,
-    intro: str | None = None,
-    markdown: bool = True,
-    pdf: bool = False,
-    paper_reference: bool = False,
-    step: Step | None = None,
-    baselines: bool = False,
-) -> Written:
-    """Write the report of ``runs``: every number computed
-    (:func:`thermrs.report.data.gather`), then the document rendered and written
-    (:func:`write_document`).
-
-    Parameters
-    ----------
-    out
-        The HTML file. The Markdown twin is written beside it (``OUT.md``, figures in
-        ``OUT_files/``), and with ``pdf`` the PDF (``OUT.pdf``).
-    runs
-        The runs (:func:`thermrs.report.load_run`, :func:`thermrs.report.run_from_extraction`),
-        in the order shown.
-    rig
-        The rig they were recorded on.
-    train
-        Runs α is fitted on (default: the first); the others are held out, predicted and
-        diagnosed.
-    diagnosis
-        A diagnosis already made (default: made here when runs are held out).
-    title
-        The report's title.
-    intro
-        A paragraph placed first in the summary (e.g. what a demo simulated).
-    markdown
-        Also write the Markdown twin.
-    pdf
-        Also print the HTML to PDF with headless Chromium.
-    paper_reference
-        Show the paper's printed Table 4 beside the runs' (for the paper's runs).
-    step
-        Called with a short description before each stage.
-    baselines
-        Also show regressions of the drift on the temperatures beside the physical models
-        (:func:`thermrs.report.data.gather`).
-
-    Returns
-    -------
-    Written
-        The files written.
-
-    Raises
-    ------
-    InputError
-        No runs, a training run that is not given, two runs of one name, or (``pdf``) no
-        Chromium to print with.
-
-    Examples
-    --------
-    >>> from thermrs.report import load_runs, write_report
-    >>> rig = thermrs.load_rig()  # doctest: +SKIP
-    >>> write_report("report.html", runs=load_runs("rec.mcap", rig), rig=rig)  # doctest: +SKIP
-    """
-    from thermrs.rig import as_rig
-
-    r = as_rig(rig)
-    if pdf and find_chromium() is None:
-        raise InputError("--pdf needs Chromium (`chromium` on PATH, or THERMRS_CHROMIUM)")
-    data = gather(
-        runs,
-        r,
-        train=train,
-        diagnosis=diagnosis,
-        title=title,
-        paper_reference=paper_reference,
-        step=step,
-        baselines=baselines,
-    )
-    return write_document(data, out, intro=intro, markdown=markdown, pdf=pdf, step=step)
 
 
 def _say(step: Step | None, what: str) -> None:

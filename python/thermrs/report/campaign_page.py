@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import polars as pl
@@ -17,6 +17,9 @@ from thermrs.atomic import write_dir, write_text
 from thermrs.report.blocks import Figure, Paragraph, Section, Table
 from thermrs.report.figures import figure, svg
 from thermrs.report.render import to_html, to_markdown
+
+if TYPE_CHECKING:  # pragma: no cover
+    from thermrs.campaigns.summary import CampaignSummary
 
 __all__ = ["campaign_sections", "write_campaign_page"]
 
@@ -56,12 +59,10 @@ def _fig_time(per_run: pl.DataFrame, trend: dict[str, Any]) -> str:
     return svg(fig)
 
 
-def _fig_speed(per_run: pl.DataFrame) -> str:
-    """α and the largest drift against the run's speed (override % where every run's is known,
-    else the 95th-percentile joint speed)."""
-    from thermrs.campaigns.summary import speed_axis
-
-    col, unit = speed_axis(per_run)
+def _fig_speed(per_run: pl.DataFrame, speed: tuple[str, str]) -> str:
+    """α and the largest drift against the run's speed (``speed``: its column and unit, the
+    override % where every run's is known, else the 95th-percentile joint speed)."""
+    col, unit = speed
     what = "override" if unit == "%" else "95th percentile joint speed"
     fig = figure(3.2)
     ax1, ax2 = fig.subplots(1, 2)
@@ -104,13 +105,11 @@ def _group_table(groups: pl.DataFrame, what: str) -> Table:
     )
 
 
-def campaign_sections(per_run: pl.DataFrame, *, folds: pl.DataFrame | None = None) -> list[Section]:
-    """The page's sections from :func:`thermrs.campaigns.summary.alpha_by_run` (and
-    :func:`~thermrs.campaigns.summary.holdout_by_rule`)."""
-    from thermrs.campaigns.summary import alpha_trend, by_group, standouts
-
-    trend = alpha_trend(per_run)
-    odd = standouts(per_run)
+def campaign_sections(summary_: CampaignSummary) -> list[Section]:
+    """The page's sections from :func:`thermrs.campaigns.summary.campaign_summary`."""
+    per_run, trend, odd, folds = (
+        summary_.per_run, summary_.trend, summary_.standouts, summary_.folds
+    )  # fmt: skip
     summary = Section("summary", "Summary")
     summary.blocks.append(Paragraph(f"Over time: {trend['sentence']}."))
     if odd:
@@ -137,17 +136,17 @@ def campaign_sections(per_run: pl.DataFrame, *, folds: pl.DataFrame | None = Non
             _fig_time(per_run, trend),
         )
     )
-    time.blocks.append(_group_table(by_group(per_run, "date"), "day"))
+    time.blocks.append(_group_table(summary_.by_day, "day"))
     speed = Section("speed", "By speed")
     speed.blocks.append(
         Figure(
             "campaign-speed",
             "α and the largest drift against each run's speed (the 95th "
             "percentile of its fastest joint's speed)",
-            _fig_speed(per_run),
+            _fig_speed(per_run, summary_.speed),
         )
     )
-    speed.blocks.append(_group_table(by_group(per_run, "speed"), "speed"))
+    speed.blocks.append(_group_table(summary_.by_speed, "speed"))
     sections = [summary, time, speed, _runs_section(per_run)]
     if folds is not None:
         sections.append(_held_out_section(folds))
@@ -221,19 +220,16 @@ def _held_out_section(folds: pl.DataFrame) -> Section:
 
 
 def write_campaign_page(
-    per_run: pl.DataFrame,
-    out: str | Path,
-    *,
-    folds: pl.DataFrame | None = None,
-    title: str = "Campaign: α and drift per run",
+    summary_: CampaignSummary, out: str | Path, *, title: str = "Campaign: α and drift per run"
 ) -> Path:
-    """Write the page atomically: ``.html`` (self-contained, figures inline) or ``.md`` (its
-    figures as SVG files in ``OUT_files/`` beside it)."""
+    """Write the page of a campaign's summary
+    (:func:`thermrs.campaigns.summary.campaign_summary`) atomically: ``.html``
+    (self-contained, figures inline) or ``.md`` (its figures as SVG files in ``OUT_files/``
+    beside it)."""
     out = Path(out)
-    sections = campaign_sections(per_run, folds=folds)
-    meta = (
-        f"{per_run.height} runs; written {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC"
-    )
+    sections = campaign_sections(summary_)
+    now = datetime.datetime.now(datetime.UTC)
+    meta = f"{summary_.per_run.height} runs; written {now:%Y-%m-%d %H:%M} UTC"
     if out.suffix == ".html":
         write_text(out, to_html(sections, title=title, meta=meta))
         return out

@@ -16,7 +16,7 @@ from thermrs.report.data import ReportData, diagnosis_json, diagnosis_residuals
 from thermrs.report.figures import fig_diagnosis
 from thermrs.report.sections.common import axis_name
 
-__all__ = ["section"]
+__all__ = ["excluded", "section"]
 
 Doc = Mapping[str, Any]
 
@@ -31,6 +31,7 @@ def section(d: ReportData, colours: Mapping[str, str]) -> Section:
     if doc.get("summary"):
         s.blocks.append(Paragraph(str(doc["summary"])))
     s.blocks.append(_verdict(doc))
+    s.blocks.append(excluded(d) or Paragraph(NOTHING_EXCLUDED))
     s.blocks += _noise_floor(doc)
     s.blocks.append(_how_far(doc))
     if d.diagnosed_prediction is not None:
@@ -52,6 +53,27 @@ def section(d: ReportData, colours: Mapping[str, str]) -> Section:
     elif d.design_note:
         s.blocks.append(Missing(d.design_note))
     return s
+
+
+#: The diagnosis section's sentence when no effect was excluded.
+NOTHING_EXCLUDED = "Excluded effects (`--exclude`): none."
+
+
+def excluded(d: ReportData) -> Paragraph | None:
+    """What the diagnosis was not allowed to name (``--exclude``: the diagnosis' own
+    ``excluded``, or what was asked when none was made), or None when nothing was."""
+    names = (
+        list(diagnosis_json(d.diagnosis).get("excluded") or [])
+        if d.diagnosis is not None
+        else d.exclude
+    )
+    if names:
+        made = "was" if d.diagnosis is not None else "was to be"
+        return Paragraph(
+            f"Excluded effects (`--exclude`): {', '.join(sorted(names))} — the diagnosis "
+            f"{made} made without them in the library of effects it may name."
+        )
+    return None
 
 
 def _verdict(doc: Doc) -> Paragraph:

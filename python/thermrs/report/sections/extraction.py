@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from thermrs.ingest import ExtractReport
 from thermrs.numbers import fmt
 from thermrs.report.blocks import Block, Missing, Paragraph, Section, Table
 from thermrs.report.data import ReportData, RunInput
 from thermrs.report.sections.common import join
+
+if TYPE_CHECKING:  # pragma: no cover
+    from thermrs.ingest import ExtractReport
 
 __all__ = ["section"]
 

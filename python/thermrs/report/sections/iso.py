@@ -6,10 +6,9 @@ from collections.abc import Mapping
 
 import polars as pl
 
-from thermrs.iso9283 import LABEL
 from thermrs.numbers import fmt
 from thermrs.report.blocks import Figure, Missing, Paragraph, Section, Table
-from thermrs.report.data import ISO_TOLERANCE_UM, ISO_WINDOW, ReportData
+from thermrs.report.data import ReportData
 from thermrs.report.figures import fig_iso
 
 __all__ = ["section"]
@@ -21,13 +20,13 @@ def section(d: ReportData, colours: Mapping[str, str]) -> Section:
     spans = _spans(d)
     s.blocks.append(
         Paragraph(
-            f"{LABEL}. Windows of {ISO_WINDOW} consecutive visits per camera"
+            f"{d.iso['method']}. Windows of {d.iso['window']} consecutive visits per camera"
             + (f" ({spans} here)" if spans else "")
             + "; RP = l̄ + 3·S_l, the spread of a window's visits about their barycentre; cold: "
             "the run's first window, warm: its last; settled: the barycentre stays within "
-            f"{fmt(ISO_TOLERANCE_UM, 1)} µm of the final one (as `thermrs drift --json` gives "
-            "them). A spot that drifts during a window counts as spread: RP cold, taken while "
-            "the robot warms up, holds the warm-up drift inside its window besides the "
+            f"{fmt(d.iso['tolerance_um'], 1)} µm of the final one (as `thermrs drift --json` "
+            "gives them). A spot that drifts during a window counts as spread: RP cold, taken "
+            "while the robot warms up, holds the warm-up drift inside its window besides the "
             "repeatability, and dRP compares it with a warm window that drifts less."
         )
     )
@@ -77,7 +76,7 @@ def section(d: ReportData, colours: Mapping[str, str]) -> Section:
             )
         )
     else:
-        s.blocks.append(Missing(f"No run has a window of {ISO_WINDOW} visits: no figure."))
+        s.blocks.append(Missing(f"No run has a window of {d.iso['window']} visits: no figure."))
     return s
 
 

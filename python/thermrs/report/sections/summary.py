@@ -136,11 +136,17 @@ def _prediction(d: ReportData, prediction: pl.DataFrame) -> Paragraph:
 
 
 def _diagnosis(d: ReportData) -> list[Block]:
-    """The diagnosis' own summary, or why there is none."""
+    """The diagnosis' own summary (or why there is none), and what it was made without."""
+    from thermrs.report.sections.diagnosis import excluded
+
+    out: list[Block] = []
     if d.diagnosis is not None:
         doc = diagnosis_json(d.diagnosis)
-        return [Paragraph(str(doc["summary"]))] if doc.get("summary") else []
-    return [Paragraph(d.diagnosis_note)] if d.diagnosis_note else []
+        out += [Paragraph(str(doc["summary"]))] if doc.get("summary") else []
+    elif d.diagnosis_note:
+        out.append(Paragraph(d.diagnosis_note))
+    ex = excluded(d)
+    return out + ([ex] if ex is not None else [])
 
 
 def _extraction(d: ReportData) -> list[Block]:

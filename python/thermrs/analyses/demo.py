@@ -23,11 +23,17 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import polars as pl
 
-from thermrs.report import RunInput, Written, run_from_extraction, write_report
+from thermrs.analyses.report import write_report
+from thermrs.analyses.report_runs import run_from_extraction
 from thermrs.rig import load_rig
+
+if TYPE_CHECKING:  # pragma: no cover
+    from thermrs.report import Written
+    from thermrs.report.data import RunInput
 
 __all__ = ["DemoResult", "DemoRuns", "demo_scenario_path", "run_demo", "simulate_demo"]
 

@@ -1,0 +1,274 @@
+"""A report's runs, read: one :class:`~thermrs.report.data.RunInput` per run (its run table,
+temperatures, joint states, frames by status and extraction report) from a recording or the
+tables ``thermrs extract`` wrote, split into runs as every command splits them
+(:mod:`thermrs.runs`), or cut out of one extraction at given times (the demo); and the
+``--train``/``--run`` specs of ``thermrs report``, each read once and named as every command
+names them. A campaign's runs: :mod:`thermrs.analyses.report`."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import polars as pl
+
+from thermrs.errors import InputError
+from thermrs.ingest import Extraction
+from thermrs.report.data import RunInput, Step
+from thermrs.rig import Rig
+
+__all__ = [
+    "ReportRuns",
+    "SpecRead",
+    "frames_by_status",
+    "load_run",
+    "load_runs",
+    "read_report_runs",
+    "run_from_extraction",
+]
+
+
+def run_from_extraction(
+    ex: Extraction,
+    rig: Rig,
+    *,
+    name: str,
+    source: str,
+    window_ns: tuple[int, int] | None = None,
+    recording: str | None = None,
+) -> RunInput:
+    """A :class:`RunInput` from an extraction, optionally only the visits, readings and frames
+    inside ``window_ns`` (a recording that holds several runs, cut at their times)."""
+    from thermrs.fit import run_table_from
+
+    visits, temps, frames, joints = ex.visits, ex.temperatures, ex.frames, ex.joints
+    if window_ns is not None:
+        lo, hi = window_ns
+
+        def cut(df: pl.DataFrame) -> pl.DataFrame:
+            return df.filter((pl.col("t_ns") >= lo) & (pl.col("t_ns") <= hi))
+
+        visits, temps, frames, joints = cut(visits), cut(temps), cut(frames), cut(joints)
+        # Drift is anchored at the run's first visit (SPEC §4): re-anchor the cut.
+        visits = _reanchor(visits)
+    table = run_table_from(visits, temps, rig, run=name)
+    return RunInput(
+        name=name,
+        table=table,
+        source=source,
+        temperatures=temps,
+        joints=joints.height,
+        frames_by_status=frames_by_status(frames),
+        extract_report=ex.report,
+        data_loss=ex.report.data_loss,
+        recording=recording or source,
+    )
+
+
+def frames_by_status(frames: pl.DataFrame) -> dict[str, int]:
+    """A frames table's CCD frames counted by status (``ok``, ``no_spot``, …), as the
+    report's extraction section shows them."""
+    if not frames.height:
+        return {}
+    return {str(k): int(v) for k, v in frames.group_by("status").len().sort("status").iter_rows()}
+
+
+def _reanchor(visits: pl.DataFrame) -> pl.DataFrame:
+    """Drift columns anchored at each camera's first visit with ``ok`` frames."""
+    if not {"drift_u_um", "drift_v_um"} <= set(visits.columns):
+        return visits
+    v = visits.sort("camera", "t_ns")
+    return v.with_columns(
+        drift_u_um=pl.col("u_um") - pl.col("u_um").drop_nulls().first().over("camera"),
+        drift_v_um=pl.col("v_um") - pl.col("v_um").drop_nulls().first().over("camera"),
+    )
+
+
+def load_runs(
+    spec: str | Path,
+    rig: Rig | str | os.PathLike[str],
+    *,
+    name: str | None = None,
+    cache: dict[Any, Any] | None = None,
+) -> list[RunInput]:
+    """The runs of a recording (``.mcap``, extracted here) or of the tables ``thermrs
+    extract`` wrote, one :class:`RunInput` per run, split as every other command splits them
+    (:mod:`thermrs.runs`: run markers, else idle gaps); ``FILE#RUN`` takes one run.
+
+    Parameters
+    ----------
+    spec
+        ``path`` (each of its runs) or ``path#run``.
+    rig
+        The rig it was recorded on (or the path of its file).
+    name
+        The base name of the runs (default the file's stem): ``<name>#<run>``, or ``<name>``
+        alone when the file holds one run.
+    cache
+        Files read once serve every run asked of them (see :func:`thermrs.runs.load_runs`).
+
+    Raises
+    ------
+    InputError
+        No such file, no such run, or a run without a visit with a spot.
+    """
+    from thermrs.rig import as_rig
+    from thermrs.runs import load_runs as load_run_tables
+    from thermrs.runs import split_run_spec
+
+    rig = as_rig(rig)
+    path, _ = split_run_spec(spec)
+    rt = load_run_tables(spec, rig, name=name, cache=cache)
+    for t in rt.tables:
+        if t.height == 0:
+            raise InputError(f"{spec}: no visit with a spot")
+    windows: dict[str, tuple[int, int]] = {}
+    for r in rt.runs.iter_rows(named=True):
+        windows[r["run"]] = (int(r["start_ns"]), int(r["end_ns"]))
+
+    def window(table: pl.DataFrame) -> tuple[int, int] | None:
+        label = str(table["run"][0])
+        run = label.rpartition("#")[2] if "#" in label else None
+        if run is None and rt.runs.height == 1:
+            run = str(rt.runs["run"][0])
+        return windows.get(run) if run is not None else None
+
+    if not path.name.endswith(".parquet"):
+        ex = rt.extraction
+        out = []
+        for t in rt.tables:
+            w = window(t)
+            run = run_from_extraction(
+                ex, rig, name=str(t["run"][0]), source=str(path), window_ns=w,
+                recording=str(path),
+            )  # fmt: skip
+            # The run table as every other command builds it (temperatures of its own run).
+            out.append(RunInput(**{**run.__dict__, "table": t}))
+        return out
+    stem = path.name[: -len(".parquet")]
+    for part in (".visits", ".temperatures", ".joints", ".runs"):
+        stem = stem.removesuffix(part)
+    temps = pl.read_parquet(path.with_name(f"{stem}.temperatures.parquet"))
+    jp = path.with_name(f"{stem}.joints.parquet")
+    fp = path.with_name(f"{stem}.parquet")
+    joints_t = pl.read_parquet(jp, columns=["t_ns"]) if jp.exists() else None
+    frames = pl.read_parquet(fp, columns=["t_ns", "status"]) if fp.exists() else None
+    out = []
+    for t in rt.tables:
+        w = window(t)
+
+        def cut(df: pl.DataFrame, w: tuple[int, int] | None = w) -> pl.DataFrame:
+            return df if w is None else df.filter(pl.col("t_ns").is_between(*w))
+
+        out.append(
+            RunInput(
+                name=str(t["run"][0]),
+                table=t,
+                source=str(path),
+                temperatures=cut(temps),
+                joints=None if joints_t is None else cut(joints_t).height,
+                frames_by_status=None if frames is None else frames_by_status(cut(frames)),
+                data_loss=rt.data_loss,
+                recording=str(path),
+            )
+        )
+    return out
+
+
+def load_run(
+    path: str | Path, rig: Rig | str | os.PathLike[str], *, name: str | None = None
+) -> RunInput:
+    """One run of a recording or of extracted tables (``FILE`` holding one run, or
+    ``FILE#RUN``); see :func:`load_runs`.
+
+    Raises
+    ------
+    InputError
+        No such file, no visit with a spot, or a file of several runs given without ``#RUN``
+        (the runs would be merged into one: use :func:`load_runs`).
+    """
+    runs = load_runs(path, rig, name=name)
+    if len(runs) > 1:
+        raise InputError(
+            f"{path} holds {len(runs)} runs ({', '.join(r.name for r in runs)}): "
+            "take one with FILE#RUN, or all with thermrs.analyses.report_runs.load_runs"
+        )
+    return runs[0]
+
+
+@dataclass(frozen=True)
+class SpecRead:
+    """What one spec gave: its file, its runs, whether it was a training spec, and whether it
+    is the first spec of that file to report lost data (warn once per file)."""
+
+    spec: Path
+    file: Path
+    runs: list[RunInput]
+    train: bool
+    new_loss: bool
+
+
+@dataclass
+class ReportRuns:
+    """The report's runs (each once, in the order read), the training runs' names and whether
+    any recording lost data."""
+
+    runs: list[RunInput] = field(default_factory=list)
+    train: list[str] = field(default_factory=list)
+    data_loss: bool = False
+
+
+def read_report_runs(
+    train: Sequence[Path],
+    runs: Sequence[Path],
+    rig: Rig,
+    *,
+    step: Step | None = None,
+    read: Callable[[SpecRead], None] | None = None,
+) -> ReportRuns:
+    """Read the ``train`` then the ``runs`` specs (a spec given twice read once).
+
+    Parameters
+    ----------
+    train, runs
+        ``FILE`` or ``FILE#RUN`` specs (see :func:`load_runs`).
+    rig
+        The rig they were recorded on.
+    step
+        Told ``reading SPEC (i/n)`` before each spec is read.
+    read
+        Told what each spec gave, once read.
+
+    Raises
+    ------
+    InputError
+        As :func:`load_runs`.
+    """
+    from thermrs.fit import run_name
+    from thermrs.runs import split_run_spec
+
+    specs = list(dict.fromkeys([*train, *runs]))
+    files = [split_run_spec(p)[0] for p in specs]
+    names = [run_name(f) for f in files]
+    cache: dict[object, object] = {}
+    out = ReportRuns()
+    for i, (p, f) in enumerate(zip(specs, files, strict=True)):
+        if step is not None:
+            step(f"reading {p} ({i + 1}/{len(specs)})")
+        # Two files of one name in different folders: name the runs by their paths.
+        same = any(n == names[i] and g != f for n, g in zip(names, files, strict=True))
+        got = load_runs(p, rig, name=str(f) if same else None, cache=cache)
+        lost = any(r.data_loss for r in got)
+        if read is not None:
+            read(SpecRead(p, f, got, p in train, lost and f not in files[:i]))
+        out.data_loss |= lost
+        for r in got:
+            if r.name in {x.name for x in out.runs}:
+                continue
+            out.runs.append(r)
+            if p in train:
+                out.train.append(r.name)
+    return out
