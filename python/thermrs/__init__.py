@@ -18,6 +18,8 @@ The heavy lifting is Rust (``thermrs._native``); this package is the library API
 - :mod:`thermrs.effects`, :mod:`thermrs.signatures`, :mod:`thermrs.diagnose`: the SPEC §6
   effects and the diagnosis of the sim-to-real gap; :mod:`thermrs.compensate`: the diagnosed
   model put to use; :mod:`thermrs.stats`: least squares and its covariance;
+- :mod:`thermrs.follow`, :mod:`thermrs.outlook`: a recording followed while it is written and
+  the rest of its run foreseen (:func:`thermrs.watch`, a generator of updates);
 - :mod:`thermrs.report`: the report a person reads; :mod:`thermrs.atomic`: outputs written
   atomically.
 
@@ -45,11 +47,13 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
         diagnose,
         effects,
         fit,
+        follow,
         heating,
         ingest,
         inventory,
         iso9283,
         model,
+        outlook,
         paper,
         predict,
         report,
@@ -59,6 +63,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
         simulate,
         stats,
     )
+    from thermrs.analyses.watch import watch
     from thermrs.campaigns import campaign
     from thermrs.errors import (
         InputError,
@@ -84,11 +89,13 @@ _SUBMODULES = (
     "effects",
     "errors",
     "fit",
+    "follow",
     "heating",
     "ingest",
     "inventory",
     "iso9283",
     "model",
+    "outlook",
     "paper",
     "predict",
     "report",
@@ -118,6 +125,7 @@ _NAMES = {
     "RigError": "thermrs.errors",
     "ScenarioError": "thermrs.errors",
     "ThermrsError": "thermrs.errors",
+    "watch": "thermrs.analyses.watch",
 }
 
 __all__ = [
@@ -143,12 +151,14 @@ __all__ = [
     "effects",
     "extract",
     "fit",
+    "follow",
     "heating",
     "ingest",
     "inventory",
     "iso9283",
     "load_rig",
     "model",
+    "outlook",
     "paper",
     "predict",
     "report",
@@ -158,6 +168,7 @@ __all__ = [
     "simulate",
     "stats",
     "visits",
+    "watch",
 ]
 
 

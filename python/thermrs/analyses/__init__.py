@@ -19,7 +19,9 @@ these and renders what they return; a number in the report is the number the com
   the report of a campaign's runs (:func:`report`); its runs read from files
   (:mod:`thermrs.analyses.report_runs`), its numbers built from the analyses above
   (:mod:`thermrs.analyses.report_data`), the demo (:mod:`thermrs.analyses.demo`), each loaded
-  when a report is made.
+  when a report is made;
+- :mod:`thermrs.analyses.watch`: a run followed while it is recorded (:func:`watch`, a
+  generator of :class:`WatchUpdate`).
 
 Each analysis has two forms: ``*_splits`` takes splits however they were made (from a dataset
 by :func:`~thermrs.analyses.inputs.splits`, or from files by
@@ -44,6 +46,7 @@ from thermrs.analyses.fit import FitResult, fit, fit_document, training_alphas, 
 from thermrs.analyses.inputs import Split, file_splits, file_tables, selected, splits
 from thermrs.analyses.predict import Prediction, predict, predict_splits, read_fit_alpha
 from thermrs.analyses.report import report
+from thermrs.analyses.watch import WatchUpdate, watch
 
 __all__ = [
     "BaselineComparison",
@@ -53,6 +56,7 @@ __all__ = [
     "FitResult",
     "Prediction",
     "Split",
+    "WatchUpdate",
     "baselines_folds",
     "compare_baselines",
     "design",
@@ -73,4 +77,5 @@ __all__ = [
     "splits",
     "training_alphas",
     "training_axes",
+    "watch",
 ]
