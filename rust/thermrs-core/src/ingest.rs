@@ -48,6 +48,7 @@ mod floor;
 mod png;
 mod recovery;
 mod report;
+pub(crate) mod ros1bag;
 mod rosbag1;
 mod source;
 mod sqlite;
