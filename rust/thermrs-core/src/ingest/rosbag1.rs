@@ -248,6 +248,15 @@ pub(super) fn extract_ros1(
             At::Record(r) => {
                 match r.header.op {
                     Some(ros1bag::OP_CHUNK) | Some(ros1bag::OP_MSG_DATA) => {
+                        // The window is run when full, before the next chunk: the index
+                        // records after its last chunk have been read by then.
+                        if held >= budget {
+                            rd.flush(&mut slots[..used]);
+                            (used, held) = (0, 0);
+                            if !progress(r.at, len, rd.frames) {
+                                return Err(Error::Interrupted);
+                            }
+                        }
                         let i = next_slot(&mut slots, &mut used);
                         let s = &mut slots[i];
                         s.at = r.at;
@@ -370,13 +379,6 @@ pub(super) fn extract_ros1(
                     Some(n) => at = n,
                     None => break,
                 }
-            }
-        }
-        if held >= budget {
-            rd.flush(&mut slots[..used]);
-            (used, held) = (0, 0);
-            if !progress(at.min(len), len, rd.frames) {
-                return Err(Error::Interrupted);
             }
         }
     }
