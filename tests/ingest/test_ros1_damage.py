@@ -246,3 +246,37 @@ def test_a_damaged_chunk_is_skipped_and_reported(
         bad.end - bad.pos,
     )
     assert loss["messages_lost"] == dict(Counter(t for _, t, _ in bad.messages))
+
+
+@pytest.mark.parametrize("where", ["chunk header", "record in a chunk"])
+def test_damage_in_an_uncompressed_bag_loses_only_itself(
+    world: World, paper_rig: thermrs.Rig, where: str, tmp_path: Path
+) -> None:
+    """A chunk whose header length is garbage is skipped to the next intact record (found by
+    scanning); a record inside a chunk whose length is garbage loses that chunk's records
+    from it on, those before it are read."""
+    full = _bag(world, "none")
+    raw = bytearray(full.read_bytes())
+    chunks = _chunks(full)
+    bad = chunks[len(chunks) // 2]
+    kept: Counter[tuple[str, int]] = Counter()
+    for c in chunks:
+        if c is not bad:
+            kept.update((t, ts) for _, t, ts in c.messages)
+    if where == "chunk header":
+        raw[bad.pos : bad.pos + 4] = b"\xff\xff\xff\xff"
+        want = ("corrupt_record", bad.pos, bad.end - bad.pos)
+    else:
+        k = len(bad.messages) // 2
+        raw[bad.data_at + bad.messages[k][0] : bad.data_at + bad.messages[k][0] + 4] = b"\xff" * 4
+        kept.update((t, ts) for _, t, ts in bad.messages[:k])
+        want = ("corrupt_chunk", bad.pos, bad.end - bad.pos)
+    bag = tmp_path / "damaged.bag"
+    bag.write_bytes(bytes(raw))
+    ref = thermrs.extract(
+        write_mcap(_select(world.messages, kept), tmp_path / "ref.mcap"), paper_rig
+    )
+    ex = thermrs.extract(bag, paper_rig)
+    _assert_tables_of(ex, ref)
+    (loss,) = ex.report.losses
+    assert (loss["kind"], loss["offset"], loss["bytes"]) == want
