@@ -503,3 +503,295 @@ pub(crate) fn inner_records(
         Some(Ok((at, rec)))
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    /// A message: connection, time, data.
+    type Msg = (u32, u64, Vec<u8>);
+
+    /// A record as the format lays it out: header fields, then data.
+    fn record(fields: &[(&str, &[u8])], data: &[u8]) -> Vec<u8> {
+        let mut h = Vec::new();
+        for (name, v) in fields {
+            h.extend_from_slice(&((name.len() + 1 + v.len()) as u32).to_le_bytes());
+            h.extend_from_slice(name.as_bytes());
+            h.push(b'=');
+            h.extend_from_slice(v);
+        }
+        let mut out = (h.len() as u32).to_le_bytes().to_vec();
+        out.extend_from_slice(&h);
+        out.extend_from_slice(&(data.len() as u32).to_le_bytes());
+        out.extend_from_slice(data);
+        out
+    }
+
+    fn time(ns: u64) -> Vec<u8> {
+        let mut v = ((ns / 1_000_000_000) as u32).to_le_bytes().to_vec();
+        v.extend_from_slice(&((ns % 1_000_000_000) as u32).to_le_bytes());
+        v
+    }
+
+    fn connection(id: u32, topic: &str) -> Vec<u8> {
+        let data = [
+            record(&[("topic", topic.as_bytes())], &[]),
+            record(&[("type", b"std_msgs/String")], &[]),
+            record(&[("md5sum", &[b'0'; 32])], &[]),
+            record(&[("message_definition", b"string data\n")], &[]),
+        ]
+        // Fields of the data are `u32` + `name=value` as in a header: strip the data lengths.
+        .iter()
+        .flat_map(|r| {
+            let n = u32::from_le_bytes(r[..4].try_into().unwrap()) as usize;
+            r[4..4 + n].to_vec()
+        })
+        .collect::<Vec<u8>>();
+        record(
+            &[
+                ("op", &[OP_CONNECTION]),
+                ("conn", &id.to_le_bytes()),
+                ("topic", topic.as_bytes()),
+            ],
+            &data,
+        )
+    }
+
+    /// A bag of three chunks (none, bz2, lz4; the compressors of the `bzip2` and `lz4` crates)
+    /// of `per` messages each on two connections, with its index section; and its messages.
+    fn bag(per: usize) -> (Vec<u8>, Vec<Msg>) {
+        let mut msgs = Vec::new();
+        let mut body = Vec::new();
+        let mut infos = Vec::new();
+        let first = MAGIC.len() + 4096;
+        for (c, comp) in ["none", "bz2", "lz4"].iter().enumerate() {
+            let mut plain = if c == 0 {
+                [connection(0, "/a"), connection(1, "/b")].concat()
+            } else {
+                Vec::new()
+            };
+            for i in 0..per {
+                let conn = (i % 2) as u32;
+                let t = 1_000_000_000 * (c * per + i) as u64 + 7;
+                let data: Vec<u8> = (0..100 + i * 37).map(|k| (k * 31 + i) as u8).collect();
+                plain.extend(record(
+                    &[
+                        ("op", &[OP_MSG_DATA]),
+                        ("conn", &conn.to_le_bytes()),
+                        ("time", &time(t)),
+                    ],
+                    &data,
+                ));
+                msgs.push((conn, t, data));
+            }
+            let packed = match *comp {
+                "bz2" => {
+                    let mut e =
+                        bzip2::write::BzEncoder::new(Vec::new(), bzip2::Compression::best());
+                    e.write_all(&plain).unwrap();
+                    e.finish().unwrap()
+                }
+                "lz4" => {
+                    let mut e = lz4::EncoderBuilder::new().build(Vec::new()).unwrap();
+                    e.write_all(&plain).unwrap();
+                    e.finish().0
+                }
+                _ => plain.clone(),
+            };
+            let pos = (first + body.len()) as u64;
+            body.extend(record(
+                &[
+                    ("op", &[OP_CHUNK]),
+                    ("compression", comp.as_bytes()),
+                    ("size", &(plain.len() as u32).to_le_bytes()),
+                ],
+                &packed,
+            ));
+            infos.push((pos, c * per, (c + 1) * per - 1));
+        }
+        let index_pos = (first + body.len()) as u64;
+        body.extend(connection(0, "/a"));
+        body.extend(connection(1, "/b"));
+        for (pos, a, b) in infos {
+            let counts: Vec<u8> = [
+                0u32,
+                ((b - a + 2) / 2) as u32,
+                1,
+                (b - a).div_ceil(2) as u32,
+            ]
+            .iter()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
+            body.extend(record(
+                &[
+                    ("op", &[OP_CHUNK_INFO]),
+                    ("ver", &1u32.to_le_bytes()),
+                    ("chunk_pos", &pos.to_le_bytes()),
+                    ("start_time", &time(msgs[a].1)),
+                    ("end_time", &time(msgs[b].1)),
+                    ("count", &2u32.to_le_bytes()),
+                ],
+                &counts,
+            ));
+        }
+        let mut out = MAGIC.to_vec();
+        let mut head = record(
+            &[
+                ("op", &[OP_BAG_HEADER]),
+                ("index_pos", &index_pos.to_le_bytes()),
+                ("conn_count", &2u32.to_le_bytes()),
+                ("chunk_count", &3u32.to_le_bytes()),
+            ],
+            &[],
+        );
+        // Padded to 4096 bytes as rosbag writes it (the data: spaces).
+        let pad = 4096 - head.len();
+        head.truncate(head.len() - 4);
+        head.extend(((pad) as u32).to_le_bytes());
+        head.extend(vec![b' '; pad]);
+        out.extend(head);
+        out.extend(body);
+        (out, msgs)
+    }
+
+    /// Every message of the bag at `path` as this module reads it, in file order.
+    fn read(path: &std::path::Path) -> (Vec<Msg>, bool) {
+        let bag = Bag1::open(path).unwrap().unwrap();
+        let (mut buf, mut raw, mut plain) = (Vec::new(), Vec::new(), Vec::new());
+        let mut out = Vec::new();
+        let mut at = bag.first;
+        loop {
+            match bag.record_at(at, &mut buf) {
+                At::Record(r) => {
+                    if r.header.op == Some(OP_CHUNK) {
+                        raw.resize(r.data_len as usize, 0);
+                        bag.file.read_exact_at(&mut raw, r.data_at).unwrap();
+                        let comp = r.header.compression.clone().unwrap();
+                        decompress(
+                            &comp,
+                            &raw,
+                            r.header.size.unwrap().into(),
+                            &mut plain,
+                            false,
+                        )
+                        .unwrap();
+                        let data = if comp == b"none" { &raw } else { &plain };
+                        for rec in inner_records(data) {
+                            if let Inner::Message { conn, time, data } = rec.unwrap().1 {
+                                out.push((conn, time, data.to_vec()));
+                            }
+                        }
+                    }
+                    at = r.end();
+                }
+                At::Cut {
+                    header, data_at, ..
+                } => {
+                    if let Some(h) = header.filter(|_| data_at < bag.len) {
+                        raw.resize((bag.len - data_at) as usize, 0);
+                        bag.file.read_exact_at(&mut raw, data_at).unwrap();
+                        let comp = h.compression.clone().unwrap();
+                        decompress(&comp, &raw, h.size.unwrap().into(), &mut plain, true).unwrap();
+                        let data = if comp == b"none" { &raw } else { &plain };
+                        for rec in inner_records(data).map_while(|r| r.ok()) {
+                            if let Inner::Message { conn, time, data } = rec.1 {
+                                out.push((conn, time, data.to_vec()));
+                            }
+                        }
+                    }
+                    return (out, at < bag.len);
+                }
+                At::Bad(e) => panic!("{e}"),
+            }
+        }
+    }
+
+    #[test]
+    fn reads_what_the_rosbag_crate_reads() {
+        let dir = std::env::temp_dir().join(format!("thermrs-ros1bag-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("three.bag");
+        let (bytes, written) = bag(40);
+        std::fs::write(&path, &bytes).unwrap();
+        // The independent reader: the `rosbag` crate.
+        let theirs = rosbag::RosBag::new(&path).unwrap();
+        let mut want = Vec::new();
+        for rec in theirs.chunk_records() {
+            if let rosbag::ChunkRecord::Chunk(c) = rec.unwrap() {
+                for m in c.messages() {
+                    if let rosbag::MessageRecord::MessageData(d) = m.unwrap() {
+                        want.push((d.conn_id, d.time, d.data.to_vec()));
+                    }
+                }
+            }
+        }
+        assert_eq!(want, written);
+        let (got, cut) = read(&path);
+        assert_eq!(got, want);
+        assert!(!cut);
+        assert!(Bag1::open(&path).unwrap().unwrap().indexed());
+        // Cut inside each chunk's data: a prefix of the messages, those of the earlier chunks
+        // at least; uncompressed, exactly the records the bytes hold whole.
+        let bag1 = Bag1::open(&path).unwrap().unwrap();
+        let mut buf = Vec::new();
+        let mut at = bag1.first;
+        let mut before = 0;
+        for c in 0..3 {
+            let At::Record(r) = bag1.record_at(at, &mut buf) else {
+                panic!("a chunk")
+            };
+            let cut_at = r.data_at + r.data_len * 2 / 3;
+            let cut = dir.join(format!("cut-{c}.bag"));
+            std::fs::write(&cut, &bytes[..cut_at as usize]).unwrap();
+            let (got, was_cut) = read(&cut);
+            assert!(was_cut);
+            assert_eq!(got[..], want[..got.len()]);
+            assert!(got.len() >= before && got.len() < before + 40);
+            if c == 0 {
+                // Records before the cut, by the layout the test wrote.
+                let plain_cut = (cut_at - r.data_at) as usize;
+                let mut end = 2 * connection(0, "/a").len();
+                let mut n = 0;
+                for (conn, t, d) in &written[..40] {
+                    end += record(
+                        &[
+                            ("op", &[OP_MSG_DATA]),
+                            ("conn", &conn.to_le_bytes()),
+                            ("time", &time(*t)),
+                        ],
+                        d,
+                    )
+                    .len();
+                    if end <= plain_cut {
+                        n += 1;
+                    }
+                }
+                assert_eq!(got.len(), n);
+            }
+            before += 40;
+            at = r.end();
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn damage_is_an_error_not_a_panic() {
+        let mut out = Vec::new();
+        assert!(decompress(b"bz2", &[1, 2, 3], 10, &mut out, false).is_err());
+        assert!(decompress(b"lz4", &[1, 2, 3], 10, &mut out, false).is_err());
+        assert!(decompress(b"zip", &[1, 2, 3], 10, &mut out, false).is_err());
+        assert!(decompress(b"none", &[1, 2, 3], MAX_CHUNK_BYTES + 1, &mut out, false).is_err());
+        assert!(Header::parse(&[200, 0, 0, 0, b'o']).is_err());
+        assert!(Header::parse(&record(&[("conn", &[1, 2])], &[])[4..]).is_err());
+        let rec = record(&[("op", &[OP_MSG_DATA])], &[1, 2]);
+        assert!(matches!(
+            inner_records(&rec).next(),
+            Some(Err((0, Some(_))))
+        ));
+        assert!(matches!(
+            inner_records(&rec[..rec.len() - 1]).next(),
+            Some(Err((0, None)))
+        ));
+    }
+}
