@@ -391,28 +391,18 @@ pub(crate) fn decompress(
         b"lz4" => {
             let mut d = lz4::Decoder::new(raw)
                 .map_err(|e| format!("its lz4 data does not decompress: {e}"))?;
-            out.resize(size as usize + 1, 0);
-            let mut n = 0usize;
-            loop {
-                match d.read(&mut out[n..]) {
-                    Ok(0) => break,
-                    Ok(k) => {
-                        n += k;
-                        if n > size as usize {
-                            out.truncate(n);
-                            return Err(format!(
-                                "its lz4 data holds more than the {size} bytes it claims"
-                            ));
-                        }
-                    }
-                    Err(_) if partial => break,
-                    Err(e) => {
-                        out.truncate(n);
-                        return Err(format!("its lz4 data does not decompress: {e}"));
-                    }
-                }
+            // Read to the end (what was read stays in `out` on an error), at most one byte
+            // more than claimed.
+            match (&mut d).take(size + 1).read_to_end(out) {
+                Ok(_) => {}
+                Err(_) if partial => {}
+                Err(e) => return Err(format!("its lz4 data does not decompress: {e}")),
             }
-            out.truncate(n);
+            if out.len() as u64 > size {
+                return Err(format!(
+                    "its lz4 data holds more than the {size} bytes it claims"
+                ));
+            }
         }
         other => {
             return Err(format!(

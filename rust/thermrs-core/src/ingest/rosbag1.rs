@@ -253,6 +253,7 @@ pub(super) fn extract_ros1(
                         if held >= budget {
                             rd.flush(&mut slots[..used]);
                             (used, held) = (0, 0);
+                            release(&mut slots, budget);
                             if !progress(r.at, len, rd.frames) {
                                 return Err(Error::Interrupted);
                             }
@@ -446,4 +447,16 @@ fn next_slot(slots: &mut Vec<Slot>, used: &mut usize) -> usize {
     }
     *used += 1;
     *used - 1
+}
+
+/// Free the window's buffers if they hold more than a few windows' worth (chunks of very
+/// different sizes in turn could otherwise leave every slot as large as the largest chunk).
+fn release(slots: &mut Vec<Slot>, budget: usize) {
+    let held: usize = slots
+        .iter()
+        .map(|s| s.raw.capacity() + s.plain.capacity())
+        .sum();
+    if held > 4 * budget {
+        slots.clear();
+    }
 }
