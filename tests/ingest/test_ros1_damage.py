@@ -280,3 +280,23 @@ def test_damage_in_an_uncompressed_bag_loses_only_itself(
     _assert_tables_of(ex, ref)
     (loss,) = ex.report.losses
     assert (loss["kind"], loss["offset"], loss["bytes"]) == want
+
+
+def test_a_bag_cut_inside_its_index_section_keeps_every_message(
+    world: World, paper_rig: thermrs.Rig, tmp_path: Path
+) -> None:
+    full = _bag(world, "bz2")
+    raw = full.read_bytes()
+    (hlen,) = struct.unpack_from("<I", raw, 13)
+    (index_pos,) = struct.unpack("<Q", _fields(raw[17 : 17 + hlen])["index_pos"])
+    assert index_pos == _chunks(full)[-1].end or index_pos > _chunks(full)[-1].end
+    cut = index_pos + (len(raw) - index_pos) // 2
+    bag = tmp_path / "cut-index.bag"
+    bag.write_bytes(raw[:cut])
+    ex = thermrs.extract(bag, paper_rig)
+    _assert_tables_of(ex, thermrs.extract(full, paper_rig))
+    (loss,) = ex.report.losses
+    assert loss["kind"] == "truncated" and loss["offset"] + loss["bytes"] == cut
+    assert loss["offset"] >= index_pos
+    inv = thermrs.inventory.inventory(bag, rig=paper_rig)
+    assert inv.messages == len(world.messages)

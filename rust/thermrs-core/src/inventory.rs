@@ -224,15 +224,19 @@ fn ros1_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
     let mut at = bag.index_pos;
     let mut buf = Vec::new();
     let mut data = Vec::new();
-    let bad = |e: String| Error::BadBag {
-        path: name.clone(),
-        reason: format!("not a readable ROS 1 bag: its index section: {e}"),
-    };
+    let base = inv.clone();
+    let mut failed = None;
     while at < bag.len {
         let r = match bag.record_at(at, &mut buf) {
             At::Record(r) => r,
-            At::Cut { .. } => return Err(bad(format!("the record at byte {at} is cut"))),
-            At::Bad(e) => return Err(bad(e)),
+            At::Cut { .. } => {
+                failed = Some(format!("the record at byte {at} is cut"));
+                break;
+            }
+            At::Bad(e) => {
+                failed = Some(e);
+                break;
+            }
         };
         at = r.end();
         let op = r.header.op;
@@ -247,7 +251,13 @@ fn ros1_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
             },
         )?;
         if op == Some(ros1bag::OP_CONNECTION) {
-            let c = ros1bag::Connection::parse(&r.header, &data).map_err(bad)?;
+            let c = match ros1bag::Connection::parse(&r.header, &data) {
+                Ok(c) => c,
+                Err(e) => {
+                    failed = Some(e);
+                    break;
+                }
+            };
             if by_conn.contains_key(&c.id) {
                 continue;
             }
@@ -274,6 +284,16 @@ fn ros1_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
                 inv.messages += n;
             }
         }
+    }
+    if let Some(e) = failed {
+        // Its messages may all be there: read them record by record.
+        let mut inv = base;
+        inv.from_summary = false;
+        inv.notes.push(format!(
+            "its index section cannot be read ({e}): the bag was read record by record"
+        ));
+        ros1_walk(&bag, topics, &mut inv);
+        return Ok(inv);
     }
     let wanted: BTreeMap<u32, String> = by_conn
         .iter()
