@@ -22,6 +22,7 @@ Ratios: each uncompressed form against ``mcap-none``, the message-compressed ``.
 steadier of the two on a machine shared with other work).
 
 Run:  python benchmarks/bench_bags.py [--frames 2000] [--dir bench-out/bags] [--repeats 3]
+      [--forms mcap-none,ros1-none,...]  (some forms only: the ratios of the pairs measured)
 """
 
 from __future__ import annotations
@@ -123,6 +124,7 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=2000)
     ap.add_argument("--dir", type=Path, default=Path("bench-out/bags"))
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--forms", default=",".join(FORMS), help="comma-separated forms to measure")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--path", type=Path, default=None, help=argparse.SUPPRESS)
     a = ap.parse_args()
@@ -131,7 +133,11 @@ def main() -> None:
         return
     a.dir.mkdir(parents=True, exist_ok=True)
     res: dict[str, dict[str, float]] = {}
-    for form in FORMS:
+    forms = a.forms.split(",")
+    unknown = set(forms) - set(FORMS)
+    if unknown:
+        ap.error(f"unknown forms: {', '.join(sorted(unknown))} (known: {', '.join(FORMS)})")
+    for form in forms:
         ext = {"mcap-none": ".mcap", "mcap-zstd": ".mcap", "mcap-lz4": ".mcap"}
         path = a.dir / (f"{form}-{a.frames}" + ext.get(form, ".bag" if "ros1" in form else ""))
         make(form, path, a.frames)
@@ -150,10 +156,12 @@ def main() -> None:
     pairs += [("db3-message-zstd", "mcap-zstd"), ("ros1-none", "mcap-none")]
     pairs += [("ros1-lz4", "mcap-lz4"), ("ros1-bz2", "mcap-zstd")]
     for form, base in pairs:
-        a, b = res[form], res[base]
+        if form not in res or base not in res:
+            continue
+        x, y = res[form], res[base]
         print(
-            f"{form} / {base}: {a['seconds'] / b['seconds']:.2f}x wall, "
-            f"{a['cpu_seconds'] / b['cpu_seconds']:.2f}x CPU"
+            f"{form} / {base}: {x['seconds'] / y['seconds']:.2f}x wall, "
+            f"{x['cpu_seconds'] / y['cpu_seconds']:.2f}x CPU"
         )
 
 

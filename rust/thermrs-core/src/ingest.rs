@@ -49,6 +49,7 @@ mod follow;
 mod png;
 mod recovery;
 mod report;
+pub(crate) mod ros1bag;
 mod rosbag1;
 mod source;
 mod sqlite;

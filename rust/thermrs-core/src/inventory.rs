@@ -193,55 +193,107 @@ fn sqlite_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
 
 /// [`inventory`] of a ROS 1 bag: connections, counts and time span from its index section
 /// (no chunk decompressed); the log times of `topics` from the index data records beside
-/// each chunk ([`ros1_index_times`]).
+/// each chunk ([`ros1_index_times`]). A bag without its index section (its recorder killed
+/// before closing it) is walked whole instead ([`ros1_walk`]).
 fn ros1_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
-    use rosbag::{IndexRecord, RosBag};
+    use crate::ingest::ros1bag::{self, At, Bag1};
     let name = path.display().to_string();
-    let bad = |e: rosbag::Error| Error::BadBag {
-        path: name.clone(),
-        reason: format!("not a readable ROS 1 bag: {e}"),
-    };
-    let bag = RosBag::new(path).map_err(|e| Error::BadBag {
-        path: name.clone(),
-        reason: format!("not a readable ROS 1 bag (its header or index): {e}"),
-    })?;
+    let bag = Bag1::open(path)
+        .map_err(|source| Error::Io {
+            path: name.clone(),
+            source,
+        })?
+        .map_err(|e| Error::BadBag {
+            path: name.clone(),
+            reason: format!("not a readable ROS 1 bag: {e}"),
+        })?;
     let mut inv = Inventory {
         storage: "ros1".into(),
-        bytes: std::fs::metadata(path).map(|m| m.len()).unwrap_or(0),
+        bytes: bag.len,
         from_summary: true,
         profile: "ros1".into(),
         library: "ROS 1 bag (#ROSBAG V2.0)".into(),
         ..Inventory::default()
     };
+    if !bag.indexed() {
+        inv.from_summary = false;
+        ros1_walk(&bag, topics, &mut inv);
+        return Ok(inv);
+    }
     let mut by_conn: BTreeMap<u32, usize> = BTreeMap::new();
-    for rec in bag.index_records() {
-        match rec.map_err(bad)? {
-            IndexRecord::Connection(c) => {
-                if by_conn.contains_key(&c.id) {
-                    continue;
-                }
-                by_conn.insert(c.id, inv.channels.len());
-                inv.channels.push(ChannelInfo {
-                    id: u16::try_from(inv.channels.len() + 1).unwrap_or(u16::MAX),
-                    topic: c.topic.to_string(),
-                    schema: crate::ingest::ros2_type(c.tp),
-                    encoding: "ros1".into(),
-                    messages: 0,
-                });
+    let mut at = bag.index_pos;
+    let mut buf = Vec::new();
+    let mut data = Vec::new();
+    let base = inv.clone();
+    let mut failed = None;
+    while at < bag.len {
+        let r = match bag.record_at(at, &mut buf) {
+            At::Record(r) => r,
+            At::Cut { .. } => {
+                failed = Some(format!("the record at byte {at} is cut"));
+                break;
             }
-            IndexRecord::ChunkInfo(ci) => {
-                inv.chunks += 1;
-                inv.start_ns = Some(inv.start_ns.map_or(ci.start_time, |s| s.min(ci.start_time)));
-                inv.end_ns = Some(inv.end_ns.map_or(ci.end_time, |e| e.max(ci.end_time)));
-                for e in ci.entries() {
-                    if let Some(&k) = by_conn.get(&e.conn_id) {
-                        inv.channels[k].messages += u64::from(e.count);
-                    }
-                    inv.messages += u64::from(e.count);
-                }
+            At::Bad(e) => {
+                failed = Some(e);
+                break;
             }
-            IndexRecord::IndexData(_) => {}
+        };
+        at = r.end();
+        let op = r.header.op;
+        if op != Some(ros1bag::OP_CONNECTION) && op != Some(ros1bag::OP_CHUNK_INFO) {
+            continue;
         }
+        data.resize(r.data_len as usize, 0);
+        std::os::unix::fs::FileExt::read_exact_at(&bag.file, &mut data, r.data_at).map_err(
+            |source| Error::Io {
+                path: name.clone(),
+                source,
+            },
+        )?;
+        if op == Some(ros1bag::OP_CONNECTION) {
+            let c = match ros1bag::Connection::parse(&r.header, &data) {
+                Ok(c) => c,
+                Err(e) => {
+                    failed = Some(e);
+                    break;
+                }
+            };
+            if by_conn.contains_key(&c.id) {
+                continue;
+            }
+            by_conn.insert(c.id, inv.channels.len());
+            inv.channels.push(ChannelInfo {
+                id: u16::try_from(inv.channels.len() + 1).unwrap_or(u16::MAX),
+                topic: c.topic,
+                schema: crate::ingest::ros2_type(&c.tp),
+                encoding: "ros1".into(),
+                messages: 0,
+            });
+        } else {
+            inv.chunks += 1;
+            if let (Some(s), Some(e)) = (r.header.start_time, r.header.end_time) {
+                inv.start_ns = Some(inv.start_ns.map_or(s, |x| x.min(s)));
+                inv.end_ns = Some(inv.end_ns.map_or(e, |x| x.max(e)));
+            }
+            for e in data.chunks_exact(8) {
+                let conn = u32::from_le_bytes(e[..4].try_into().expect("4 bytes"));
+                let n = u64::from(u32::from_le_bytes(e[4..].try_into().expect("4 bytes")));
+                if let Some(&k) = by_conn.get(&conn) {
+                    inv.channels[k].messages += n;
+                }
+                inv.messages += n;
+            }
+        }
+    }
+    if let Some(e) = failed {
+        // Its messages may all be there: read them record by record.
+        let mut inv = base;
+        inv.from_summary = false;
+        inv.notes.push(format!(
+            "its index section cannot be read ({e}): the bag was read record by record"
+        ));
+        ros1_walk(&bag, topics, &mut inv);
+        return Ok(inv);
     }
     let wanted: BTreeMap<u32, String> = by_conn
         .iter()
@@ -261,6 +313,133 @@ fn ros1_inventory(path: &Path, topics: &[String]) -> Result<Inventory> {
         }
     }
     Ok(inv)
+}
+
+/// [`ros1_inventory`] of a bag without its index section: every record walked and every
+/// chunk decompressed (one at a time, into reused buffers) for its connections and its
+/// messages' times; a cut or a chunk that cannot be read is a loss line.
+fn ros1_walk(bag: &crate::ingest::ros1bag::Bag1, topics: &[String], inv: &mut Inventory) {
+    use crate::ingest::ros1bag::{self, At, Inner};
+    use std::os::unix::fs::FileExt;
+    let mut by_conn: BTreeMap<u32, usize> = BTreeMap::new();
+    let (mut buf, mut raw, mut plain) = (Vec::new(), Vec::new(), Vec::new());
+    let mut at = bag.first;
+    let mut chunk = |inv: &mut Inventory, data: &[u8], partial: bool| {
+        for rec in ros1bag::inner_records(data) {
+            match rec {
+                Ok((_, Inner::Connection(c))) => {
+                    if let std::collections::btree_map::Entry::Vacant(v) = by_conn.entry(c.id) {
+                        v.insert(inv.channels.len());
+                        inv.channels.push(ChannelInfo {
+                            id: u16::try_from(inv.channels.len() + 1).unwrap_or(u16::MAX),
+                            topic: c.topic,
+                            schema: crate::ingest::ros2_type(&c.tp),
+                            encoding: "ros1".into(),
+                            messages: 0,
+                        });
+                    }
+                }
+                Ok((_, Inner::Message { conn, time, .. })) => {
+                    inv.messages += 1;
+                    inv.start_ns = Some(inv.start_ns.map_or(time, |x| x.min(time)));
+                    inv.end_ns = Some(inv.end_ns.map_or(time, |x| x.max(time)));
+                    if let Some(&k) = by_conn.get(&conn) {
+                        inv.channels[k].messages += 1;
+                        if topics.contains(&inv.channels[k].topic) {
+                            let t = inv.channels[k].topic.clone();
+                            inv.log_times.entry(t).or_default().push(time);
+                        }
+                    }
+                }
+                Ok((_, Inner::Other)) | Err((_, None)) if partial => {}
+                Ok((_, Inner::Other)) => {}
+                Err((off, why)) => {
+                    inv.losses.push(format!(
+                        "a chunk's record at byte {off} of its data cannot be read ({}): the \
+                         chunk's records after it are lost",
+                        why.unwrap_or_else(|| "it runs past the chunk's data".into())
+                    ));
+                    break;
+                }
+            }
+        }
+    };
+    loop {
+        match bag.record_at(at, &mut buf) {
+            At::Record(r) => {
+                if r.header.op == Some(ros1bag::OP_CHUNK) {
+                    inv.chunks += 1;
+                    raw.resize(r.data_len as usize, 0);
+                    let comp = r.header.compression.clone().unwrap_or_default();
+                    let size = r.header.size.map_or(u64::MAX, u64::from);
+                    let got = bag
+                        .file
+                        .read_exact_at(&mut raw, r.data_at)
+                        .map_err(|e| e.to_string())
+                        .and_then(|()| ros1bag::decompress(&comp, &raw, size, &mut plain, false));
+                    inv.compression
+                        .insert(String::from_utf8_lossy(&comp).into_owned());
+                    match got {
+                        Ok(()) if comp == b"none" => chunk(inv, &raw, false),
+                        Ok(()) => chunk(inv, &plain, false),
+                        Err(e) => inv.losses.push(format!(
+                            "the chunk at bytes {}..{} cannot be read: {e}",
+                            r.at,
+                            r.end()
+                        )),
+                    }
+                }
+                at = r.end();
+            }
+            At::Cut {
+                header,
+                data_at,
+                data_len,
+            } => {
+                if at < bag.len {
+                    inv.losses.push(format!(
+                        "the bag is cut short: the record at byte {at} is incomplete (bytes \
+                         {at}..{} lost)",
+                        bag.len
+                    ));
+                    if let Some(h) = header.filter(|h| h.op == Some(ros1bag::OP_CHUNK)) {
+                        if data_at < bag.len {
+                            inv.chunks += 1;
+                            raw.resize((bag.len - data_at).min(data_len) as usize, 0);
+                            let comp = h.compression.unwrap_or_default();
+                            let size = h.size.map_or(u64::MAX, u64::from);
+                            if bag.file.read_exact_at(&mut raw, data_at).is_ok()
+                                && ros1bag::decompress(&comp, &raw, size, &mut plain, true).is_ok()
+                            {
+                                let data = if comp == b"none" { &raw } else { &plain };
+                                chunk(inv, data, true);
+                            }
+                        }
+                    }
+                } else {
+                    inv.losses.push(format!(
+                        "the bag ends at byte {at} without its index section (its recorder \
+                         stopped before closing it)"
+                    ));
+                }
+                break;
+            }
+            At::Bad(e) => {
+                let next = bag.resync(at + 1, &mut buf);
+                inv.losses.push(format!(
+                    "bytes {at}..{} are not readable records: {e}",
+                    next.unwrap_or(bag.len)
+                ));
+                match next {
+                    Some(n) => at = n,
+                    None => break,
+                }
+            }
+        }
+    }
+    for times in inv.log_times.values_mut() {
+        times.sort_unstable();
+    }
 }
 
 /// The times of the messages of the connections in `wanted` (id → topic), by topic, from a ROS
