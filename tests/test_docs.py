@@ -57,6 +57,7 @@ def test_public_functions_have_numpy_docstrings(module: str) -> None:
         if sig.parameters:  # what it takes, and how bad input fails
             need += ["Parameters", "Raises"]
         if sig.return_annotation not in ("None", None):
-            need += ["Returns"]
+            # A generator says what it yields (numpy docstring standard).
+            need += ["Yields" if inspect.isgeneratorfunction(obj) else "Returns"]
         missing = [s for s in need if f"{s}\n---" not in doc]
         assert not missing, f"{module}.{name}: no {missing}"

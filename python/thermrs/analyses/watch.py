@@ -282,18 +282,16 @@ def watch(
 
     Parameters
     ----------
-    path
-        The recording: an MCAP file or a bag folder of MCAP parts (it may not exist yet).
-    rig
-        The rig (a :class:`~thermrs.Rig` or the path of a rig file).
+    path, rig
+        The recording (an MCAP file or a bag folder of MCAP parts; it may not exist yet) and
+        the rig (a :class:`~thermrs.Rig` or the path of a rig file).
     train
         Training run tables: α for the outlook, and the sequential diagnosis's training runs.
         Without them α is fitted on the run so far once it determines it.
-    tolerance_um
-        A tolerance on the drift along either chip axis (µm): when it is left is foreseen.
-    hours
-        The run's planned length (hours from its first visit): the outlook's horizon (default:
-        the longest training run, else twice the run so far).
+    tolerance_um, hours
+        A tolerance on either chip axis (µm): when it is left is foreseen; the run's planned
+        length (hours from its first visit; default: the longest training run, else twice
+        the run so far).
     out
         Where the tables go (``OUT.parquet`` and its siblings, as ``thermrs extract -o``): when
         the recording closes, and, with the follower's state, when the watch is stopped; a
@@ -307,10 +305,8 @@ def watch(
         made over the planned hours with a look every ``look_every_h`` hours of run (its
         ``care_um`` and ``settle_ambiguous``: False for a run ``thermrs design`` planned);
         the effects it never names.
-    seed
-        Seed of the outlook's draws and the looks.
-    sleep, clock
-        How to wait and tell the time (tests).
+    seed, sleep, clock
+        Seed of the outlook's draws and the looks; how to wait and tell the time (tests).
 
     Yields
     ------
@@ -324,6 +320,11 @@ def watch(
         ``out``'s folder does not exist, or it holds the tables of another recording.
     KeyboardInterrupt
         Ctrl-C: the tables so far are written to ``out`` first.
+
+    Examples
+    --------
+    >>> for u in watch("live.mcap", "rig.toml", tolerance_um=50, out="live.parquet"):
+    ...     print(f"{u.hours:.1f} h", u.waiting or u.outlook.crossings)  # doctest: +SKIP
     """
     rig = as_rig(rig)
     p = Path(path)
