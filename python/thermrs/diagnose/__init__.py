@@ -484,26 +484,35 @@ def _test_at_tolerance_scale(
     rng: np.random.Generator,
     say: Callable[[str], object],
 ) -> None:
-    """Where the first step found something: its tests again with the rig erring by the
-    95 % upper confidence bound of the factor by which its errors exceed its statement
-    (estimated with the effects selected fitted, where there are any: an effect of the robot
-    along the tolerances' signatures would otherwise count as the rig's), when that end is
-    above 1 (:func:`_tolerance_excess`)."""
-    ts = b.floor.extra.get("tolerance_scale")
-    if ts is None:
-        return
-    use = ts.get("with_effects") or ts
-    upper = float(use["upper95"])
-    if upper <= 1.0:
-        return
+    """Where the first step found something: its tests again with the rig erring by
+    :data:`TOLERANCE_EXCESS_SCALE` times its stated tolerances (:func:`_tolerance_excess`).
+
+    The factor the data give (:mod:`.tolerance_scale`, ``tests.tolerance_scale``) is reported
+    and said in the verdict, but the test does not take its upper bound: with the effects
+    selected fitted, an effect the library's form fits only in part reads as rig error (the
+    bound reached 3.6–15.5× on joint offsets and non-linear α the stated tolerances name
+    rightly), and taking it cost a third of the blind cases in AR(1) worlds and a two-effect
+    case its verdict (benchmarks/bench_rig_excess.py)."""
     # Every effect of the robot the verdict may name: the selected ones and their rivals.
     named = {st.chosen.effect for st in steps if st.chosen is not None}
     named |= {r for st in steps for r in st.rivals}
     robot = sorted(e for e in named if not is_instrument(e))
-    say(f"the same test with the rig's errors at {upper:.2g}× its tolerances")
+    say(f"the same test with the rig's errors at {TOLERANCE_EXCESS_SCALE:g}× its tolerances")
     b.floor.extra["tolerance_excess"] = _tolerance_excess(
-        batch, b, grids, scale=upper, robot=robot, level=level, draws=draws, rng=rng, rig=rig
+        batch,
+        b,
+        grids,
+        scale=TOLERANCE_EXCESS_SCALE,
+        robot=robot,
+        level=level,
+        draws=draws,
+        rng=rng,
+        rig=rig,
     )
+
+
+#: How much larger than stated the tolerance-excess check takes the rig's errors.
+TOLERANCE_EXCESS_SCALE = 2.0
 
 
 def _tolerance_excess(

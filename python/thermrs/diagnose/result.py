@@ -319,8 +319,8 @@ def _rig_statement(
 ) -> tuple[str, str, bool, bool]:
     """The verdict with what the data say of the rig's errors against its statement:
     ``unexplained`` where the effects of the robot it would name are not significant against
-    a rig erring by the factor's 95 % upper bound (``tests.tolerance_excess``), and the
-    factor said where its interval lies above 1. Returns (status, reason, exceeded,
+    a rig erring by twice its stated tolerances (``tests.tolerance_excess``), and the factor
+    the data give (``tests.tolerance_scale``) said where its interval lies above 1. Returns (status, reason, exceeded,
     errs_more)."""
     excess = floor.extra.get("tolerance_excess") or {}
     robot = [
@@ -335,8 +335,7 @@ def _rig_statement(
         status = "unexplained"
         reason = (
             f"what these runs show is within what the rig leaves by itself were its errors "
-            f"{excess['scale']:.2g}× what it states (the 95 % upper confidence bound the data "
-            f"give that factor; {english_list(robot)} not "
+            f"{excess['scale']:.2g}× what it states ({english_list(robot)} not "
             f"significant then, p at the floor {excess['p_at_floor']:.2f}): check the rig's "
             f"tolerances (docs/tolerances.md) before taking it for an effect; with the stated "
             f"tolerances: {reason}"
@@ -591,8 +590,8 @@ def _verdict_doc(
         "status": "unexplained" if status == "partially explained" else status,
         "outcome": status,
         "partially_explained": status == "partially explained",
-        # The gap is within what the rig leaves if it errs by as much more than it states as
-        # the data allow (tests.tolerance_excess): no effect of the robot is named.
+        # The gap is within what the rig leaves if it errs by twice its stated tolerances
+        # (tests.tolerance_excess): no effect of the robot is named.
         "rig_tolerances_exceeded": exceeded,
         # The data show the rig's errors exceed what it states: the 95 % interval of the
         # factor (tests.tolerance_scale, on the residual of the model reported) lies above 1.
@@ -655,8 +654,8 @@ def _tests_doc(
         # The factor by which the rig's errors exceed its stated tolerances, estimated
         # from the held-out residual (:mod:`.tolerance_scale`).
         "tolerance_scale": floor.extra.get("tolerance_scale"),
-        # The first step again with the rig erring by that factor's 95 % upper bound
-        # (where it found something and that bound is above 1).
+        # The first step again with the rig erring by twice its stated tolerances (where it
+        # found something).
         "tolerance_excess": floor.extra.get("tolerance_excess"),
         "tolerance_signatures": tolerances[1],
     }
