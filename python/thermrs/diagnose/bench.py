@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -35,6 +35,10 @@ from thermrs.effects import Effect
 from thermrs.errors import InputError
 from thermrs.model import ForwardModel
 from thermrs.rig import Rig
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers only
+    from thermrs.diagnose.bench_world.cases import Case
+    from thermrs.diagnose.bench_world.world import Campaign
 
 __all__ = ["make_runs", "run_bench"]
 
@@ -328,26 +332,14 @@ def run_bench(
     progress
         Called with a line per finished case.
     """
-    from concurrent.futures import ProcessPoolExecutor
-    from multiprocessing import get_context
     from pathlib import Path
 
-    from thermrs.diagnose.bench_world.cases import FIRST_SEED, plan, run_case, worker_init
+    from thermrs.diagnose.bench_world.cases import FIRST_SEED, plan
     from thermrs.diagnose.bench_world.score import score
     from thermrs.diagnose.bench_world.truth import EFFECTS
-    from thermrs.diagnose.bench_world.world import WORLDS, Campaign
 
     say = progress or (lambda _m: None)
-    if not Path(rig.source).is_file():
-        raise InputError(f"rig {rig.source}: the bench reads the rig file again; give a file")
-    bad = sorted(set(worlds) - set(WORLDS))
-    if bad:
-        raise InputError(f"worlds {bad}: not nuisance worlds (known: {', '.join(WORLDS)})")
-    if not snrs or min(snrs) <= 0:
-        raise InputError(f"snrs {list(snrs)}: give positive target SNRs")
-    campaign = Campaign(hours=hours, cycle_s=cycle_s, sigma_um=sigma_um)
-    if campaign.visits < 24:
-        raise InputError(f"hours {hours} at cycle {cycle_s} s: fewer than 24 visits per run")
+    campaign = _checked_campaign(rig, worlds, snrs, hours=hours, cycle_s=cycle_s, sigma_um=sigma_um)
     cases = plan(
         rig.source,
         seeds=seeds,
@@ -369,13 +361,8 @@ def run_bench(
         truth = "+".join(row["truth"]) or "none"
         say(f"{len(results)}/{len(cases)} {row['world']} {truth} SNR {row['target_snr']:g}: {got}")
 
-    if jobs <= 1:
-        for c in cases:
-            done(run_case(c))
-    else:
-        with ProcessPoolExecutor(jobs, get_context("spawn"), initializer=worker_init) as pool:
-            for row in pool.map(run_case, cases):
-                done(row)
+    for row in _run_cases(cases, jobs=jobs):
+        done(row)
     doc = score(results, tuple(sorted(snrs)), time.perf_counter() - t0)
     doc["setup"] = {
         "rig": Path(rig.source).name,
@@ -393,6 +380,55 @@ def run_bench(
         "tolerances_stated": rig.tolerances_stated,
     }
     return doc
+
+
+def _checked_campaign(
+    rig: Rig,
+    worlds: tuple[str, ...],
+    snrs: tuple[float, ...],
+    *,
+    hours: float,
+    cycle_s: float,
+    sigma_um: float,
+) -> Campaign:
+    """The bench's campaign, once the rig file, the worlds, the SNRs and the visits per run
+    are checked.
+
+    Raises
+    ------
+    InputError
+        One line naming what is wrong.
+    """
+    from pathlib import Path
+
+    from thermrs.diagnose.bench_world.world import WORLDS, Campaign
+
+    if not Path(rig.source).is_file():
+        raise InputError(f"rig {rig.source}: the bench reads the rig file again; give a file")
+    bad = sorted(set(worlds) - set(WORLDS))
+    if bad:
+        raise InputError(f"worlds {bad}: not nuisance worlds (known: {', '.join(WORLDS)})")
+    if not snrs or min(snrs) <= 0:
+        raise InputError(f"snrs {list(snrs)}: give positive target SNRs")
+    campaign = Campaign(hours=hours, cycle_s=cycle_s, sigma_um=sigma_um)
+    if campaign.visits < 24:
+        raise InputError(f"hours {hours} at cycle {cycle_s} s: fewer than 24 visits per run")
+    return campaign
+
+
+def _run_cases(cases: list[Case], *, jobs: int) -> Iterator[dict[str, Any]]:
+    """Each case's result row in plan order, in this process or in ``jobs`` spawned workers."""
+    from concurrent.futures import ProcessPoolExecutor
+    from multiprocessing import get_context
+
+    from thermrs.diagnose.bench_world.cases import run_case, worker_init
+
+    if jobs <= 1:
+        for c in cases:
+            yield run_case(c)
+    else:
+        with ProcessPoolExecutor(jobs, get_context("spawn"), initializer=worker_init) as pool:
+            yield from pool.map(run_case, cases)
 
 
 def to_json(doc: dict[str, Any]) -> str:
