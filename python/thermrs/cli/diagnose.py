@@ -298,8 +298,7 @@ def diagnose(
 
     Exits 3 (after diagnosing) if part of a recording was lost.
     """
-    from thermrs.analyses.diagnose import diagnose_splits
-    from thermrs.campaigns.summary import fold_synthesis
+    from thermrs.analyses.diagnose import diagnose_splits, fold_synthesis
     from thermrs.cli.common import EXIT_DATA_LOSS, chosen_splits, stages, writable, write_json
     from thermrs.errors import InputError
     from thermrs.rig import load_rig
