@@ -1,7 +1,7 @@
 """Backs the BENCHMARKS.md lines on the baselines (issue 49): where the physical model earns its
 keep against regressions of the drift on the temperatures, inside and outside the training range.
 
-Runs of the independent bench world (:mod:`thermrs.diagnose.bench_world`: its own kinematics,
+Runs of the independent bench world (:mod:`thermrs.bench.world`: its own kinematics,
 thermal physics, effects and instruments; the diagnoser and the baselines never see its model),
 one effect at a target SNR, fresh seeds, independent 2 µm visit errors. Per case two campaigns
 of one world (same rig, α, thermal links, rooms, instruments and effect):
@@ -35,11 +35,11 @@ from unittest import mock
 import numpy as np
 import thermrs
 from thermrs.analyses.baselines import MODELS, compare_baselines
+from thermrs.bench.world import world as bw
+from thermrs.bench.world.cases import case_truths
+from thermrs.bench.world.geometry import read_rig
+from thermrs.bench.world.world import Campaign, draw_scene, render
 from thermrs.diagnose import diagnose
-from thermrs.diagnose.bench_world import world as bw
-from thermrs.diagnose.bench_world.cases import case_truths
-from thermrs.diagnose.bench_world.geometry import read_rig
-from thermrs.diagnose.bench_world.world import Campaign, draw_scene, render
 
 #: The interpolation campaign: the bench world's runs with the held-out 75 % run replaced by
 #: another 30 % run (three runs, so that the world's draws are the same as the default's).

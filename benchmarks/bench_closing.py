@@ -5,7 +5,7 @@
 floor. Its interval (``how_far.gap_closed_raw_ci95``) claims to carry the uncertainty of all
 three, so its truth is what runs like these give on average, not what one set of runs shows.
 
-Each case: one world of the independent bench world (:mod:`thermrs.diagnose.bench_world`: its
+Each case: one world of the independent bench world (:mod:`thermrs.bench.world`: its
 own kinematics, thermal network, instruments and effects; its rig, thermal history and one
 effect at a target SNR fixed by the seed) rendered ``--draws`` times with independent noise,
 each rendering diagnosed as ``thermrs diagnose`` does. The truth: B and A are the root mean
@@ -38,9 +38,9 @@ import numpy as np
 
 def one(args: tuple[str, float, int, int, str, float]) -> dict[str, Any]:
     import thermrs
+    from thermrs.bench.world.cases import case_rigs, case_truths, worker_init
+    from thermrs.bench.world.world import Campaign, draw_scene, render
     from thermrs.diagnose import diagnose
-    from thermrs.diagnose.bench_world.cases import case_rigs, case_truths, worker_init
-    from thermrs.diagnose.bench_world.world import Campaign, draw_scene, render
 
     worker_init()
     effect, snr, seed, draw, world, hours = args

@@ -4,7 +4,7 @@ Claim: a compensation law keeps its promise on runs it never saw — the rms it 
 independent replicate lies in the range the diagnosis promised (`how_far.holdout_rms_after_ci95`)
 in at least 19 of 20 cases (issue #31).
 
-Each case: the independent bench world (:mod:`thermrs.diagnose.bench_world`) renders its
+Each case: the independent bench world (:mod:`thermrs.bench.world`) renders its
 default campaign (three 12-h runs, 600 s cycles) with one effect at SNR 2; the runs are
 diagnosed, the law exported (``identified`` verdicts only: an ambiguous one is refused), then
 applied to a replicate of the same rig and effect with new pose errors and noise.
@@ -24,10 +24,10 @@ from typing import Any
 
 def one(args: tuple[str, str, int]) -> dict[str, Any]:
     import thermrs
+    from thermrs.bench.world.cases import case_rigs, case_truths
+    from thermrs.bench.world.world import Campaign, draw_scene, render
     from thermrs.compensate import compensation_law, diagnosed_model
     from thermrs.diagnose import diagnose
-    from thermrs.diagnose.bench_world.cases import case_rigs, case_truths
-    from thermrs.diagnose.bench_world.world import Campaign, draw_scene, render
 
     effect, world, seed = args
     rig, wrig = case_rigs(str(thermrs.default_rig_path()))

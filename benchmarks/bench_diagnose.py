@@ -16,8 +16,8 @@ import os
 import time
 
 import thermrs
+from thermrs.bench import make_runs
 from thermrs.diagnose import diagnose
-from thermrs.diagnose.bench import make_runs
 from thermrs.effects import ThermalLag
 from thermrs.memo import CACHE_ENV
 

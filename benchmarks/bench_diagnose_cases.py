@@ -1,7 +1,7 @@
 """Backs the BENCHMARKS.md claim "issue 16's failing kinds: named blind, never none withheld".
 
 The diagnoser on the kinds of case issue 16 saw it fail on, made by the independent bench
-world (:mod:`thermrs.diagnose.bench_world`): three 15-h runs (30 %; next day 75 %, then 10 %
+world (:mod:`thermrs.bench.world`): three 15-h runs (30 %; next day 75 %, then 10 %
 straight after), 600 s cycles, independent 2 µm visit errors, one effect at the issue's size,
 blind and with the effect excluded from the library.
 
@@ -13,9 +13,9 @@ from __future__ import annotations
 import argparse
 
 import thermrs
+from thermrs.bench.world.cases import make_case
+from thermrs.bench.world.world import Campaign
 from thermrs.diagnose import diagnose
-from thermrs.diagnose.bench_world.cases import make_case
-from thermrs.diagnose.bench_world.world import Campaign
 
 #: (effect, SNR): the issue's table (effect rms over the nominal model ÷ 2 µm).
 CASES = (("thermal_lag", 1.05), ("thermal_lag", 1.85), ("fixture_drift", 1.3),

@@ -21,7 +21,7 @@ import polars as pl
 import thermrs
 from thermrs.analyses.diagnose import diagnose_splits
 from thermrs.analyses.inputs import Split
-from thermrs.diagnose.bench import make_runs
+from thermrs.bench import make_runs
 from thermrs.effects import ThermalLag
 from thermrs.memo import CACHE_ENV
 

@@ -1,6 +1,6 @@
 """Backs the BENCHMARKS.md rows "coverage of every printed interval" (issue #45).
 
-Each case: the independent bench world (:mod:`thermrs.diagnose.bench_world`: its own
+Each case: the independent bench world (:mod:`thermrs.bench.world`: its own
 kinematics, thermal network, instruments and effects) renders three runs with one effect at a
 target SNR, on seeds from ``--first-seed`` (never the seeds 1000–4999 the diagnoser's rules
 were chosen on). The runs are diagnosed as ``thermrs diagnose`` does, and every interval the
@@ -15,7 +15,7 @@ produce:
   law applied to measured temperatures needs);
 - the compensation law's coefficients (µm/K per measured temperature, thermal_lag and
   sensor_drift laws) against the same slopes of the world's true rig at that α, computed
-  with the world's own kinematics (:func:`bench_world.world.measured_slopes`); the median
+  with the world's own kinematics (:func:`thermrs.bench.world.world.measured_slopes`); the median
   half-width of a law's coefficients of at least 0.5 µm/K.
 
 Coverage is counted per parameter with an exact (Clopper–Pearson) 95 % interval.
@@ -49,10 +49,10 @@ def _covers(ci: Any, truth: Any) -> list[bool]:
 
 def one(args: tuple[str, str, int, float, float]) -> dict[str, Any]:
     import thermrs
+    from thermrs.bench.world.cases import case_rigs, case_truths
+    from thermrs.bench.world.world import Campaign, draw_scene, measured_slopes, render
     from thermrs.compensate import compensation_law, diagnosed_model
     from thermrs.diagnose import diagnose
-    from thermrs.diagnose.bench_world.cases import case_rigs, case_truths
-    from thermrs.diagnose.bench_world.world import Campaign, draw_scene, measured_slopes, render
 
     effect, world, seed, snr, hours = args
     rig, wrig = case_rigs(str(thermrs.default_rig_path()))

@@ -1,7 +1,7 @@
 """Backs the BENCHMARKS.md rows "a rig worse than it states" and "blind right, before and after
 the rig's excess is tested" (issue #45).
 
-The cases are ``thermrs diagnose-bench``'s (:func:`thermrs.diagnose.bench_world.cases.plan`,
+The cases are ``thermrs diagnose-bench``'s (:func:`thermrs.bench.world.cases.plan`,
 the same seeds for the same ``--seed``, ``--nulls`` and ``--effect``), without the withheld
 and two-effect diagnoses: each case is diagnosed once, as the bench's blind half does. The
 independent bench world draws its rig and IR errors at ``--tolerance-scale`` times the rig's
@@ -45,7 +45,7 @@ def _with_scale(summary: Any) -> Any:
 
 
 def one(case: Any) -> dict[str, Any]:
-    from thermrs.diagnose.bench_world import cases
+    from thermrs.bench.world import cases
 
     cases.worker_init()
     if not getattr(cases._summary, "wrapped", False):
@@ -54,9 +54,9 @@ def one(case: Any) -> dict[str, Any]:
 
 
 def main() -> None:
-    from thermrs.diagnose.bench_world.cases import plan
-    from thermrs.diagnose.bench_world.score import INSTRUMENTS, outcome, strict_outcome
-    from thermrs.diagnose.bench_world.world import Campaign
+    from thermrs.bench.world.cases import plan
+    from thermrs.bench.world.score import INSTRUMENTS, outcome, strict_outcome
+    from thermrs.bench.world.world import Campaign
     from thermrs.rig import default_rig_path
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])

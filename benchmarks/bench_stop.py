@@ -1,12 +1,12 @@
 """Backs the BENCHMARKS.md rows of issue 48's stop rule: the sequential diagnosis
 (:mod:`thermrs.diagnose.sequential`) on the independent bench world, against the fixed protocol.
 
-Each case is a bench-world case (:mod:`thermrs.diagnose.bench_world`): three runs of ``--hours``
+Each case is a bench-world case (:mod:`thermrs.bench.world`): three runs of ``--hours``
 (training at 30 %; on another day 75 % from the room, then 10 % straight after it), one effect
 at a target SNR or none. The second day is the recording being watched: the held-out runs,
 one after the other, ``2 × hours`` long, the plan (the fixed protocol). A :class:`StopRule`
 looks every ``--look-every-h`` hours of it until it says stop; the verdict at the stop is
-scored as the bench scores a diagnosis (:func:`thermrs.diagnose.bench_world.score.outcome`),
+scored as the bench scores a diagnosis (:func:`thermrs.bench.world.score.outcome`),
 and so is the fixed protocol's (the whole recording diagnosed once at the full level).
 
     python benchmarks/bench_stop.py --seeds 2 --first-seed 4810000 --jobs 2 --jsonl stop.jsonl
@@ -34,7 +34,7 @@ from typing import Any
 import polars as pl
 import thermrs
 from scipy.stats import binomtest
-from thermrs.diagnose.bench_world.cases import (
+from thermrs.bench.world.cases import (
     REACH,
     Case,
     _summary,
@@ -43,9 +43,9 @@ from thermrs.diagnose.bench_world.cases import (
     plan,
     worker_init,
 )
-from thermrs.diagnose.bench_world.score import outcome
-from thermrs.diagnose.bench_world.truth import EFFECTS
-from thermrs.diagnose.bench_world.world import Campaign, draw_scene, render
+from thermrs.bench.world.score import outcome
+from thermrs.bench.world.truth import EFFECTS
+from thermrs.bench.world.world import Campaign, draw_scene, render
 
 #: Outcomes that are a wrong verdict (``outcome``): an effect named that is not there or not
 #: the truth, or ``none`` where there is an effect.

@@ -1,6 +1,6 @@
 """A compensation law keeps its promise on runs it never saw.
 
-The runs come from the independent bench world (:mod:`thermrs.diagnose.bench_world`); the law
+The runs come from the independent bench world (:mod:`thermrs.bench.world`); the law
 is exported from the diagnosis of one campaign, then applied to an independent replicate of
 it (the same rig and effect, new pose errors, new noise): the rms it leaves there must lie in
 the range the diagnosis promised, as often as a 95 % range says.
@@ -17,10 +17,10 @@ from pathlib import Path
 
 import pytest
 import thermrs
+from thermrs.bench.world.cases import case_rigs, case_truths, make_case
+from thermrs.bench.world.world import Campaign, draw_scene, measured_slopes, render
 from thermrs.compensate import compensation_law, diagnosed_model
 from thermrs.diagnose import diagnose
-from thermrs.diagnose.bench_world.cases import case_rigs, case_truths, make_case
-from thermrs.diagnose.bench_world.world import Campaign, draw_scene, measured_slopes, render
 from thermrs.errors import InputError
 
 CASES = [

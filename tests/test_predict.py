@@ -261,7 +261,7 @@ def test_cli_drift_curves_and_iso9283(runs: dict[str, Path], tmp_path: Path) -> 
 def test_a_start_end_alpha_is_judged_along_the_axis_it_was_taken_along() -> None:
     # Issue 31: the start/end α names its chip axis, and Table 7 judges it on that axis.
     from thermrs.analyses.fit import fit_document, training_axes
-    from thermrs.diagnose.bench import make_runs
+    from thermrs.bench import make_runs
 
     rig = thermrs.load_rig()
     runs = make_runs(rig, None, seed=3, hours=4.0, perturb=False)

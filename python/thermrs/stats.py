@@ -395,6 +395,42 @@ def lstsq_qr(
         )
     if covariance != "hac":
         raise ValueError(f"covariance must be 'iid' or 'hac', got {covariance!r}")
+    cov, bw, n_eff, t_dof, phi, floor = _hac_covariance(
+        xw, ew, bread, unit, chains, cov_iid, bandwidth=bandwidth, prewhiten=prewhiten
+    )
+    how = "AR(1)-prewhitened " if prewhiten else ""
+    return LeastSquares(
+        coef,
+        cov,
+        ya - xa @ coef,
+        dof,
+        sigma2,
+        f"{how}Newey–West (Bartlett kernel, data-chosen bandwidth {bw} units) over "
+        f"{len(chains)} series of {n_units} units"
+        + (", at its floor: the iid covariance" if floor else ""),
+        bw,
+        n_eff,
+        t_dof,
+        phi,
+    )
+
+
+def _hac_covariance(
+    xw: FloatArray,
+    ew: FloatArray,
+    bread: FloatArray,
+    unit: IntArray,
+    chains: list[IntArray],
+    cov_iid: FloatArray,
+    *,
+    bandwidth: int | None,
+    prewhiten: bool,
+) -> tuple[FloatArray, int, float, float, FloatArray, bool]:
+    """The ``"hac"`` covariance of :func:`lstsq_qr` from the weighted design and residuals:
+    ``(cov, bandwidth, n_eff, t_dof, phi, at_floor)``."""
+    n, p = xw.shape
+    dof = n - p
+    n_units = int(unit.max()) + 1
     phis, white = _influences(xw, ew, bread, unit, n_units, chains, prewhiten=prewhiten)
     bw = andrews_bandwidth(white, chains) if bandwidth is None else int(bandwidth)
     if bw < 0:
@@ -414,22 +450,8 @@ def lstsq_qr(
         cov = cov * ratio
         t_dof = float(dof)
     share = v0 / v0.sum() if v0.sum() > 0 else np.full(len(chains), 1 / max(len(chains), 1))
-    phi = share @ phis
-    how = "AR(1)-prewhitened " if prewhiten else ""
-    return LeastSquares(
-        coef,
-        cov,
-        ya - xa @ coef,
-        dof,
-        sigma2,
-        f"{how}Newey–West (Bartlett kernel, data-chosen bandwidth {bw} units) over "
-        f"{len(chains)} series of {n_units} units"
-        + (", at its floor: the iid covariance" if floor else ""),
-        bw,
-        n_eff,
-        t_dof,
-        phi,
-    )
+    phi: FloatArray = share @ phis
+    return cov, bw, n_eff, t_dof, phi, floor
 
 
 def _checked(

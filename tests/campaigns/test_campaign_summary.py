@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 import pytest
-from thermrs.campaigns.summary import fold_synthesis
+from thermrs.analyses.diagnose import fold_synthesis
 
 
 def _doc(status: str, effect: str | None, **params: Any) -> dict[str, Any]:

@@ -12,8 +12,8 @@ import pytest
 import thermrs
 from thermrs.analyses.diagnose import _diagnose_fold, diagnose_splits
 from thermrs.analyses.inputs import Split
+from thermrs.bench import make_runs
 from thermrs.campaigns.fold_map import map_folds
-from thermrs.diagnose.bench import make_runs
 from thermrs.effects import ThermalLag
 from thermrs.errors import InputError
 

@@ -89,3 +89,28 @@ def test_the_modules_that_only_handed_names_on_are_gone_and_the_readme_says_so(
     assert leaf not in face.__all__
     with pytest.raises(AttributeError):
         getattr(face, leaf)
+
+
+def test_the_fold_syntheses_moved_from_the_summary_are_handed_on_with_a_warning() -> None:
+    import thermrs.campaigns.summary as summary
+
+    assert summary.MOVED_NAMES_REMOVED_IN == MOVED_NAMES_REMOVED_IN
+    for name, home in (
+        ("fold_synthesis", "thermrs.analyses.diagnose"),
+        ("predict_synthesis", "thermrs.analyses.predict"),
+    ):
+        assert name not in summary.__all__
+        with pytest.warns(DeprecationWarning) as caught:
+            old = getattr(summary, name)
+        (w,) = caught
+        assert old is getattr(importlib.import_module(home), name)
+        assert old is getattr(thermrs.analyses, name)
+        assert f"thermrs.campaigns.summary.{name}" in str(w.message)
+        assert f"{home}.{name}" in str(w.message)
+        assert f"thermrs {MOVED_NAMES_REMOVED_IN}" in str(w.message)
+        assert w.filename == __file__
+    readme = (REPO / "README.md").read_text()
+    changes = readme[readme.index("## Changes") :].split("\n## ", 1)[0]
+    assert "`thermrs.campaigns.summary.fold_synthesis`" in changes
+    with pytest.raises(AttributeError):
+        summary.no_such_name  # noqa: B018

@@ -13,8 +13,8 @@ import numpy as np
 import polars as pl
 import pytest
 import thermrs
+from thermrs.bench import make_runs
 from thermrs.diagnose import diagnose
-from thermrs.diagnose.bench import make_runs
 from thermrs.effects import SensorDrift, ThermalLag
 
 #: Simulations and campaigns of minutes: skipped by `pytest -m "not slow"`.

@@ -8,8 +8,8 @@ import numpy as np
 import polars as pl
 import pytest
 import thermrs
+from thermrs.bench import make_runs
 from thermrs.diagnose import diagnose, noise_floor_um
-from thermrs.diagnose.bench import make_runs
 from thermrs.diagnose.floor import series_noise
 from thermrs.diagnose.inputs import loess2, smooth_temperatures
 from thermrs.diagnose.resample import block_length
@@ -152,7 +152,7 @@ def test_two_effects_at_once_are_both_named_or_the_rest_called_unexplained(
 ) -> None:
     # An independent world (its own kinematics and physics) with a lag and a fixture drift at
     # once: never one effect `identified` alone while the other leaves a gap.
-    from thermrs.diagnose.bench_world.world import Campaign
+    from thermrs.bench.world.world import Campaign
 
     from tests.support.pairs import run_pair
 

@@ -1,6 +1,6 @@
 """The diagnoser's null is the user's world: noise, and a rig known only to its tolerances.
 
-Every case here is rendered by the independent bench world (:mod:`thermrs.diagnose.bench_world`:
+Every case here is rendered by the independent bench world (:mod:`thermrs.bench.world`:
 its own kinematics, thermal network and instruments), which perturbs what the analysis does
 not model — the rig's geometry, the IR camera's gain, offset, drift and clock, α — within an
 ordinary rig's tolerances. The truth is the world's: no effect, a visit repeatability of
@@ -13,9 +13,9 @@ from typing import Any
 
 import pytest
 import thermrs
+from thermrs.bench.world.cases import make_case
+from thermrs.bench.world.world import Campaign
 from thermrs.diagnose import diagnose
-from thermrs.diagnose.bench_world.cases import make_case
-from thermrs.diagnose.bench_world.world import Campaign
 
 #: The bench world's visit repeatability (µm per axis): the true noise floor.
 TRUE_FLOOR_UM = 2.0

@@ -1,6 +1,6 @@
 """A miscalibrated thermal camera is named as the instrument, never blamed on the robot.
 
-The runs come from the independent bench world (:mod:`thermrs.diagnose.bench_world`: its own
+The runs come from the independent bench world (:mod:`thermrs.bench.world`: its own
 kinematics, thermal network and IR camera model), with no effect of the robot and one ROI's
 reading of its rise above the room far off (an emissivity set wrong for that surface). The
 truth is the world's: that ROI's gain against the others' (their common gain is α's, which
@@ -14,9 +14,9 @@ import dataclasses
 import numpy as np
 import pytest
 import thermrs
+from thermrs.bench.world.cases import case_rigs
+from thermrs.bench.world.world import Campaign, draw_scene, render
 from thermrs.diagnose import diagnose
-from thermrs.diagnose.bench_world.cases import case_rigs
-from thermrs.diagnose.bench_world.world import Campaign, draw_scene, render
 from thermrs.effects import INSTRUMENT_EFFECTS, IrClock, IrDrift, IrGain, effect_classes, from_dict
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import thermrs
-from thermrs.diagnose.bench import make_runs
+from thermrs.bench import make_runs
 from thermrs.diagnose.engine import DesignMatrix
 from thermrs.diagnose.null import Batch
 from thermrs.signatures import VisitSet

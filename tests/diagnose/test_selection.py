@@ -4,7 +4,7 @@ cannot explain (the runs' thermal camera reads fast-warming links; their simulat
 temperatures leave none). Chosen by the held-out runs among hundreds of pairs, a pair of wrong
 effects fitted that gap best and was stated as `identified`; with each held-out run judging a
 choice made without it, the revision keeps the truth, and the verdict says a gap is left. And
-what the revision is for, on the independent world (:mod:`thermrs.diagnose.bench_world`): two
+what the revision is for, on the independent world (:mod:`thermrs.bench.world`): two
 effects at once, whose first step takes a family that mimics a part of both."""
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 import thermrs
+from thermrs.bench.world.cases import Campaign
+from thermrs.bench.world.score import outcome
 from thermrs.diagnose import diagnose
-from thermrs.diagnose.bench_world.cases import Campaign
-from thermrs.diagnose.bench_world.score import outcome
 
 from tests.support.pairs import run_pair
 from tests.support.random_demo import TRUTH, random_demo_runs

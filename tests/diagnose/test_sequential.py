@@ -1,6 +1,6 @@
 """The sequential diagnosis and its stop rule (issue 48): the error budget against the spending
 function's closed form, the truncation against timestamps made here, and the rule on runs of
-the independent bench world (:mod:`thermrs.diagnose.bench_world`) whose truth it did not make."""
+the independent bench world (:mod:`thermrs.bench.world`) whose truth it did not make."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import numpy as np
 import polars as pl
 import pytest
 import thermrs
-from thermrs.diagnose.bench_world.cases import make_case
-from thermrs.diagnose.bench_world.world import Campaign
+from thermrs.bench.world.cases import make_case
+from thermrs.bench.world.world import Campaign
 from thermrs.diagnose.sequential import StopRule, spent, truncate_run
 from thermrs.errors import InputError
 

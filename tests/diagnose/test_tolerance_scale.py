@@ -3,7 +3,7 @@
 The estimator of the factor k by which the rig's errors exceed its stated tolerances and
 Fieller's interval are checked on worlds whose truth is drawn here (a closed-form Gaussian
 model, and correlated normals of a known ratio). The diagnoser is checked on runs rendered by
-the independent bench world (:mod:`thermrs.diagnose.bench_world`), whose rig errs by a known
+the independent bench world (:mod:`thermrs.bench.world`), whose rig errs by a known
 multiple of what the rig file states and whose visit repeatability is σ = 2 µm; seeds from
 1350000 up, which no rule of the diagnoser was chosen on.
 """
@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 import pytest
 import thermrs
+from thermrs.bench.world.cases import case_rigs, case_truths, make_case
+from thermrs.bench.world.world import Campaign, draw_scene, render
 from thermrs.diagnose import diagnose
-from thermrs.diagnose.bench_world.cases import case_rigs, case_truths, make_case
-from thermrs.diagnose.bench_world.world import Campaign, draw_scene, render
 from thermrs.diagnose.closing import fieller
 from thermrs.diagnose.tolerance_scale import K_MAX, scale_interval
 from thermrs.effects import is_instrument

@@ -162,7 +162,7 @@ def test_effects_and_keywords_build_the_same_model(paper_rig: thermrs.Rig) -> No
 
 
 def test_lag_and_chip_shifts_match_independent_closed_forms(paper_rig: thermrs.Rig) -> None:
-    from thermrs.diagnose.bench import first_order_lag
+    from thermrs.bench import first_order_lag
     from thermrs.effects import FixtureDrift, SensorDrift, ThermalLag
 
     t = np.linspace(0, 6 * 3600, 400)
@@ -192,8 +192,8 @@ def test_a_users_own_effect_enters_the_diagnoser(paper_rig: thermrs.Rig) -> None
     from dataclasses import dataclass
     from typing import Any, ClassVar
 
+    from thermrs.bench import make_runs
     from thermrs.diagnose import diagnose
-    from thermrs.diagnose.bench import make_runs
     from thermrs.effects import Effect, Family, ThermalLag
     from thermrs.signatures import VisitSet
 

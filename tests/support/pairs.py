@@ -1,11 +1,11 @@
-"""One two-effect case of the independent world (:mod:`thermrs.diagnose.bench_world`),
+"""One two-effect case of the independent world (:mod:`thermrs.bench.world`),
 made and diagnosed as the bench does, for a test."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from thermrs.diagnose.bench_world.cases import Campaign, Case, run_case
+from thermrs.bench.world.cases import Campaign, Case, run_case
 
 
 def run_pair(
@@ -19,7 +19,7 @@ def run_pair(
     world: str = "white",
 ) -> dict[str, Any]:
     """The bench's result row of a pair case (``named``, ``status``, …; score it with
-    :func:`thermrs.diagnose.bench_world.score.outcome`)."""
+    :func:`thermrs.bench.world.score.outcome`)."""
     return run_case(
         Case(
             kind="pair",

@@ -40,11 +40,17 @@ from __future__ import annotations
 
 from thermrs.analyses.baselines import BaselineComparison, baselines_folds, compare_baselines
 from thermrs.analyses.design import DesignFold, design, design_splits
-from thermrs.analyses.diagnose import DiagnosisFold, diagnose, diagnose_splits
+from thermrs.analyses.diagnose import DiagnosisFold, diagnose, diagnose_splits, fold_synthesis
 from thermrs.analyses.drift import DriftResult, drift, drift_tables
 from thermrs.analyses.fit import FitResult, fit, fit_document, training_alphas, training_axes
 from thermrs.analyses.inputs import Split, file_splits, file_tables, selected, splits
-from thermrs.analyses.predict import Prediction, predict, predict_splits, read_fit_alpha
+from thermrs.analyses.predict import (
+    Prediction,
+    predict,
+    predict_splits,
+    predict_synthesis,
+    read_fit_alpha,
+)
 from thermrs.analyses.report import report
 from thermrs.analyses.watch import WatchUpdate, watch
 
@@ -69,8 +75,10 @@ __all__ = [
     "file_tables",
     "fit",
     "fit_document",
+    "fold_synthesis",
     "predict",
     "predict_splits",
+    "predict_synthesis",
     "read_fit_alpha",
     "report",
     "selected",

@@ -17,6 +17,7 @@ __all__ = [
     "Progress",
     "diagnose",
     "diagnose_splits",
+    "fold_synthesis",
     "prefixed",
 ]
 
@@ -198,3 +199,96 @@ def diagnose(
         scheduler=scheduler,
         workers=workers,
     )
+
+
+def fold_synthesis(docs: list[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
+    """What the folds of a rule conclude together (``thermrs diagnose --rule``'s
+    ``synthesis``).
+
+    Parameters
+    ----------
+    docs
+        Per fold, its name and its ``thermrs diagnose --json`` document
+        (:meth:`DiagnosisFold.to_json`'s ``diagnosis``).
+
+    Returns
+    -------
+    dict
+        ``tally`` (folds per verdict outcome), ``named`` (folds naming each effect: the
+        verdict's, the confounded ones or a partial explanation's), ``leading`` (the effect
+        named in most folds, or None), ``params`` (the leading effect's numeric parameters
+        across the folds that identify it: ``median``, ``min``, ``max``, ``folds``),
+        ``consistent`` (every fold the same outcome and, if any names one, the same leading
+        effect) and ``sentence`` (the conclusion in words, naming where the folds disagree).
+
+    Raises
+    ------
+    KeyError
+        A document without a ``verdict``.
+
+    Examples
+    --------
+    >>> from thermrs.analyses import fold_synthesis
+    >>> none = {"verdict": {"status": "none"}}
+    >>> fold_synthesis([("run1", none), ("run2", none)])["sentence"]
+    'consistent across folds: none in all 2; no effect named in any fold'
+    """
+    from collections import Counter
+
+    import numpy as np
+
+    outcomes = {f: str(d["verdict"].get("outcome", d["verdict"]["status"])) for f, d in docs}
+    tally = dict(Counter(outcomes.values()).most_common())
+    named: Counter[str] = Counter()
+    per_fold: dict[str, set[str]] = {}
+    for f, d in docs:
+        v = d["verdict"]
+        names = {e for e in [v.get("effect"), *v.get("confounded_with", [])] if e}
+        names |= set(v.get("effects", []))
+        per_fold[f] = names
+        named.update(names)
+    leading = named.most_common(1)[0][0] if named else None
+    values: dict[str, list[float]] = {}
+    for _, d in docs:
+        v = d["verdict"]
+        if v.get("effect") != leading:
+            continue
+        for k, x in (v.get("params") or {}).items():
+            if isinstance(x, int | float) and not isinstance(x, bool):
+                values.setdefault(k, []).append(float(x))
+    params = {
+        k: {"median": float(np.median(x)), "min": min(x), "max": max(x), "folds": len(x)}
+        for k, x in values.items()
+    }
+    n = len(docs)
+    same_outcome = len(tally) == 1
+    same_effect = leading is None or all(leading in s for s in per_fold.values())
+    consistent = same_outcome and same_effect
+    if consistent:
+        what = f"{leading} named in every fold" if leading else "no effect named in any fold"
+        sentence = f"consistent across folds: {next(iter(tally))} in all {n}; {what}"
+    else:
+        odd = [
+            f"{f}: {outcomes[f]}" + (f" ({', '.join(sorted(per_fold[f]))})" if per_fold[f] else "")
+            for f, _ in docs
+            if outcomes[f] != next(iter(tally)) or (leading and leading not in per_fold[f])
+        ]
+        lead = f"{leading} named in {named[leading]} of {n} folds" if leading else "none named"
+        sentence = (
+            f"the folds disagree: {', '.join(f'{k} ×{c}' for k, c in tally.items())}; "
+            f"{lead}; where: {'; '.join(odd)}"
+        )
+    if params:
+        spread = ", ".join(
+            f"{k} {p['median']:.4g} ({p['min']:.4g} – {p['max']:.4g} over {p['folds']} folds)"
+            for k, p in params.items()
+        )
+        sentence += f"; {leading}'s parameters: {spread}"
+    return {
+        "tally": tally,
+        "named": dict(named.most_common()),
+        "leading": leading,
+        "params": params,
+        "consistent": consistent,
+        "sentence": sentence,
+    }

@@ -21,6 +21,7 @@ __all__ = [
     "predict",
     "predict_diagnosed",
     "predict_splits",
+    "predict_synthesis",
     "read_fit_alpha",
 ]
 
@@ -305,3 +306,65 @@ def predict_diagnosed(
         model = load_diagnosis(Path(diagnosis), r)
     series = predict_series(list(held), r, model)
     return DiagnosedPrediction(model, series, shrink_table(series))
+
+
+def predict_synthesis(preds: Sequence[Prediction], *, label: str = "series") -> dict[str, Any]:
+    """What the folds of a rule say together about prediction (``thermrs predict --rule``).
+
+    Parameters
+    ----------
+    preds
+        The folds' predictions (:func:`predict_splits`).
+    label
+        The α each fold predicted with (default the time-series fit on its training runs).
+
+    Returns
+    -------
+    dict
+        ``folds``, ``holdout_rms_um`` (every fold's held-out visits pooled: the root mean
+        square of each fold's mean-removed residual series together), ``fold_rms_um`` [min,
+        max], ``alpha_per_k`` [min, max] over the folds, ``worst_fold`` and ``sentence``.
+
+    Raises
+    ------
+    KeyError
+        A fold without the α ``label``.
+
+    Examples
+    --------
+    >>> from thermrs import analyses, load_rig
+    >>> rig = load_rig("rig.toml")  # doctest: +SKIP
+    >>> folds = analyses.predict("campaign/", rig, rule="leave-one-run-out")  # doctest: +SKIP
+    >>> analyses.predict_synthesis(folds)["sentence"]  # doctest: +SKIP
+    """
+    import numpy as np
+
+    parts = [p.centred_residuals(label) for p in preds]  # each fold's residuals, read once
+    rms = [float(np.sqrt(np.mean(r**2))) if r.size else float("nan") for r in parts]
+    pooled = np.concatenate([np.zeros(0), *parts])
+    alphas = [float(p.alphas[label]) for p in preds if label in p.alphas]
+    if len(pooled) == 0:
+        return {
+            "folds": len(preds),
+            "holdout_rms_um": None,
+            "fold_rms_um": None,
+            "alpha_per_k": None,
+            "worst_fold": None,
+            "sentence": "no held-out visit to score",
+        }
+    total = float(np.sqrt(np.mean(pooled**2)))
+    worst = int(np.nanargmax(rms))
+    sentence = (
+        f"held-out rms {total:.3f} µm over {len(preds)} fold(s) (every held-out visit pooled; "
+        f"folds {np.nanmin(rms):.3f}–{np.nanmax(rms):.3f} µm, the worst {preds[worst].split.name})"
+    )
+    if alphas:
+        sentence += f"; α {min(alphas) * 1e6:.3f}–{max(alphas) * 1e6:.3f} ×10⁻⁶/K"
+    return {
+        "folds": len(preds),
+        "holdout_rms_um": total,
+        "fold_rms_um": [float(np.nanmin(rms)), float(np.nanmax(rms))],
+        "alpha_per_k": [min(alphas), max(alphas)] if alphas else None,
+        "worst_fold": preds[worst].split.name,
+        "sentence": sentence,
+    }

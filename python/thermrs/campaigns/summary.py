@@ -5,7 +5,6 @@ robot change over weeks?), and the held-out check of a rule
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,9 +22,7 @@ __all__ = [
     "alpha_trend",
     "by_group",
     "campaign_summary",
-    "fold_synthesis",
     "holdout_by_rule",
-    "predict_synthesis",
     "standouts",
 ]
 
@@ -122,79 +119,6 @@ def holdout_by_rule(
             }
         )
     return pl.DataFrame(rows, schema=HOLDOUT_SCHEMA)
-
-
-def fold_synthesis(docs: list[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
-    """What the folds of a rule conclude together, from each fold's ``thermrs diagnose
-    --json`` document (``(fold name, document)``).
-
-    Returns
-    -------
-    dict
-        ``tally`` (folds per verdict outcome), ``named`` (folds naming each effect: the
-        verdict's, the confounded ones or a partial explanation's), ``leading`` (the effect
-        named in most folds, or None), ``params`` (the leading effect's numeric parameters
-        across the folds that identify it: ``median``, ``min``, ``max``, ``folds``),
-        ``consistent`` (every fold the same outcome and, if any names one, the same leading
-        effect) and ``sentence`` (the conclusion in words, naming where the folds disagree).
-    """
-    from collections import Counter
-
-    outcomes = {f: str(d["verdict"].get("outcome", d["verdict"]["status"])) for f, d in docs}
-    tally = dict(Counter(outcomes.values()).most_common())
-    named: Counter[str] = Counter()
-    per_fold: dict[str, set[str]] = {}
-    for f, d in docs:
-        v = d["verdict"]
-        names = {e for e in [v.get("effect"), *v.get("confounded_with", [])] if e}
-        names |= set(v.get("effects", []))
-        per_fold[f] = names
-        named.update(names)
-    leading = named.most_common(1)[0][0] if named else None
-    values: dict[str, list[float]] = {}
-    for _, d in docs:
-        v = d["verdict"]
-        if v.get("effect") != leading:
-            continue
-        for k, x in (v.get("params") or {}).items():
-            if isinstance(x, int | float) and not isinstance(x, bool):
-                values.setdefault(k, []).append(float(x))
-    params = {
-        k: {"median": float(np.median(x)), "min": min(x), "max": max(x), "folds": len(x)}
-        for k, x in values.items()
-    }
-    n = len(docs)
-    same_outcome = len(tally) == 1
-    same_effect = leading is None or all(leading in s for s in per_fold.values())
-    consistent = same_outcome and same_effect
-    if consistent:
-        what = f"{leading} named in every fold" if leading else "no effect named in any fold"
-        sentence = f"consistent across folds: {next(iter(tally))} in all {n}; {what}"
-    else:
-        odd = [
-            f"{f}: {outcomes[f]}" + (f" ({', '.join(sorted(per_fold[f]))})" if per_fold[f] else "")
-            for f, _ in docs
-            if outcomes[f] != next(iter(tally)) or (leading and leading not in per_fold[f])
-        ]
-        lead = f"{leading} named in {named[leading]} of {n} folds" if leading else "none named"
-        sentence = (
-            f"the folds disagree: {', '.join(f'{k} ×{c}' for k, c in tally.items())}; "
-            f"{lead}; where: {'; '.join(odd)}"
-        )
-    if params:
-        spread = ", ".join(
-            f"{k} {p['median']:.4g} ({p['min']:.4g} – {p['max']:.4g} over {p['folds']} folds)"
-            for k, p in params.items()
-        )
-        sentence += f"; {leading}'s parameters: {spread}"
-    return {
-        "tally": tally,
-        "named": dict(named.most_common()),
-        "leading": leading,
-        "params": params,
-        "consistent": consistent,
-        "sentence": sentence,
-    }
 
 
 #: Seconds in a week: the trend's unit of time.
@@ -382,54 +306,6 @@ def standouts(per_run: pl.DataFrame) -> list[dict[str, Any]]:
     return out
 
 
-def predict_synthesis(preds: Sequence[Any], *, label: str = "series") -> dict[str, Any]:
-    """What the folds of a rule say together about prediction (``thermrs predict --rule``).
-
-    Parameters
-    ----------
-    preds
-        The folds' :class:`thermrs.analyses.predict.Prediction`.
-    label
-        The α each fold predicted with (default the time-series fit on its training runs).
-
-    Returns
-    -------
-    dict
-        ``folds``, ``holdout_rms_um`` (every fold's held-out visits pooled: the root mean
-        square of each fold's mean-removed residual series together), ``fold_rms_um`` [min,
-        max], ``alpha_per_k`` [min, max] over the folds, ``worst_fold`` and ``sentence``.
-    """
-    parts = [p.centred_residuals(label) for p in preds]  # each fold's residuals, read once
-    rms = [float(np.sqrt(np.mean(r**2))) if r.size else float("nan") for r in parts]
-    pooled = np.concatenate([np.zeros(0), *parts])
-    alphas = [float(p.alphas[label]) for p in preds if label in p.alphas]
-    if len(pooled) == 0:
-        return {
-            "folds": len(preds),
-            "holdout_rms_um": None,
-            "fold_rms_um": None,
-            "alpha_per_k": None,
-            "worst_fold": None,
-            "sentence": "no held-out visit to score",
-        }
-    total = float(np.sqrt(np.mean(pooled**2)))
-    worst = int(np.nanargmax(rms))
-    sentence = (
-        f"held-out rms {total:.3f} µm over {len(preds)} fold(s) (every held-out visit pooled; "
-        f"folds {np.nanmin(rms):.3f}–{np.nanmax(rms):.3f} µm, the worst {preds[worst].split.name})"
-    )
-    if alphas:
-        sentence += f"; α {min(alphas) * 1e6:.3f}–{max(alphas) * 1e6:.3f} ×10⁻⁶/K"
-    return {
-        "folds": len(preds),
-        "holdout_rms_um": total,
-        "fold_rms_um": [float(np.nanmin(rms)), float(np.nanmax(rms))],
-        "alpha_per_k": [min(alphas), max(alphas)] if alphas else None,
-        "worst_fold": preds[worst].split.name,
-        "sentence": sentence,
-    }
-
-
 @dataclass(frozen=True)
 class CampaignSummary:
     """What ``thermrs campaign`` prints and its page shows, computed once.
@@ -490,3 +366,31 @@ def campaign_summary(
         speed=speed_axis(per_run),
         folds=folds,
     )
+
+
+#: The version in which the names that moved to :mod:`thermrs.analyses` stop being handed on
+#: from here.
+MOVED_NAMES_REMOVED_IN = "0.2.0"
+
+#: Names that moved to :mod:`thermrs.analyses`, each with the module that defines it there
+#: (handed on when first asked, with a warning; this module imports nothing of it).
+MOVED_TO_ANALYSES = {
+    "fold_synthesis": "thermrs.analyses.diagnose",
+    "predict_synthesis": "thermrs.analyses.predict",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in MOVED_TO_ANALYSES:
+        import importlib
+        import warnings
+
+        home = MOVED_TO_ANALYSES[name]
+        warnings.warn(
+            f"thermrs.campaigns.summary.{name} moved to {home}.{name}: import it from {home} "
+            f"(thermrs.campaigns.summary.{name} goes in thermrs {MOVED_NAMES_REMOVED_IN})",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return getattr(importlib.import_module(home), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -298,8 +298,7 @@ def diagnose(
 
     Exits 3 (after diagnosing) if part of a recording was lost.
     """
-    from thermrs.analyses.diagnose import diagnose_splits
-    from thermrs.campaigns.summary import fold_synthesis
+    from thermrs.analyses.diagnose import diagnose_splits, fold_synthesis
     from thermrs.cli.common import EXIT_DATA_LOSS, chosen_splits, stages, writable, write_json
     from thermrs.errors import InputError
     from thermrs.rig import load_rig
@@ -486,8 +485,8 @@ def diagnose_bench(
     and effects) with each SPEC §6 effect at target signal-to-noise ratios (and withheld from
     the library), no effect, and two effects at once, in two nuisance worlds: right, false
     `none` and false attributions per world and SNR bin."""
+    from thermrs.bench import run_bench
     from thermrs.cli.common import writable, write_json
-    from thermrs.diagnose.bench import run_bench
 
     writable(json_path, "--json", suffixes=(".json",))
     from thermrs.effects import EFFECT_NAMES
@@ -521,7 +520,7 @@ def diagnose_bench(
 
 
 def render_bench(doc: dict[str, Any]) -> None:
-    """Print a bench document (:func:`thermrs.diagnose.bench.run_bench`) as tables."""
+    """Print a bench document (:func:`thermrs.bench.run_bench`) as tables."""
     sections = (
         ("single", "One effect", ("right", "false none", "false attribution", "unexplained")),
         ("withheld", "True effect excluded", ("honest", "stand-in", "none", "false attribution")),

@@ -214,7 +214,7 @@ def _write(
         if rule is None:
             doc = {k: v for k, v in preds[0].to_json().items() if k in ("alpha_per_k", "table")}
         else:
-            from thermrs.campaigns.summary import predict_synthesis
+            from thermrs.analyses.predict import predict_synthesis
 
             doc = {
                 "rule": rule,
@@ -313,6 +313,6 @@ def _render_folds(preds: list[Prediction], rule: str) -> None:
             f"{p.rms_um():.3f}",
         )
     out.print(t)
-    from thermrs.campaigns.summary import predict_synthesis
+    from thermrs.analyses.predict import predict_synthesis
 
     out.print(f"Across the folds: {predict_synthesis(preds)['sentence']}.")

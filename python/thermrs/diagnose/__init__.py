@@ -769,10 +769,10 @@ def _union_ci(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
 
 
 def __getattr__(name: str) -> Any:
-    """The bench and the paper's diagnosis (``thermrs.diagnose.bench``, ``.paper``, …),
-    imported on first use."""
+    """The paper's diagnosis and the steps (``thermrs.diagnose.paper``, ``.tolerances``, …),
+    and ``.bench`` (moved to :mod:`thermrs.bench` until 0.2.0), imported on first use."""
     import importlib
 
-    if name in ("bench", "bench_world", "paper", "tolerances", "floor", "selection"):
+    if name in ("bench", "paper", "tolerances", "floor", "selection"):
         return importlib.import_module(f"thermrs.diagnose.{name}")
     raise AttributeError(f"module 'thermrs.diagnose' has no attribute {name!r}")

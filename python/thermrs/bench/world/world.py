@@ -36,21 +36,21 @@ import numpy as np
 import numpy.typing as npt
 import polars as pl
 
-from thermrs.diagnose.bench_world.geometry import (
+from thermrs.bench.world.geometry import (
     WorldRig,
     laser_spots,
     length_index,
     perturbed,
     tilted,
 )
-from thermrs.diagnose.bench_world.thermal import (
+from thermrs.bench.world.thermal import (
     Ambient,
     Links,
     draw_ambient,
     draw_links,
     simulate_day,
 )
-from thermrs.diagnose.bench_world.truth import Truth
+from thermrs.bench.world.truth import Truth
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -341,7 +341,7 @@ def render(
     alpha_per_k: float | None = None,
 ) -> list[pl.DataFrame]:
     """The three run tables of ``scene`` with ``effects`` (schema of
-    :func:`thermrs.diagnose.bench.make_runs`).
+    :func:`thermrs.bench.make_runs`).
 
     Parameters
     ----------

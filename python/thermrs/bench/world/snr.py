@@ -19,8 +19,8 @@ import numpy as np
 import numpy.typing as npt
 import polars as pl
 
-from thermrs.diagnose.bench_world.truth import Truth
-from thermrs.diagnose.bench_world.world import Scene, nominal_prediction, render
+from thermrs.bench.world.truth import Truth
+from thermrs.bench.world.world import Scene, nominal_prediction, render
 
 FloatArray = npt.NDArray[np.float64]
 

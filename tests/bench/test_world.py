@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import thermrs
-from thermrs.diagnose.bench_world import (
+from thermrs.bench.world import (
     Campaign,
     Scene,
     Sizer,
@@ -19,9 +19,9 @@ from thermrs.diagnose.bench_world import (
     read_rig,
     render,
 )
-from thermrs.diagnose.bench_world.geometry import laser_spots, length_index
-from thermrs.diagnose.bench_world.score import outcome, withheld_outcome
-from thermrs.diagnose.bench_world.world import RUNS
+from thermrs.bench.world.geometry import laser_spots, length_index
+from thermrs.bench.world.score import outcome, withheld_outcome
+from thermrs.bench.world.world import RUNS
 
 REPO = Path(__file__).resolve().parents[2]
 RIGS = [thermrs.rig.default_rig_path(), REPO / "fixtures" / "rigs" / "ur5-two-cameras.toml"]

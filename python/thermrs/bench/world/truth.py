@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from thermrs.diagnose.bench_world.geometry import WorldRig
+from thermrs.bench.world.geometry import WorldRig
 
 __all__ = ["EFFECTS", "Truth", "draw_truth"]
 

@@ -4,7 +4,7 @@ from the DH convention and ray–plane geometry directly in numpy (SPEC §3–4)
 Nothing here comes from :mod:`thermrs.model`, :mod:`thermrs.rig` or the Rust core: this is a
 second implementation, used only to make bench cases, so that the diagnoser is never scored on
 runs made by its own forward model. Agreement of the two on nominal spots is a test of both
-(``tests/diagnose/test_bench_world.py``).
+(``tests/bench/test_world.py``).
 
 Standard (distal) DH, base to flange: Tᵢ = Rz(θᵢ)·Tz(dᵢ)·Tx(aᵢ)·Rx(αᵢ), θᵢ = signᵢ·qᵢ +
 theta_offsetᵢ. The laser ray (origin, direction in the flange frame) is mapped to the base

@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 import polars as pl
 
-from thermrs.diagnose.bench_world.geometry import WorldRig, read_rig
-from thermrs.diagnose.bench_world.snr import Sizer
-from thermrs.diagnose.bench_world.truth import EFFECTS, Truth, draw_truth
-from thermrs.diagnose.bench_world.world import Campaign, Scene, draw_scene, render
+from thermrs.bench.world.geometry import WorldRig, read_rig
+from thermrs.bench.world.snr import Sizer
+from thermrs.bench.world.truth import EFFECTS, Truth, draw_truth
+from thermrs.bench.world.world import Campaign, Scene, draw_scene, render
 
 __all__ = ["FIRST_SEED", "PAIRS", "Case", "make_case", "plan", "run_case", "worker_init"]
 

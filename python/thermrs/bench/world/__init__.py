@@ -7,10 +7,10 @@ own forward model.
 
 from __future__ import annotations
 
-from thermrs.diagnose.bench_world.geometry import WorldRig, laser_spots, read_rig
-from thermrs.diagnose.bench_world.snr import Sizer
-from thermrs.diagnose.bench_world.truth import EFFECTS, Truth, draw_truth
-from thermrs.diagnose.bench_world.world import WORLDS, Campaign, Scene, draw_scene, render
+from thermrs.bench.world.geometry import WorldRig, laser_spots, read_rig
+from thermrs.bench.world.snr import Sizer
+from thermrs.bench.world.truth import EFFECTS, Truth, draw_truth
+from thermrs.bench.world.world import WORLDS, Campaign, Scene, draw_scene, render
 
 __all__ = [
     "EFFECTS",
