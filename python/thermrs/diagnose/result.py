@@ -320,8 +320,8 @@ def _rig_statement(
     """The verdict with what the data say of the rig's errors against its statement:
     ``unexplained`` where the effects of the robot it would name are not significant against
     a rig erring by twice its stated tolerances (``tests.tolerance_excess``), and the factor
-    the data give (``tests.tolerance_scale``) said where its interval lies above 1. Returns (status, reason, exceeded,
-    errs_more)."""
+    the data give (``tests.tolerance_scale``) said where its interval lies above 1. Returns
+    (status, reason, exceeded, errs_more)."""
     excess = floor.extra.get("tolerance_excess") or {}
     robot = [
         e
