@@ -283,7 +283,8 @@ def watch(
     Parameters
     ----------
     path
-        The recording: an MCAP file or a bag folder of MCAP parts (it may not exist yet).
+        The recording: an MCAP file, a rosbag2 SQLite database (``.db3``) or a bag folder
+        of their parts (it may not exist yet).
     rig
         The rig (a :class:`~thermrs.Rig` or the path of a rig file).
     train
