@@ -188,11 +188,11 @@ def test_a_bag_folder_gaining_parts(tmp_path: Path, paper_rig: thermrs.Rig) -> N
     _same_tables(f.extraction(), thermrs.extract(whole, paper_rig))
 
 
-def test_sqlite_and_ros1_are_read_once_closed(tmp_path: Path, paper_rig: thermrs.Rig) -> None:
+def test_ros1_is_read_once_closed(tmp_path: Path, paper_rig: thermrs.Rig) -> None:
     d = tmp_path / "bag"
     d.mkdir()
-    (d / "bag_0.db3").write_bytes(b"SQLite format 3\x00")
-    with pytest.raises(thermrs.errors.InputError, match="only MCAP is followed"):
+    (d / "bag_0.bag").write_bytes(b"#ROSBAG V2.0\n")
+    with pytest.raises(thermrs.errors.InputError, match="only MCAP and SQLite"):
         Follower(d, paper_rig).step()
 
 
@@ -205,3 +205,52 @@ def test_reports_of_consecutive_ranges_merge() -> None:
     assert m["chunks"] == 3 and m["messages"] == {"/a": 4, "/b": 2}
     assert m["notes"] == ["n", "m"] and m["losses"] == [{"kind": "x"}]
     assert m["used_summary"] is False
+
+
+def test_a_sqlite_bag_folder_filled_row_by_row(tmp_path: Path, paper_rig: thermrs.Rig) -> None:
+    """A two-part ``.db3`` bag written by ``rosbags`` (messages zstd-compressed) copied row
+    batch by row batch into databases held open by their writer (Python's ``sqlite3``): each
+    step reads exactly the rows committed since the last (their ``data`` bytes and camera
+    frames, counted by SQLite), the bag closes when its ``metadata.yaml`` is written, and the
+    tables are ``extract``'s on the finished bag."""
+    import sqlite3
+
+    from tests.support.bags import write_bag
+
+    msgs = _messages(paper_rig, cycles=9)
+    whole = tmp_path / "whole"
+    write_bag(msgs, whole, storage="sqlite3", compression="message", cuts=(len(msgs) // 2,))
+    parts = sorted(whole.glob("*.db3"))
+    assert len(parts) == 2
+    cams = tuple(c.topic for c in paper_rig.cameras)
+    live = tmp_path / "live"
+    live.mkdir()
+    f = Follower(live, paper_rig)
+    assert not f.step().closed
+    for p in parts:
+        w = sqlite3.connect(live / p.name, isolation_level=None)
+        w.execute("ATTACH DATABASE ? AS src", (str(p),))
+        for (sql,) in w.execute("SELECT sql FROM src.sqlite_master WHERE type = 'table'"):
+            w.execute(sql)
+        w.execute("INSERT INTO main.topics SELECT * FROM src.topics")
+        ids = [i for (i,) in w.execute("SELECT id FROM src.messages ORDER BY id")]
+        for a in range(0, len(ids), 37):
+            lo, hi = ids[a], ids[min(a + 37, len(ids)) - 1]
+            w.execute("BEGIN")
+            w.execute("INSERT INTO main.messages SELECT * FROM src.messages WHERE id "
+                      "BETWEEN ? AND ?", (lo, hi))  # fmt: skip
+            w.execute("COMMIT")
+            (n_bytes,) = w.execute("SELECT SUM(length(data)) FROM src.messages WHERE id BETWEEN"
+                                   " ? AND ?", (lo, hi)).fetchone()  # fmt: skip
+            (n_frames,) = w.execute(
+                "SELECT COUNT(*) FROM src.messages m JOIN src.topics t ON m.topic_id = t.id "
+                f"WHERE m.id BETWEEN ? AND ? AND t.name IN ({','.join('?' * len(cams))})",
+                (lo, hi, *cams),
+            ).fetchone()
+            s = f.step()
+            assert (s.bytes_read, s.new_frames, s.closed) == (n_bytes, n_frames, False)
+        w.close()
+    (live / "metadata.yaml").write_bytes((whole / "metadata.yaml").read_bytes())
+    s = f.step()
+    assert s.closed and s.bytes_read == 0
+    _same_tables(f.extraction(), thermrs.extract(whole, paper_rig))

@@ -107,8 +107,8 @@ def is_bag(path: str) -> bool: ...
 def bag_parts(path: str) -> list[str]: ...
 
 class Follower:
-    """Follows an MCAP file while it is written: each ``step`` reads only the complete records
-    added since the last."""
+    """Follows an MCAP file or a rosbag2 SQLite database while it is written: each ``step``
+    reads only the complete records (the committed rows) added since the last."""
 
     def __init__(self, path: str, *, state: str | None = None) -> None: ...
     def step(

@@ -4,18 +4,21 @@ update reading only what was added.
 The core's follower (``thermrs._native.Follower``) reads the complete MCAP records added since
 its last step, through the same walk as :func:`thermrs.extract`; a record still being written
 (a chunk half flushed, a footer not there yet) is waited for, never reported lost. A rosbag2
-bag folder being recorded is followed part by part: ``NAME_0.mcap``, ``NAME_1.mcap``, … in
-order (or the order its ``metadata.yaml`` lists); a part is complete once the next one appears
-or its footer is written, the bag once ``metadata.yaml`` is written and lists every part, each
-complete.
+SQLite database (``.db3``, told by its first bytes) is followed by its message rows: each step
+reads the committed rows whose ``id`` is above the last read (and the topics added), opened
+read-only beside the recorder; a database alone never says it is closed, so a watch of one ends
+when it is stopped. A rosbag2 bag folder being recorded is followed part by part:
+``NAME_0.mcap``, ``NAME_1.mcap``, … (or ``NAME_0.db3``, …) in order (or the order its
+``metadata.yaml`` lists); a part is complete once the next one appears or its footer is
+written, the bag once ``metadata.yaml`` is written and lists every part, each complete.
 
 The tables so far are those :func:`thermrs.extract` gives on the bytes read: the columns of
 every step appended, then visits and runs found on all of them
 (:func:`thermrs.ingest.assemble_tables`), so that on a closed recording they are
 :func:`thermrs.extract`'s tables exactly.
 
-Only MCAP is followed while written: a rosbag2 SQLite database (``.db3``) or a ROS 1 bag is read
-once it is closed (:func:`thermrs.extract`); a folder of them is refused with that line.
+A ROS 1 bag or a part compressed whole with zstd is read once it is closed
+(:func:`thermrs.extract`); a folder of them is refused with that line.
 
 Example
 -------
@@ -58,7 +61,7 @@ Columns = tuple[
     dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]
 ]
 
-_NUMBERED = re.compile(r"^(?P<stem>.+)_(?P<n>\d+)\.mcap$")
+_NUMBERED = re.compile(r"^(?P<stem>.+)_(?P<n>\d+)\.(?:mcap|db3)$")
 
 
 @dataclass(frozen=True)
@@ -180,7 +183,8 @@ def _concat(parts: list[Columns]) -> Columns:
 
 
 class Follower:
-    """Follow a recording while it is written: an MCAP file or a bag folder of MCAP parts.
+    """Follow a recording while it is written: an MCAP file, a rosbag2 SQLite database or a
+    bag folder of MCAP or SQLite parts.
 
     Parameters
     ----------
@@ -199,8 +203,8 @@ class Follower:
     Raises
     ------
     InputError
-        A folder that holds SQLite or ROS 1 recordings (read them once closed), or a state
-        of another recording.
+        A folder that holds ROS 1 bags or parts compressed whole (read them once closed), or a
+        state of another recording.
     """
 
     def __init__(
@@ -273,13 +277,12 @@ class Follower:
         """The recording's files in order and whether the list is final (a bag's metadata)."""
         if not self.path.is_dir():
             return ([self.path.name] if self.path.exists() else []), True
-        others = sorted(
-            p.name for p in self.path.iterdir() if p.suffix in (".db3", ".bag", ".zstd")
-        )
+        others = sorted(p.name for p in self.path.iterdir() if p.suffix in (".bag", ".zstd"))
         if others:
             raise InputError(
-                f"recording {self.path}: holds {others[0]}: only MCAP is followed while it is "
-                "written; read a SQLite or ROS 1 bag once it is closed (thermrs extract)"
+                f"recording {self.path}: holds {others[0]}: only MCAP and SQLite (.db3) parts "
+                "are followed while written; read a ROS 1 bag or a part compressed whole once "
+                "it is closed (thermrs extract)"
             )
         if (self.path / "metadata.yaml").is_file():
             try:
@@ -326,6 +329,7 @@ class Follower:
             Ctrl-C (the follower stays where it was).
         """
         files, final = self._files()
+        listed = final and self.path.is_dir()  # a bag's metadata.yaml lists every part
         read = frames = 0
         all_closed = bool(files)
         for i, name in enumerate(files):
@@ -347,7 +351,10 @@ class Follower:
                 read += end - start
                 frames += len(cols[0]["t_ns"])
             # A part followed by another is complete once its footer is written; a part still
-            # without one while later parts exist is waited for.
+            # without one while later parts exist is waited for. A SQLite part never says it is
+            # closed: rosbag2 closes it before it opens the next part or writes metadata.yaml.
+            if name.endswith(".db3"):
+                closed = listed or i + 1 < len(files)
             all_closed &= closed
             if not closed and i + 1 < len(files):
                 break

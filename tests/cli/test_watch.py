@@ -103,8 +103,8 @@ def test_bad_input(data: dict[str, Path], tmp_path: Path) -> None:
     rig = str(data["rig"])
     bag = tmp_path / "bag"
     bag.mkdir()
-    (bag / "bag_0.db3").write_bytes(b"SQLite format 3\x00")
-    bad(cli("watch", str(bag), "--rig", rig, "--until", "1s"), "only MCAP is followed")
+    (bag / "bag_0.bag").write_bytes(b"#ROSBAG V2.0\n")
+    bad(cli("watch", str(bag), "--rig", rig, "--until", "1s"), "only MCAP and SQLite")
     bad(cli("watch", str(data["rec"]), "--rig", rig, "-o", str(tmp_path / "x.csv")), "-o")
     bad(cli("watch", str(data["rec"]), "--rig", rig, "--until", "soon"), "--until")
     other = tmp_path / "other.parquet"

@@ -283,8 +283,8 @@ def watch(
     Parameters
     ----------
     path, rig
-        The recording (an MCAP file or a bag folder of MCAP parts; it may not exist yet) and
-        the rig (a :class:`~thermrs.Rig` or the path of a rig file).
+        The recording (an MCAP file, a rosbag2 SQLite database ``.db3``, or a bag folder of
+        their parts; it may not exist yet) and the rig (a :class:`~thermrs.Rig` or its file).
     train
         Training run tables: α for the outlook, and the sequential diagnosis's training runs.
         Without them α is fitted on the run so far once it determines it.

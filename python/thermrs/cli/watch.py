@@ -203,12 +203,13 @@ def watch(
     json_path: Path | None, every_s: float, until: str | None, look_every_h: float,
     care_um: float | None, designed: bool, exclude: tuple[str, ...], diagnose: bool,
 ) -> None:  # fmt: skip
-    """Follow RECORDING (an MCAP file or a bag folder of MCAP parts) while it is written:
-    the drift so far per camera and chip axis with the ROI temperatures, the forward model's
-    drift to come with its 95 % band, when it leaves --tolerance-um, and with --train a
-    sequential diagnosis that says when the answer is in. Each update reads only the bytes
-    added since the last. Ends by itself when the recording is closed (exit 0; 3 if part of
-    it was lost), or at --until; Ctrl-C leaves the tables so far at -o (exit 130).
+    """Follow RECORDING (an MCAP file, a rosbag2 .db3, or a bag folder of either's parts)
+    while it is written: the drift so far per camera and chip axis with the ROI temperatures,
+    the forward model's drift to come with its 95 % band, when it leaves --tolerance-um, and
+    with --train a sequential diagnosis that says when the answer is in. Each update reads
+    only the bytes (a .db3: the rows) added since the last. Ends by itself when the recording
+    is closed (exit 0; 3 if part of it was lost; a .db3 alone never says so), or at --until;
+    Ctrl-C leaves the tables so far at -o (exit 130).
     """
     from rich.live import Live
 

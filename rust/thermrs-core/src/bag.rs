@@ -26,7 +26,7 @@ use crate::error::{Error, Result};
 /// The name of a bag's metadata file.
 pub const METADATA: &str = "metadata.yaml";
 
-const SQLITE_MAGIC: &[u8] = b"SQLite format 3\0";
+pub(crate) const SQLITE_MAGIC: &[u8] = b"SQLite format 3\0";
 const ZSTD_MAGIC: &[u8] = &[0x28, 0xb5, 0x2f, 0xfd];
 const ROS1_MAGIC: &[u8] = b"#ROSBAG V2.0\n";
 const OLD_ROS1_MAGIC: &[u8] = b"#ROSBAG V1.";

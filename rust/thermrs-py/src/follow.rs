@@ -13,8 +13,9 @@ use crate::ingest::{options, to_py};
 use crate::progress::Pending;
 use crate::rig::PyRig;
 
-/// Follows an MCAP file while it is written: each `step` reads only the complete records
-/// added since the last (a record still being written is waited for, never reported lost).
+/// Follows an MCAP file or a rosbag2 SQLite database while it is written: each `step` reads
+/// only the complete records (the committed rows) added since the last (a record still being
+/// written is waited for, never reported lost).
 #[pyclass(module = "thermrs._native", name = "Follower")]
 pub struct PyFollower {
     inner: Mutex<Follow>,
@@ -40,7 +41,8 @@ impl PyFollower {
     }
 
     /// Read what was added: returns (frames, thermal, joints, ambient, report JSON) as
-    /// `extract` does, the byte range read (from, to) and whether the recording is complete.
+    /// `extract` does, the byte range read (from, to: file offsets; a SQLite database: bytes
+    /// of message data from its first row) and whether the recording is complete.
     /// Runs without the GIL; Ctrl-C stops it, leaving the follower where it was.
     #[pyo3(signature = (rig, *, progress = None, min_sigma_px = None, threshold_sigma = None, verify_crc = true))]
     fn step<'py>(
