@@ -5,7 +5,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import partial
 from typing import Any
 
 from thermrs.analyses.diagnose import Progress
@@ -46,7 +45,7 @@ def design_splits(
     client, scheduler, workers
         Several splits are designed side by side on Dask workers: a ``distributed.Client``,
         a scheduler's address, or the worker processes of a local cluster
-        (:func:`thermrs.campaigns.fold_map.map_folds`).
+        (:func:`thermrs.analyses.folds.map_folds`).
     **options
         :func:`thermrs.design.design`'s keywords (``exclude``, ``between``, ``budget_h``,
         ``seed``, ``prove_it``, …).
@@ -66,22 +65,19 @@ def design_splits(
     >>> sets = thermrs.analyses.file_splits(["rec.mcap#a"], ["rec.mcap#b"], rig)  # doctest: +SKIP
     >>> (d,) = thermrs.analyses.design_splits(sets, rig, prove_it=False)  # doctest: +SKIP
     """
-    from thermrs.campaigns.fold_map import map_folds
-
-    task = partial(_design_fold, rig=rig, **options)
-    return map_folds(
-        task, sets, client=client, scheduler=scheduler, workers=workers, progress=progress
-    )
-
-
-def _design_fold(
-    split: Split, progress: Progress | None, *, rig: Any, **options: Any
-) -> DesignFold:
-    """One split's design (a fold's task, :func:`design_splits`)."""
+    from thermrs.analyses.folds import run_folds
     from thermrs.design import design as design_runs
 
-    return DesignFold(
-        split, design_runs(split.train, split.holdout, rig, progress=progress, **options)
+    return run_folds(
+        design_runs,
+        DesignFold,
+        sets,
+        rig,
+        client=client,
+        scheduler=scheduler,
+        workers=workers,
+        progress=progress,
+        **options,
     )
 
 

@@ -5,11 +5,10 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import partial
 from typing import Any
 
+from thermrs.analyses.folds import prefixed
 from thermrs.analyses.inputs import DatasetLike, Split, splits
-from thermrs.campaigns.fold_map import prefixed
 
 __all__ = [
     "CLUSTER_FROM_VISITS",
@@ -79,7 +78,7 @@ def diagnose_splits(
     client, scheduler, workers
         Several splits are diagnosed side by side on Dask workers: a ``distributed.Client``,
         a scheduler's address, or the worker processes of a local cluster
-        (:func:`thermrs.campaigns.fold_map.map_folds`). With none given, a local cluster is
+        (:func:`thermrs.analyses.folds.map_folds`). With none given, a local cluster is
         started only from :data:`CLUSTER_FROM_VISITS` visits. The diagnoses are the same as
         one after another in this process.
 
@@ -101,7 +100,8 @@ def diagnose_splits(
     >>> (d,) = thermrs.analyses.diagnose_splits(sets, rig)  # doctest: +SKIP
     >>> d.diagnosis.to_json()["verdict"]["status"]  # doctest: +SKIP
     """
-    from thermrs.campaigns.fold_map import map_folds
+    from thermrs.analyses.folds import run_folds
+    from thermrs.diagnose import diagnose as diagnose_runs
     from thermrs.diagnose.inputs import check_visits
     from thermrs.errors import InputError
 
@@ -113,27 +113,19 @@ def diagnose_splits(
     if workers is None and client is None and scheduler is None:
         if sum(t.height for s in sets for t in (*s.train, *s.holdout)) < CLUSTER_FROM_VISITS:
             workers = 1
-    task = partial(
-        _diagnose_fold,
-        rig=rig,
+    return run_folds(
+        diagnose_runs,
+        DiagnosisFold,
+        sets,
+        rig,
+        client=client,
+        scheduler=scheduler,
+        workers=workers,
+        progress=progress,
         exclude=list(exclude),
         bootstrap=bootstrap,
         seed=seed,
         margin_um=margin_um,
-    )
-    return map_folds(
-        task, sets, client=client, scheduler=scheduler, workers=workers, progress=progress
-    )
-
-
-def _diagnose_fold(
-    split: Split, progress: Progress | None, *, rig: Any, **options: Any
-) -> DiagnosisFold:
-    """One split's diagnosis (a fold's task, :func:`diagnose_splits`)."""
-    from thermrs.diagnose import diagnose as diagnose_runs
-
-    return DiagnosisFold(
-        split, diagnose_runs(split.train, split.holdout, rig, progress=progress, **options)
     )
 
 
@@ -169,7 +161,7 @@ def diagnose(
     client, scheduler, workers
         Where several folds are diagnosed side by side (a ``distributed.Client``, a
         scheduler's address, or the worker processes of the local cluster started:
-        :func:`thermrs.campaigns.fold_map.map_folds`; ``workers=1``: one after another here).
+        :func:`thermrs.analyses.folds.map_folds`; ``workers=1``: one after another here).
 
     Returns
     -------

@@ -1,169 +1,36 @@
-"""A campaign's folds analysed side by side on Dask workers (``diagnose`` and ``design`` with
-``--rule``, or any list of splits: anything with a ``name``, such as
-:class:`thermrs.analyses.inputs.Split`).
-
-Each fold is a task of its own: its run tables and the rig go to a worker, its result (a
-diagnosis, a design) comes back. The cluster is the campaign's (:func:`~thermrs.campaigns.
-engine.local_cluster`: one process per core, each with its libraries' thread pools at one
-thread; shut down at once when the work ends or Ctrl-C stops it), a ``distributed.Client``
-the caller gives, or a scheduler's address. One fold, or one core, runs in this process: a
-cluster's start (worker processes importing thermrs) would cost more than it saves.
-
-Progress: what a fold says on its worker comes back as it is said (a Dask event topic), the
-fold's name before it, and the end of each fold as it ends.
-
-Results are the same as in this process, whichever worker ran a fold: every fold's random
-draws come from its own seed, not from a shared stream.
+"""Moved: the fold runner is :mod:`thermrs.analyses.folds`, beside the analyses that run folds.
+``thermrs.campaigns.fold_map``'s names still work until thermrs 0.2.0, with a
+:class:`DeprecationWarning` that names the new path; this module imports nothing of
+:mod:`thermrs.analyses`, which stands above it.
 """
 
 from __future__ import annotations
 
-import os
-import time
-import uuid
-from collections.abc import Callable, Sequence
-from contextlib import suppress
-from typing import Any, Protocol, TypeVar
+import warnings
+from typing import Any
 
-__all__ = ["Fold", "FoldTask", "Progress", "map_folds", "prefixed"]
+__all__: list[str] = []
 
+#: The version in which this module, which only hands on names, goes.
+MOVED_NAMES_REMOVED_IN = "0.2.0"
 
-class Fold(Protocol):
-    """What a fold must have: its name (empty for the one split of files)."""
-
-    @property
-    def name(self) -> str: ...
+#: The names handed on from here, each with the module that defines it now.
+MOVED_TO_FOLDS = {
+    name: "thermrs.analyses.folds"
+    for name in ("Fold", "FoldTask", "Progress", "map_folds", "prefixed")
+}
 
 
-S = TypeVar("S", bound=Fold)
-R = TypeVar("R")
+def __getattr__(name: str) -> Any:
+    if name in MOVED_TO_FOLDS:
+        import importlib
 
-#: Called with a short message as the work goes on.
-Progress = Callable[[str], object]
-
-#: One fold's analysis: ``task(split, progress)``, a picklable callable (a module-level
-#: function, or a ``functools.partial`` of one) for it to run on a worker.
-FoldTask = Callable[[S, "Progress | None"], R]
-
-
-def map_folds(
-    task: FoldTask[S, R],
-    sets: Sequence[S],
-    *,
-    client: Any = None,
-    scheduler: str | None = None,
-    workers: int | None = None,
-    progress: Progress | None = None,
-) -> list[R]:
-    """``task`` run on every split, side by side on Dask workers when there are several.
-
-    Parameters
-    ----------
-    task
-        ``task(split, progress)``: one fold's analysis (picklable).
-    sets
-        The splits (folds).
-    client
-        A ``distributed.Client`` to run on (the caller keeps it).
-    scheduler
-        Else the address of a Dask scheduler to connect to (``tcp://host:8786``).
-    workers
-        Else the worker processes of the ``LocalCluster`` started (default: the cores, at
-        most one per fold); 1, or a single fold, runs every fold in this process, one after
-        another.
-    progress
-        Called with each fold's messages, prefixed by the fold's name, and a line as each
-        fold ends.
-
-    Returns
-    -------
-    list
-        The folds' results, in the order of ``sets``.
-
-    Raises
-    ------
-    Exception
-        What a fold's ``task`` raised (on workers, the first fold to fail as they end; the
-        others are cancelled).
-    KeyboardInterrupt
-        Ctrl-C: a cluster thermrs started is shut down at once.
-    """
-    if client is None and scheduler is None:
-        n = min(len(sets), workers or os.cpu_count() or 1)
-        if n <= 1:
-            return [task(s, prefixed(progress, s.name)) for s in sets]
-    from distributed import Client
-
-    from thermrs.campaigns.engine import close_now, local_cluster
-
-    cluster = None
-    own = client is None
-    if own:
-        if scheduler is not None:
-            client = Client(scheduler)  # type: ignore[no-untyped-call]
-        else:
-            cluster = local_cluster(n)
-            try:
-                client = Client(cluster)  # type: ignore[no-untyped-call]
-            except BaseException:
-                close_now(cluster)
-                raise
-    topic = f"thermrs-progress-{uuid.uuid4().hex}"
-    if progress is not None:
-        say = progress
-        client.subscribe_topic(topic, lambda event: say(str(event[1])))
-    try:
-        return _run(client, task, sets, topic if progress is not None else None, progress)
-    finally:
-        if progress is not None:
-            with suppress(Exception):
-                client.unsubscribe_topic(topic)
-        if cluster is not None:
-            close_now(cluster, client)
-        elif own:
-            client.close()
-
-
-def _run(
-    client: Any, task: FoldTask[S, R], sets: Sequence[S], topic: str | None, progress: Any
-) -> list[R]:
-    """Every fold submitted at once, results gathered in order (what is left cancelled when
-    one fails or Ctrl-C stops the work)."""
-    from distributed import as_completed
-
-    t0 = time.perf_counter()
-    futures = [
-        client.submit(_on_worker, task, s, topic, pure=False, key=f"fold-{i}-{uuid.uuid4().hex}")
-        for i, s in enumerate(sets)
-    ]
-    names = {f.key: s.name for f, s in zip(futures, sets, strict=True)}
-    try:
-        for f in as_completed(futures):  # type: ignore[no-untyped-call]
-            if f.status == "error":
-                f.result()  # raises the fold's own exception
-            if progress is not None:
-                name = names[f.key]
-                progress(f"{name + ': ' if name else ''}done ({time.perf_counter() - t0:.1f} s)")
-        return [f.result() for f in futures]
-    finally:
-        for f in futures:
-            if not f.done():
-                f.cancel()
-
-
-def _on_worker(task: FoldTask[S, R], split: S, topic: str | None) -> R:
-    """One fold on a worker, its messages sent on ``topic`` (the fold's name before them)."""
-    if topic is None:
-        return task(split, None)
-    from distributed import get_worker
-
-    worker = get_worker()
-    return task(split, prefixed(lambda m: worker.log_event(topic, m), split.name))
-
-
-def prefixed(progress: Progress | None, name: str) -> Progress | None:
-    """``progress`` with each message prefixed by the fold's name (as is without one)."""
-    if progress is None or not name:
-        return progress
-    say = progress
-    return lambda m: say(f"{name}: {m}")
+        home = MOVED_TO_FOLDS[name]
+        warnings.warn(
+            f"thermrs.campaigns.fold_map.{name} moved to {home}.{name}: import it from {home} "
+            f"(thermrs.campaigns.fold_map goes in thermrs {MOVED_NAMES_REMOVED_IN})",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return getattr(importlib.import_module(home), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

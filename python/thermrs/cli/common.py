@@ -381,7 +381,7 @@ def campaign_options(*, rule: str | None = None) -> Decorator:
 
 def fold_options(f: Callable[..., Any]) -> Callable[..., Any]:
     """``--workers N`` and ``--scheduler ADDRESS``: where a --rule's folds run side by side
-    (:func:`thermrs.campaigns.fold_map.map_folds`)."""
+    (:func:`thermrs.analyses.folds.map_folds`)."""
     f = click.option(
         "--workers",
         type=click.IntRange(min=1),

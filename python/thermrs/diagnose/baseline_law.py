@@ -12,8 +12,14 @@ import numpy as np
 import numpy.typing as npt
 import polars as pl
 
-from thermrs.diagnose.baseline_models import LOWPASS_TAUS_MIN, Features, FittedBaseline, features
-from thermrs.diagnose.baselines import _centred, _rms
+from thermrs.diagnose.baseline_models import (
+    LOWPASS_TAUS_MIN,
+    Features,
+    FittedBaseline,
+    _centred,
+    _rms,
+    features,
+)
 from thermrs.errors import InputError
 
 __all__ = ["LINEAR", "BaselineLaw"]

@@ -377,3 +377,16 @@ def fit_baseline(
 
 
 # --- scoring ----------------------------------------------------------------------------------
+
+
+def _centred(
+    resid: FloatArray, vs: Any
+) -> FloatArray:  # n × 2 residual, centred per (run, camera, axis)
+    out = resid.copy()
+    for g in vs.groups:
+        out[g] = resid[g] - np.mean(resid[g], axis=0)
+    return out
+
+
+def _rms(r: FloatArray) -> float:
+    return float(np.sqrt(np.mean(r**2))) if r.size else float("nan")

@@ -50,6 +50,7 @@ import numpy as np
 import numpy.typing as npt
 import polars as pl
 
+from thermrs.diagnose.baseline_law import _best_law
 from thermrs.diagnose.baseline_models import (
     DESCRIPTIONS,
     DRAWS,
@@ -57,6 +58,8 @@ from thermrs.diagnose.baseline_models import (
     MODELS,
     Features,
     FittedBaseline,
+    _centred,
+    _rms,
     features,
     fit_baseline,
 )
@@ -243,19 +246,6 @@ def said(doc: dict[str, Any]) -> str:
     return "On these held-out runs " + "; ".join(parts) + " (95 % intervals of the difference)."
 
 
-def _centred(
-    resid: FloatArray, vs: Any
-) -> FloatArray:  # n × 2 residual, centred per (run, camera, axis)
-    out = resid.copy()
-    for g in vs.groups:
-        out[g] = resid[g] - np.mean(resid[g], axis=0)
-    return out
-
-
-def _rms(r: FloatArray) -> float:
-    return float(np.sqrt(np.mean(r**2))) if r.size else float("nan")
-
-
 def _per_run(
     r: FloatArray, vs: Any, hold: npt.NDArray[np.bool_], phase: npt.NDArray[np.str_]
 ) -> list[dict[str, Any]]:
@@ -401,8 +391,6 @@ def compare_baselines(
     # The diagnosis's phases (warm-up, plateau, cool-down) of every visit.
     phase = phases(vs, r.mapped_temperatures)
     scores = _scores(models, resids, n_par, boot, vs, is_train, phase, diagnosis)
-
-    from thermrs.diagnose.baseline_law import _best_law
 
     return BaselineComparison(
         baselines=scores[0],

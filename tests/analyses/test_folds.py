@@ -1,19 +1,19 @@
-"""Folds on Dask workers (:mod:`thermrs.campaigns.fold_map`): each fold's result is the one
+"""Folds on Dask workers (:mod:`thermrs.analyses.folds`): each fold's result is the one
 this process computes, what a fold says comes back with its name, a fold's error arrives as
 itself, and the cluster is gone afterwards."""
 
 from __future__ import annotations
 
 import pickle
-from functools import partial
 
 import polars as pl
 import pytest
 import thermrs
-from thermrs.analyses.diagnose import _diagnose_fold, diagnose_splits
+from thermrs.analyses.diagnose import DiagnosisFold, diagnose_splits
+from thermrs.analyses.folds import map_folds, run_folds
 from thermrs.analyses.inputs import Split
 from thermrs.bench import make_runs
-from thermrs.campaigns.fold_map import map_folds
+from thermrs.diagnose import diagnose
 from thermrs.effects import ThermalLag
 from thermrs.errors import InputError
 
@@ -58,9 +58,10 @@ def test_a_fold_that_fails_on_a_worker_raises_its_own_error(folds: list[Split]) 
     import multiprocessing
 
     before = {p.pid for p in multiprocessing.active_children()}
-    task = partial(_diagnose_fold, rig=thermrs.load_rig(), exclude=["nonsense"])
     with pytest.raises(InputError, match=r"--exclude .*nonsense.*: not effects"):
-        map_folds(task, folds[:2], workers=2)
+        run_folds(
+            diagnose, DiagnosisFold, folds[:2], thermrs.load_rig(), workers=2, exclude=["nonsense"]
+        )
     # The cluster it started is shut down: no worker process is left behind.
     assert {p.pid for p in multiprocessing.active_children()} <= before
 
@@ -76,3 +77,14 @@ def test_one_worker_runs_the_folds_here_in_order(folds: list[Split]) -> None:
     got = map_folds(task, folds, workers=1, progress=said.append)
     assert got == [s.holdout[0].height for s in folds]
     assert said == [f"{s.name}: working" for s in folds]
+
+
+def test_the_old_module_hands_on_the_runner_with_a_warning_naming_the_new_path() -> None:
+    import thermrs.campaigns.fold_map as old
+
+    with pytest.warns(DeprecationWarning, match=r"thermrs\.analyses\.folds\.map_folds") as w:
+        moved = old.map_folds
+    assert moved is map_folds
+    assert "0.2.0" in str(w[0].message)
+    with pytest.raises(AttributeError):
+        old.run_bench  # noqa: B018
