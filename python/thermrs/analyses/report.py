@@ -193,9 +193,8 @@ def load_campaign_runs(
         without a visit with a spot.
     """
     from thermrs.analyses.inputs import open_dataset, pick_runs, selected
-    from thermrs.analyses.report_runs import frames_by_status
+    from thermrs.analyses.report_runs import run_input
     from thermrs.campaigns.select import campaign_runs
-    from thermrs.report.data import RunInput
 
     ds = open_dataset(dataset)
     runs = campaign_runs(ds, where)
@@ -213,24 +212,18 @@ def load_campaign_runs(
     frames = scan("frames", "recording", "t_ns", "status")
     out = []
     for r, t in zip(runs.iter_rows(named=True), tables, strict=True):
-
-        def cut(df: pl.DataFrame, r: dict[str, Any] = r) -> pl.DataFrame:
-            return df.filter(
-                (pl.col("recording") == r["recording"])
-                & pl.col("t_ns").is_between(r["start_ns"], r["end_ns"])
-            )
-
+        rec = pl.col("recording") == r["recording"]
         out.append(
-            RunInput(
-                name=str(t["run"][0]),
-                table=t,
+            run_input(
+                t,
+                temperatures=temps.filter(rec).drop("recording", "run"),
+                joints=joints.filter(rec),
+                frames=frames.filter(rec),
+                window_ns=(int(r["start_ns"]), int(r["end_ns"])),
                 source=f"{ds.root}: {r['recording']}",
-                temperatures=cut(temps).drop("recording", "run"),
-                joints=cut(joints).height,
-                frames_by_status=frames_by_status(cut(frames)),
+                recording=str(r["recording"]),
                 extract_report=reports.get(str(r["recording"])),
                 data_loss=bool(r["losses"]),
-                recording=str(r["recording"]),
             )
         )
     return out

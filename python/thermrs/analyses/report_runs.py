@@ -28,6 +28,7 @@ __all__ = [
     "load_runs",
     "read_report_runs",
     "run_from_extraction",
+    "run_input",
 ]
 
 
@@ -44,28 +45,85 @@ def run_from_extraction(
     inside ``window_ns`` (a recording that holds several runs, cut at their times)."""
     from thermrs.fit import run_table_from
 
-    visits, temps, frames, joints = ex.visits, ex.temperatures, ex.frames, ex.joints
+    visits = ex.visits
     if window_ns is not None:
         lo, hi = window_ns
-
-        def cut(df: pl.DataFrame) -> pl.DataFrame:
-            return df.filter((pl.col("t_ns") >= lo) & (pl.col("t_ns") <= hi))
-
-        visits, temps, frames, joints = cut(visits), cut(temps), cut(frames), cut(joints)
         # Drift is anchored at the run's first visit (SPEC §4): re-anchor the cut.
-        visits = _reanchor(visits)
-    table = run_table_from(visits, temps, rig, run=name)
-    return RunInput(
-        name=name,
-        table=table,
-        source=source,
+        visits = _reanchor(visits.filter(pl.col("t_ns").is_between(lo, hi)))
+    temps = _cut(ex.temperatures, window_ns)
+    return run_input(
+        run_table_from(visits, temps, rig, run=name),
         temperatures=temps,
-        joints=joints.height,
-        frames_by_status=frames_by_status(frames),
+        joints=ex.joints,
+        frames=ex.frames,
+        window_ns=window_ns,
+        source=source,
+        recording=recording or source,
         extract_report=ex.report,
         data_loss=ex.report.data_loss,
-        recording=recording or source,
     )
+
+
+def run_input(
+    table: pl.DataFrame,
+    *,
+    temperatures: pl.DataFrame | None,
+    joints: pl.DataFrame | None,
+    frames: pl.DataFrame | None,
+    window_ns: tuple[int, int] | None,
+    source: str,
+    recording: str,
+    extract_report: Any = None,
+    data_loss: bool = False,
+) -> RunInput:
+    """A :class:`RunInput`: the one builder, for a recording, extracted tables and a campaign.
+
+    Parameters
+    ----------
+    table
+        The run's run table (its name is the table's ``run``).
+    temperatures, joints, frames
+        The whole recording's readings, joint states (a ``t_ns`` column) and frames (``t_ns``
+        and ``status``), or None where the file is absent; each cut to ``window_ns``.
+    window_ns
+        The run's first and last nanosecond (both kept), or None: the tables are the run's.
+    source, recording, extract_report, data_loss
+        As :class:`RunInput`.
+
+    Returns
+    -------
+    RunInput
+        The run, its joint states counted and its frames counted by status.
+
+    Raises
+    ------
+    polars.exceptions.ColumnNotFoundError
+        A table without ``t_ns`` (or frames without ``status``).
+
+    Examples
+    --------
+    >>> ex = thermrs.extract("rec.mcap", rig)  # doctest: +SKIP
+    >>> from thermrs.fit import run_table_from
+    >>> table = run_table_from(ex.visits, ex.temperatures, rig, run="rec")  # doctest: +SKIP
+    >>> run_input(table, temperatures=ex.temperatures, joints=ex.joints, frames=ex.frames,
+    ...           window_ns=None, source="rec.mcap", recording="rec.mcap")  # doctest: +SKIP
+    """
+    return RunInput(
+        name=str(table["run"][0]),
+        table=table,
+        source=source,
+        temperatures=None if temperatures is None else _cut(temperatures, window_ns),
+        joints=None if joints is None else _cut(joints, window_ns).height,
+        frames_by_status=None if frames is None else frames_by_status(_cut(frames, window_ns)),
+        extract_report=extract_report,
+        data_loss=data_loss,
+        recording=recording,
+    )
+
+
+def _cut(df: pl.DataFrame, window_ns: tuple[int, int] | None) -> pl.DataFrame:
+    """The rows of ``df`` inside the window (both ends kept), all of them without one."""
+    return df if window_ns is None else df.filter(pl.col("t_ns").is_between(*window_ns))
 
 
 def frames_by_status(frames: pl.DataFrame) -> dict[str, int]:
@@ -138,44 +196,33 @@ def load_runs(
 
     if not path.name.endswith(".parquet"):
         ex = rt.extraction
-        out = []
-        for t in rt.tables:
-            w = window(t)
-            run = run_from_extraction(
-                ex, rig, name=str(t["run"][0]), source=str(path), window_ns=w,
-                recording=str(path),
-            )  # fmt: skip
-            # The run table as every other command builds it (temperatures of its own run).
-            out.append(RunInput(**{**run.__dict__, "table": t}))
-        return out
-    stem = path.name[: -len(".parquet")]
-    for part in (".visits", ".temperatures", ".joints", ".runs"):
-        stem = stem.removesuffix(part)
-    temps = pl.read_parquet(path.with_name(f"{stem}.temperatures.parquet"))
-    jp = path.with_name(f"{stem}.joints.parquet")
-    fp = path.with_name(f"{stem}.parquet")
-    joints_t = pl.read_parquet(jp, columns=["t_ns"]) if jp.exists() else None
-    frames = pl.read_parquet(fp, columns=["t_ns", "status"]) if fp.exists() else None
-    out = []
-    for t in rt.tables:
-        w = window(t)
-
-        def cut(df: pl.DataFrame, w: tuple[int, int] | None = w) -> pl.DataFrame:
-            return df if w is None else df.filter(pl.col("t_ns").is_between(*w))
-
-        out.append(
-            RunInput(
-                name=str(t["run"][0]),
-                table=t,
-                source=str(path),
-                temperatures=cut(temps),
-                joints=None if joints_t is None else cut(joints_t).height,
-                frames_by_status=None if frames is None else frames_by_status(cut(frames)),
-                data_loss=rt.data_loss,
-                recording=str(path),
-            )
+        temps, joints_t, frames = ex.temperatures, ex.joints, ex.frames
+        report, loss = ex.report, ex.report.data_loss
+    else:
+        stem = path.name[: -len(".parquet")]
+        for part in (".visits", ".temperatures", ".joints", ".runs"):
+            stem = stem.removesuffix(part)
+        temps = pl.read_parquet(path.with_name(f"{stem}.temperatures.parquet"))
+        jp = path.with_name(f"{stem}.joints.parquet")
+        fp = path.with_name(f"{stem}.parquet")
+        joints_t = pl.read_parquet(jp, columns=["t_ns"]) if jp.exists() else None
+        frames = pl.read_parquet(fp, columns=["t_ns", "status"]) if fp.exists() else None
+        report, loss = None, rt.data_loss
+    # The run table as every other command builds it (temperatures of its own run).
+    return [
+        run_input(
+            t,
+            temperatures=temps,
+            joints=joints_t,
+            frames=frames,
+            window_ns=window(t),
+            source=str(path),
+            recording=str(path),
+            extract_report=report,
+            data_loss=loss,
         )
-    return out
+        for t in rt.tables
+    ]
 
 
 def load_run(
