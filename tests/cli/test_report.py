@@ -27,7 +27,8 @@ def test_report_takes_runs_inside_a_recording(d: dict[str, Path], tmp_path: Path
     allr = tmp_path / "all.html"
     p = ok(cli("report", "--rig", rig, "--run", str(d["root"] / "jo.parquet"), "-o", str(allr),
                "--quiet", "--no-markdown"))  # fmt: skip
-    assert "3 runs: jo#s30, jo#s75, jo#s10" in p.stderr
+    assert "3 runs (run markers): s30 " in p.stderr
+    assert "using jo#s30, jo#s75, jo#s10" in p.stderr
     html = allr.read_text()
     assert all(f"jo#{r}" in html for r in ("s30", "s75", "s10"))
     # -o into a folder that does not exist: an error, nothing created.

@@ -43,7 +43,14 @@ from thermrs.analyses.design import DesignFold, design, design_splits
 from thermrs.analyses.diagnose import DiagnosisFold, diagnose, diagnose_splits, fold_synthesis
 from thermrs.analyses.drift import DriftResult, drift, drift_tables
 from thermrs.analyses.fit import FitResult, fit, fit_document, training_alphas, training_axes
-from thermrs.analyses.inputs import Split, file_splits, file_tables, selected, splits
+from thermrs.analyses.inputs import (
+    Split,
+    file_splits,
+    file_tables,
+    read_files,
+    selected,
+    splits,
+)
 from thermrs.analyses.predict import (
     Prediction,
     predict,
@@ -79,6 +86,7 @@ __all__ = [
     "predict",
     "predict_splits",
     "predict_synthesis",
+    "read_files",
     "read_fit_alpha",
     "report",
     "selected",

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,6 +35,7 @@ from thermrs.errors import InputError
 from thermrs.rig import radians_hint
 
 __all__ = [
+    "FileRead",
     "Split",
     "check_splits",
     "distinct_runs",
@@ -42,6 +43,7 @@ __all__ = [
     "file_tables",
     "open_dataset",
     "pick_runs",
+    "read_files",
     "select_runs",
     "selected",
     "splits",
@@ -313,6 +315,106 @@ def _load(
     ]
 
 
+@dataclass(frozen=True)
+class FileRead:
+    """One file spec read (:func:`read_files`).
+
+    Attributes
+    ----------
+    given
+        The spec as given (``FILE`` or ``FILE#RUN``).
+    what
+        The option it was given with (``--train``).
+    runs
+        Its runs (:class:`thermrs.runs.RunTables`).
+    """
+
+    given: str
+    what: str
+    runs: Any
+
+
+def read_files(
+    paths: Sequence[str | os.PathLike[str]],
+    rig: Any,
+    what: str | Sequence[str],
+    *,
+    say: Say | None = None,
+    step: Say | None = None,
+    cache: dict[Any, Any] | None = None,
+) -> Iterator[FileRead]:
+    """The one loader of file specs: recordings or extracted tables (``FILE`` or
+    ``FILE#RUN``), each read once, its runs named as every command names them.
+
+    Parameters
+    ----------
+    paths
+        The files (``FILE#RUN`` for one run of a file).
+    rig
+        The rig (a :class:`~thermrs.rig.Rig` or its file).
+    what
+        The option they were given with (``--train``), or one per path, for messages.
+    say
+        Told the runs found in each file, and once per file that it lost data.
+    step
+        Told ``reading FILE (i/n)`` before each file is read.
+    cache
+        Files already read by this caller (:func:`thermrs.runs.load_runs`'s ``cache``): a
+        file named in two options is read once.
+
+    Yields
+    ------
+    FileRead
+        Each spec's runs, in the order given. Two files of one stem (``r30.mcap`` and
+        ``r30.parquet``, or one name in two folders) name their runs by the paths given.
+
+    Raises
+    ------
+    InputError
+        A file given twice, unreadable, or a run without a visit with a spot (with a hint
+        where the rig's poses look like radians).
+
+    Examples
+    --------
+    >>> for f in thermrs.analyses.read_files(["rec.mcap"], rig, "--run"):  # doctest: +SKIP
+    ...     print(f.runs.describe())
+    """
+    from thermrs.fit import run_name
+    from thermrs.rig import as_rig
+    from thermrs.runs import load_runs, split_run_spec
+
+    r = as_rig(rig)
+    given = [os.fspath(p) for p in paths]
+    whats = [what] * len(given) if isinstance(what, str) else list(what)
+    specs = [split_run_spec(p) for p in given]
+    seen: set[str] = set()
+    for p, w, (base, run) in zip(given, whats, specs, strict=True):
+        key = f"{base.resolve()}#{run}"
+        if key in seen:
+            raise InputError(f"{w} {p}: given twice")
+        seen.add(key)
+    names = [run_name(base) for base, _ in specs]
+    warned: set[Path] = set()
+    for i, (p, w, (base, _), name) in enumerate(zip(given, whats, specs, names, strict=True)):
+        if step is not None:
+            step(f"reading {p} ({i + 1}/{len(given)})")
+        same = any(n == name and b != base for (b, _), n in zip(specs, names, strict=True))
+        rt = load_runs(p, r, name=str(base) if same else None, cache=cache)
+        if say is not None:
+            say(f"{w} {rt.describe()}")
+        for t in rt.tables:
+            if t.height == 0:
+                raise InputError(f"{w} {p}: no visit with a spot" + radians_hint(r))
+        if rt.data_loss and say is not None and base not in warned:
+            say(
+                f"data loss: {p}: part of the recording was lost (see `thermrs extract` for "
+                "what); results use what was intact"
+            )
+        if rt.data_loss:
+            warned.add(base)
+        yield FileRead(p, w, rt)
+
+
 def file_tables(
     paths: Sequence[str | os.PathLike[str]],
     rig: Any,
@@ -326,17 +428,8 @@ def file_tables(
 
     Parameters
     ----------
-    paths
-        The files (``FILE#RUN`` for one run of a file).
-    rig
-        The rig (a :class:`~thermrs.rig.Rig` or its file).
-    what
-        The option they were given with (``--train``), for messages.
-    say
-        Told the runs found in each file and any data loss.
-    cache
-        Files already read by this caller (:func:`thermrs.runs.load_runs`'s ``cache``): a
-        file named in two options is read once.
+    paths, rig, what, say, cache
+        As :func:`read_files`.
 
     Returns
     -------
@@ -347,46 +440,17 @@ def file_tables(
     Raises
     ------
     InputError
-        A file given twice, unreadable, or without a visit with a spot (with a hint where the
-        rig's poses look like radians).
+        As :func:`read_files`.
 
     Examples
     --------
     >>> tables, loss = thermrs.analyses.file_tables(["rec.mcap"], rig, "--train")  # doctest: +SKIP
     """
-    from thermrs.fit import run_name
-    from thermrs.rig import as_rig
-    from thermrs.runs import load_runs, split_run_spec
-
-    r = as_rig(rig)
-    given = [os.fspath(p) for p in paths]
-    specs = [split_run_spec(p) for p in given]
-    seen: set[str] = set()
-    for p, (base, run) in zip(given, specs, strict=True):
-        key = f"{base.resolve()}#{run}"
-        if key in seen:
-            raise InputError(f"{what} {p}: given twice")
-        seen.add(key)
     tables: list[pl.DataFrame] = []
     loss = False
-    names = [run_name(base) for base, _ in specs]
-    for p, (base, _), name in zip(given, specs, names, strict=True):
-        # Two runs of one name (r30.mcap and r30.parquet, or one name in two folders): name
-        # the runs by the paths given, so that no two share a key.
-        same = any(n == name and b != base for (b, _), n in zip(specs, names, strict=True))
-        rt = load_runs(p, r, name=str(base) if same else None, cache=cache)
-        if say is not None:
-            say(f"{what} {rt.describe()}")
-        for t in rt.tables:
-            if t.height == 0:
-                raise InputError(f"{what} {p}: no visit with a spot" + radians_hint(r))
-        if rt.data_loss and say is not None:
-            say(
-                f"data loss: {p}: part of the recording was lost (see `thermrs extract` for "
-                "what); results use what was intact"
-            )
-        tables.extend(rt.tables)
-        loss |= rt.data_loss
+    for f in read_files(paths, rig, what, say=say, cache=cache):
+        tables.extend(f.runs.tables)
+        loss |= f.runs.data_loss
     return tables, loss
 
 

@@ -8,27 +8,28 @@ names them. A campaign's runs: :mod:`thermrs.analyses.report`."""
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import polars as pl
 
+from thermrs.analyses.inputs import Say
 from thermrs.errors import InputError
 from thermrs.ingest import Extraction
-from thermrs.report.data import RunInput, Step
+from thermrs.report.data import RunInput
 from thermrs.rig import Rig
 
 __all__ = [
     "ReportRuns",
-    "SpecRead",
     "frames_by_status",
     "load_run",
     "load_runs",
     "read_report_runs",
     "run_from_extraction",
     "run_input",
+    "run_inputs",
 ]
 
 
@@ -175,17 +176,44 @@ def load_runs(
     """
     from thermrs.rig import as_rig
     from thermrs.runs import load_runs as load_run_tables
-    from thermrs.runs import split_run_spec
 
     rig = as_rig(rig)
-    path, _ = split_run_spec(spec)
     rt = load_run_tables(spec, rig, name=name, cache=cache)
     for t in rt.tables:
         if t.height == 0:
             raise InputError(f"{spec}: no visit with a spot")
-    windows: dict[str, tuple[int, int]] = {}
-    for r in rt.runs.iter_rows(named=True):
-        windows[r["run"]] = (int(r["start_ns"]), int(r["end_ns"]))
+    return run_inputs(rt)
+
+
+def run_inputs(rt: Any) -> list[RunInput]:
+    """A file's runs read (:class:`thermrs.runs.RunTables`) as :class:`RunInput` s: each with
+    its readings, joint states and frames, cut at its times (:func:`run_input`).
+
+    Parameters
+    ----------
+    rt
+        What :func:`thermrs.runs.load_runs` read (or :func:`thermrs.analyses.read_files`
+        gave).
+
+    Returns
+    -------
+    list of RunInput
+        One per run table, in order.
+
+    Raises
+    ------
+    OSError
+        Extracted tables whose temperatures table is missing.
+
+    Examples
+    --------
+    >>> from thermrs.runs import load_runs
+    >>> runs = run_inputs(load_runs("rec.mcap", rig))  # doctest: +SKIP
+    """
+    path = rt.path
+    windows = {
+        str(r["run"]): (int(r["start_ns"]), int(r["end_ns"])) for r in rt.runs.iter_rows(named=True)
+    }
 
     def window(table: pl.DataFrame) -> tuple[int, int] | None:
         label = str(table["run"][0])
@@ -246,18 +274,6 @@ def load_run(
     return runs[0]
 
 
-@dataclass(frozen=True)
-class SpecRead:
-    """What one spec gave: its file, its runs, whether it was a training spec, and whether it
-    is the first spec of that file to report lost data (warn once per file)."""
-
-    spec: Path
-    file: Path
-    runs: list[RunInput]
-    train: bool
-    new_loss: bool
-
-
 @dataclass
 class ReportRuns:
     """The report's runs (each once, in the order read), the training runs' names and whether
@@ -273,10 +289,11 @@ def read_report_runs(
     runs: Sequence[Path],
     rig: Rig,
     *,
-    step: Step | None = None,
-    read: Callable[[SpecRead], None] | None = None,
+    say: Say | None = None,
+    step: Say | None = None,
 ) -> ReportRuns:
-    """Read the ``train`` then the ``runs`` specs (a spec given twice read once).
+    """Read the ``train`` then the ``runs`` specs (a spec given in both read once) with the
+    loader every command uses (:func:`thermrs.analyses.inputs.read_files`).
 
     Parameters
     ----------
@@ -284,38 +301,51 @@ def read_report_runs(
         ``FILE`` or ``FILE#RUN`` specs (see :func:`load_runs`).
     rig
         The rig they were recorded on.
+    say
+        Told the runs found in each file, and once per file that it lost data.
     step
         Told ``reading SPEC (i/n)`` before each spec is read.
-    read
-        Told what each spec gave, once read.
+
+    Returns
+    -------
+    ReportRuns
+        Each run once, in the order read; the training runs' names; whether data was lost.
 
     Raises
     ------
     InputError
-        As :func:`load_runs`.
+        As :func:`thermrs.analyses.inputs.read_files`.
+
+    Examples
+    --------
+    >>> got = read_report_runs([Path("r30.mcap")], [Path("r75.mcap")], rig)  # doctest: +SKIP
+    >>> got.train  # doctest: +SKIP
+    ['r30']
     """
-    from thermrs.fit import run_name
+    from thermrs.analyses.inputs import read_files
     from thermrs.runs import split_run_spec
 
-    specs = list(dict.fromkeys([*train, *runs]))
-    files = [split_run_spec(p)[0] for p in specs]
-    names = [run_name(f) for f in files]
-    cache: dict[object, object] = {}
+    def key(p: Path) -> str:
+        base, run = split_run_spec(p)
+        return f"{base.resolve()}#{run}"
+
+    chosen: dict[str, tuple[Path, str]] = {}
+    for p in train:
+        chosen.setdefault(key(p), (p, "--train"))
+    for p in runs:
+        chosen.setdefault(key(p), (p, "--run"))
+    specs = list(chosen.values())
     out = ReportRuns()
-    for i, (p, f) in enumerate(zip(specs, files, strict=True)):
-        if step is not None:
-            step(f"reading {p} ({i + 1}/{len(specs)})")
-        # Two files of one name in different folders: name the runs by their paths.
-        same = any(n == names[i] and g != f for n, g in zip(names, files, strict=True))
-        got = load_runs(p, rig, name=str(f) if same else None, cache=cache)
-        lost = any(r.data_loss for r in got)
-        if read is not None:
-            read(SpecRead(p, f, got, p in train, lost and f not in files[:i]))
-        out.data_loss |= lost
-        for r in got:
+    cache: dict[object, object] = {}
+    read = read_files(
+        [p for p, _ in specs], rig, [w for _, w in specs], say=say, step=step, cache=cache
+    )
+    for f in read:
+        out.data_loss |= f.runs.data_loss
+        for r in run_inputs(f.runs):
             if r.name in {x.name for x in out.runs}:
                 continue
             out.runs.append(r)
-            if p in train:
+            if f.what == "--train":
                 out.train.append(r.name)
     return out

@@ -172,7 +172,7 @@ def report(
                 loaded, train_names = _campaign_runs(campaign_path, rig, query, runs, train)
                 loss = any(r.data_loss for r in loaded)
             else:
-                loaded, train_names, loss = _file_runs(err, rig, runs, train, stage)
+                loaded, train_names, loss = _file_runs(rig, runs, train, stage)
             written = write_report(
                 out,
                 runs=loaded,
@@ -270,26 +270,18 @@ def _progress(err: Console, quiet: bool, verbose: bool = False) -> Iterator[_Sta
 
 
 def _file_runs(
-    err: Console,
     rig: Rig,
     runs: tuple[Path, ...],
     train: tuple[Path, ...],
     stage: _Stage,
 ) -> tuple[list[RunInput], list[str], bool]:
     """The report's runs from files (:func:`thermrs.analyses.report_runs.read_report_runs`), each
-    spec's runs listed on stderr; the training runs' names; whether data was lost."""
-    from thermrs.analyses.report_runs import SpecRead, read_report_runs
+    file's runs told on stderr as every command tells them; the training runs' names; whether
+    data was lost."""
+    from thermrs.analyses.report_runs import read_report_runs
+    from thermrs.cli.common import say
 
-    def said(s: SpecRead) -> None:
-        click.echo(
-            f"thermrs: {'--train' if s.train else '--run'} {s.spec}: "
-            f"{len(s.runs)} run{'s' * (len(s.runs) != 1)}: {', '.join(r.name for r in s.runs)}",
-            err=True,
-        )
-        if s.new_loss:
-            err.print(f"thermrs: warning: {s.file}: part of the recording was lost")
-
-    got = read_report_runs(train, runs, rig, step=stage, read=said)
+    got = read_report_runs(train, runs, rig, say=say, step=stage)
     if got.train:
         from thermrs.analyses.inputs import distinct_runs
 
