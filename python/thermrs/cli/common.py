@@ -14,7 +14,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import click
 
@@ -91,39 +91,68 @@ class _LazyConsole:
 out: Any = _LazyConsole()
 
 
-@contextmanager
-def stages(command: str, *, verbose: bool = False) -> Iterator[Callable[[str], None]]:
-    """Progress of a command that takes a while, on stderr; yields ``say(stage)``.
+class Stage(Protocol):
+    """Progress told to :func:`stages`: the stage, with ``done`` of ``total`` bytes
+    (or steps) when known."""
 
-    On a terminal, a spinner with the stage; piped, one line per new stage with the seconds
-    since the command began (``thermrs diagnose: step 2 … (4.1 s)``), so that a log shows
-    where the time goes. With ``verbose``, the seconds each stage took, at the end.
+    def __call__(self, stage: str, done: int = 0, total: int = 0) -> None: ...
+
+
+@contextmanager
+def stages(command: str, *, verbose: bool = False, quiet: bool = False) -> Iterator[Stage]:
+    """Progress of a command that takes a while, on stderr: the one progress of the CLI;
+    yields ``say(stage, done=0, total=0)``.
+
+    On a terminal, a spinner with the stage (a bar when ``total`` is given); piped, one line
+    per new stage with the seconds since the command began (``thermrs diagnose: step 2 …
+    (4.1 s)``), so that a log shows where the time goes. ``quiet``: neither. With
+    ``verbose``, the seconds each stage took, at the end.
     """
     t0 = time.perf_counter()
     spent: dict[str, float] = {}
     cur: list[Any] = [None, t0]
 
-    def mark(stage: str | None) -> None:
+    def mark(stage: str | None) -> bool:
         now = time.perf_counter()
-        if cur[0] is not None:
-            spent[cur[0]] = spent.get(cur[0], 0.0) + now - cur[1]
-        cur[0], cur[1] = stage, now
+        new = bool(stage != cur[0])
+        if new:
+            if cur[0] is not None:
+                spent[cur[0]] = spent.get(cur[0], 0.0) + now - cur[1]
+            cur[0], cur[1] = stage, now
+        return new
 
-    if sys.stderr.isatty():
-        err = console(stderr=True)
-        with err.status(f"{command}…") as status:
+    if quiet:
 
-            def say(stage: str) -> None:
-                if stage != cur[0]:
-                    mark(stage)
-                status.update(f"{command}: {stage}…")
+        def say(stage: str, done: int = 0, total: int = 0) -> None:
+            mark(stage)
+
+        yield say
+    elif sys.stderr.isatty():
+        from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+        with Progress(
+            SpinnerColumn(),
+            TextColumn(f"[bold]{command}[/bold] {{task.description}}"),
+            BarColumn(),
+            TextColumn("{task.fields[info]}"),
+            TimeElapsedColumn(),
+            console=console(stderr=True),
+            transient=True,
+        ) as bar:
+            task = bar.add_task("…", total=None, info="")
+
+            def say(stage: str, done: int = 0, total: int = 0) -> None:
+                mark(stage)
+                info = f"{done / 1e6:,.0f}/{total / 1e6:,.0f} MB" if total else ""
+                bar.update(
+                    task, description=f"{stage}…", completed=done, total=total or None, info=info
+                )
 
             yield say
     else:
 
-        def say(stage: str) -> None:
-            if stage != cur[0]:
-                mark(stage)
+        def say(stage: str, done: int = 0, total: int = 0) -> None:
+            if mark(stage):
                 click.echo(
                     f"thermrs {command}: {stage} ({time.perf_counter() - t0:.1f} s)", err=True
                 )

@@ -6,10 +6,8 @@ from __future__ import annotations
 
 import sys
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING
 
 import click
 from rich.console import Console
@@ -17,10 +15,12 @@ from rich.console import Console
 from thermrs.cli.common import (
     CAMPAIGN_NAMES_HELP,
     EXIT_DATA_LOSS,
+    Stage,
     campaign_options,
     exclude_option,
     no_campaign,
     out_option,
+    stages,
     writable,
 )
 from thermrs.errors import InputError
@@ -31,12 +31,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from thermrs.rig import Rig
 
 __all__ = ["report"]
-
-
-class _Stage(Protocol):
-    """Progress: the stage ``what``, with bytes ``done`` of ``total`` when known."""
-
-    def __call__(self, what: str, done: int = 0, total: int = 0) -> None: ...
 
 
 @click.command()
@@ -154,7 +148,7 @@ def report(
     out = out_path or Path("thermrs-demo-report.html" if demo else "thermrs-report.html")
     writable(out, "-o")
     t_start = time.perf_counter()
-    with _progress(err, quiet, verbose) as stage:
+    with stages("report", verbose=verbose, quiet=quiet) as stage:
         loss = False
         if demo:
             from thermrs.analyses.demo import run_demo
@@ -219,61 +213,11 @@ def _check_options(
             raise InputError(f"{f}: no such file")
 
 
-@contextmanager
-def _progress(err: Console, quiet: bool, verbose: bool = False) -> Iterator[_Stage]:
-    """A progress bar on stderr; yields ``stage(what, done=0, total=0)`` (bytes when
-    ``total``), which also prints each new stage once; with ``verbose``, the seconds each
-    stage took, at the end."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    with Progress(
-        TextColumn("[bold]report[/bold] {task.description}"),
-        BarColumn(),
-        TextColumn("{task.fields[info]}"),
-        TimeElapsedColumn(),
-        console=err,
-        disable=quiet,
-        transient=True,
-    ) as bar:
-        task = bar.add_task("", total=None, info="")
-
-        last = [""]
-        spent: dict[str, float] = {}
-        began = [time.perf_counter()]
-
-        def stage(what: str, done: int = 0, total: int = 0) -> None:
-            if what != last[0]:
-                now = time.perf_counter()
-                if last[0]:
-                    spent[last[0]] = spent.get(last[0], 0.0) + now - began[0]
-                began[0] = now
-            if total:
-                bar.update(
-                    task,
-                    description=what,
-                    completed=done,
-                    total=total,
-                    info=f"{done / 1e6:,.0f}/{total / 1e6:,.0f} MB",
-                )
-            else:
-                bar.update(task, description=what, total=None, info="")
-            if not quiet and what != last[0]:
-                bar.console.print(f"[dim]· {what}[/dim]")
-            last[0] = what
-
-        yield stage
-        if last[0]:
-            spent[last[0]] = spent.get(last[0], 0.0) + time.perf_counter() - began[0]
-    if verbose:
-        for what, sec in spent.items():
-            err.print(f"[dim]{sec:7.2f} s  {what}[/dim]")
-
-
 def _file_runs(
     rig: Rig,
     runs: tuple[Path, ...],
     train: tuple[Path, ...],
-    stage: _Stage,
+    stage: Stage,
 ) -> tuple[list[RunInput], list[str], bool]:
     """The report's runs from files (:func:`thermrs.analyses.report_runs.read_report_runs`), each
     file's runs told on stderr as every command tells them; the training runs' names; whether
