@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from thermrs.analyses.folds import prefixed
-from thermrs.analyses.inputs import DatasetLike, Split, splits
+from thermrs.analyses.inputs import DatasetLike, Split, check_splits, splits
 
 __all__ = [
     "CLUSTER_FROM_VISITS",
@@ -90,9 +90,9 @@ def diagnose_splits(
     Raises
     ------
     InputError
-        A split without a held-out run; runs the diagnoser refuses
-        (:func:`thermrs.diagnose.inputs.check_visits`), checked for every split before the
-        first is diagnosed.
+        A split without a held-out run, or holding out a training run again; runs the
+        diagnoser refuses (:func:`thermrs.diagnose.inputs.check_visits`), checked for every
+        split before the first is diagnosed.
 
     Examples
     --------
@@ -103,12 +103,10 @@ def diagnose_splits(
     from thermrs.analyses.folds import run_folds
     from thermrs.diagnose import diagnose as diagnose_runs
     from thermrs.diagnose.inputs import check_visits
-    from thermrs.errors import InputError
 
     # Every split's runs checked before the first is diagnosed.
+    check_splits(sets)
     for s in sets:
-        if not s.holdout:
-            raise InputError("no held-out run: effects are scored on runs they were not fitted on")
         check_visits(s.train, s.holdout)
     if workers is None and client is None and scheduler is None:
         if sum(t.height for s in sets for t in (*s.train, *s.holdout)) < CLUSTER_FROM_VISITS:

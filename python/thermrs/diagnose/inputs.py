@@ -83,9 +83,7 @@ def check_inputs(
             "no training run: the nominal model and each effect are fitted on --train runs"
         )
     if not ho:
-        raise InputError(
-            "no held-out run: effects are scored on runs they were not fitted on (give --holdout)"
-        )
+        raise InputError("no held-out run: effects are scored on runs they were not fitted on")
     names_t = [str(n) for t in tr for n in t["run"].unique().to_list()]
     names_h = [str(n) for t in ho for n in t["run"].unique().to_list()]
     both = sorted(set(names_t) & set(names_h))
