@@ -11,7 +11,7 @@ import thermrs
 from thermrs.bench import make_runs
 from thermrs.diagnose import diagnose, noise_floor_um
 from thermrs.diagnose.floor import series_noise
-from thermrs.diagnose.inputs import loess2, smooth_temperatures
+from thermrs.diagnose.input_checks import loess2, smooth_temperatures
 from thermrs.diagnose.resample import block_length
 from thermrs.diagnose.verdict import english_list
 

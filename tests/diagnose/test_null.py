@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import thermrs
 from thermrs.bench import make_runs
-from thermrs.diagnose.engine import DesignMatrix
+from thermrs.diagnose.family_fit import DesignMatrix
 from thermrs.diagnose.null import Batch
 from thermrs.signatures import VisitSet
 

@@ -91,7 +91,7 @@ def diagnose_splits(
     ------
     InputError
         A split without a held-out run, or holding out a training run again; runs the
-        diagnoser refuses (:func:`thermrs.diagnose.inputs.check_visits`), checked for every
+        diagnoser refuses (:func:`thermrs.diagnose.input_checks.check_visits`), checked for every
         split before the first is diagnosed.
 
     Examples
@@ -102,7 +102,7 @@ def diagnose_splits(
     """
     from thermrs.analyses.folds import run_folds
     from thermrs.diagnose import diagnose as diagnose_runs
-    from thermrs.diagnose.inputs import check_visits
+    from thermrs.diagnose.input_checks import check_visits
 
     # Every split's runs checked before the first is diagnosed.
     check_splits(sets)

@@ -5,7 +5,7 @@ the fits never saw.
 The procedure, one module a step (see ``shared/notes/diagnosis.md`` for the field's tools and
 their traps):
 
-1. **Baseline** (:mod:`.engine`): α and the per-(run, camera, axis) offsets of the nominal
+1. **Baseline** (:mod:`.family_fit`): α and the per-(run, camera, axis) offsets of the nominal
    model fitted on the training runs; the held-out runs get only their offsets.
 2. **Floor** (:mod:`.floor`): what is noise by physics — the centroid's scatter within a visit,
    the visit-to-visit repeatability at lags short against the runs' own thermal time
@@ -50,9 +50,9 @@ import polars as pl
 from thermrs.diagnose.candidates import Candidate, plausibility, profile_interval, score
 from thermrs.diagnose.closing import closing_interval
 from thermrs.diagnose.confounding import confounded_pairs
-from thermrs.diagnose.engine import DesignMatrix, Fit
+from thermrs.diagnose.family_fit import DesignMatrix, Fit
 from thermrs.diagnose.floor import SCALE_SEPARATION, NoiseFloor, noise_floor, thermal_time_scales
-from thermrs.diagnose.inputs import check_inputs, smooth_temperatures
+from thermrs.diagnose.input_checks import check_inputs, smooth_temperatures
 from thermrs.diagnose.location import drivers, location_table, phases, whiteness
 from thermrs.diagnose.null import Batch
 from thermrs.diagnose.resample import cycle_units
@@ -669,7 +669,7 @@ def _final_model(
     """The selected effects fitted together (non-linear parameters refined one by one), with
     each effect's parameters from the joint fit: its amplitudes' intervals from the joint
     fit's covariance (HAC) plus what the rig's stated tolerances move them by
-    (:meth:`.engine.DesignMatrix.tolerance_cov`), its time constant's by profile likelihood
+    (:meth:`.family_fit.DesignMatrix.tolerance_cov`), its time constant's by profile likelihood
     with the other effects' amplitudes, α and the offsets fitted again at each value, and
     α's from the joint fit and the tolerances likewise (``alpha_per_k``, ``alpha_ci95`` of
     each entry)."""

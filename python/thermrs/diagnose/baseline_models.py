@@ -143,7 +143,7 @@ def features(
         No temperature every visit carries.
     """
     from thermrs.diagnose.floor import SCALE_SEPARATION, thermal_time_scales
-    from thermrs.diagnose.inputs import smooth_temperatures
+    from thermrs.diagnose.input_checks import smooth_temperatures
     from thermrs.rig import as_rig
     from thermrs.signatures import VisitSet
 

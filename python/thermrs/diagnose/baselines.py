@@ -6,7 +6,7 @@ What is regressed
     Per taught pose (camera) and chip axis, the measured spot relative to its run's first
     visit (the drift, µm) on features relative to the same visit: the ROI and room
     temperatures the run tables carry (de-noised as the diagnosis de-noises them,
-    :func:`thermrs.diagnose.inputs.smooth_temperatures`); or those temperatures through
+    :func:`thermrs.diagnose.input_checks.smooth_temperatures`); or those temperatures through
     first-order low-pass filters of a few time constants (:data:`LOWPASS_TAUS_MIN`, each run
     starting at equilibrium) and the time since the run began.
 Models (:data:`MODELS`, scikit-learn estimators)
@@ -19,7 +19,7 @@ Models (:data:`MODELS`, scikit-learn estimators)
 Score
     A held-out run's residual is its drift minus the prediction, centred per (run, camera,
     axis): a held-out run's mounting is unknown, its offset the only thing fitted on it — as
-    the diagnosis scores its models (:class:`thermrs.diagnose.engine.DesignMatrix`). The
+    the diagnosis scores its models (:class:`thermrs.diagnose.family_fit.DesignMatrix`). The
     held-out rms pools both axes of every camera of every held-out run.
 Intervals
     A moving-block bootstrap of whole cycles within each held-out run (the diagnosis's
@@ -438,7 +438,7 @@ def _physical(
     it and the diagnosed model's residual from the diagnosis itself (centred), their
     parameter counts, and the noise floor (the diagnosis', else computed as it computes it)
     with its 95 % interval where known."""
-    from thermrs.diagnose.engine import DesignMatrix
+    from thermrs.diagnose.family_fit import DesignMatrix
     from thermrs.diagnose.floor import noise_floor
 
     n = vs.n

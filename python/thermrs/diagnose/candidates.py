@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from thermrs.diagnose.engine import DesignMatrix, Fit
+from thermrs.diagnose.family_fit import DesignMatrix, Fit
 from thermrs.diagnose.resample import cycle_se
 from thermrs.diagnose.selection import Choice, FamilyGrid
 from thermrs.effects import EFFECT_NAMES, Family, InstrumentEffect, is_instrument

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from thermrs.diagnose.engine import DesignMatrix
+from thermrs.diagnose.family_fit import DesignMatrix
 from thermrs.diagnose.floor import NoiseFloor, holdout_floor_draws
 from thermrs.diagnose.null import Batch, draw_noise
 

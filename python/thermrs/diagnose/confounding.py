@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from thermrs.diagnose.engine import DesignMatrix
+from thermrs.diagnose.family_fit import DesignMatrix
 
 __all__ = ["CONFOUND_COS", "canonical_cos", "confounded_pairs", "residualised"]
 

@@ -31,7 +31,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.linalg import solve_triangular
 
-from thermrs.diagnose.engine import DesignMatrix
+from thermrs.diagnose.family_fit import DesignMatrix
 from thermrs.diagnose.floor import NoiseFloor
 
 __all__ = [
@@ -90,7 +90,7 @@ class Batch:
     Parameters
     ----------
     design
-        The diagnoser's design (:class:`thermrs.diagnose.engine.DesignMatrix`).
+        The diagnoser's design (:class:`thermrs.diagnose.family_fit.DesignMatrix`).
     window_s
         The smoothing window of the low-frequency statistic (seconds).
     """

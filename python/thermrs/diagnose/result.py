@@ -13,7 +13,7 @@ import numpy.typing as npt
 import polars as pl
 
 from thermrs.diagnose.candidates import Candidate
-from thermrs.diagnose.engine import Fit
+from thermrs.diagnose.family_fit import Fit
 from thermrs.diagnose.floor import NoiseFloor
 from thermrs.diagnose.selection import Step
 from thermrs.diagnose.verdict import english_list, summary

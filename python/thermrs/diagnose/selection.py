@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from thermrs.diagnose.engine import DesignMatrix
+from thermrs.diagnose.family_fit import DesignMatrix
 from thermrs.diagnose.floor import NoiseFloor
 from thermrs.diagnose.null import Batch, BatchFit, Observations, draw_noise, quantile_above
 from thermrs.effects import Family

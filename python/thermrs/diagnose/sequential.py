@@ -77,7 +77,7 @@ from typing import Any
 import polars as pl
 
 from thermrs.diagnose import LEVEL, NULL_DRAWS, Diagnosis, diagnose
-from thermrs.diagnose.inputs import MIN_VISITS
+from thermrs.diagnose.input_checks import MIN_VISITS
 from thermrs.errors import InputError
 from thermrs.rig import Rig
 

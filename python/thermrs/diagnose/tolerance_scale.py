@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from thermrs.diagnose.engine import DesignMatrix
+from thermrs.diagnose.family_fit import DesignMatrix
 from thermrs.diagnose.floor import NoiseFloor
 from thermrs.diagnose.null import Batch, draw_noise
 
