@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 import thermrs.bench
 import thermrs.diagnose.bench as old_bench
+from thermrs.moved import MOVED_NAMES_REMOVED_IN
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -23,7 +24,7 @@ def test_the_old_names_are_the_new_ones_with_a_warning(name: str) -> None:
     assert old is getattr(thermrs.bench, name)
     assert f"thermrs.diagnose.bench.{name}" in str(w.message)
     assert f"thermrs.bench.{name}" in str(w.message)
-    assert f"thermrs {old_bench.MOVED_NAMES_REMOVED_IN}" in str(w.message)
+    assert f"thermrs {MOVED_NAMES_REMOVED_IN}" in str(w.message)
     assert w.filename == __file__  # the warning points at the caller's line
 
 
@@ -33,7 +34,7 @@ def test_from_import_warns_and_the_removal_is_after_this_version() -> None:
     assert run_bench is thermrs.bench.run_bench
     workspace = tomllib.loads((REPO / "Cargo.toml").read_text())["workspace"]["package"]
     version = tuple(int(x) for x in workspace["version"].split("."))
-    assert tuple(int(x) for x in old_bench.MOVED_NAMES_REMOVED_IN.split(".")) > version
+    assert tuple(int(x) for x in MOVED_NAMES_REMOVED_IN.split(".")) > version
     with pytest.raises(AttributeError):
         old_bench.no_such_name  # noqa: B018
 

@@ -14,7 +14,8 @@ from pathlib import Path
 
 import pytest
 import thermrs.report
-from thermrs.report import MOVED_NAMES_REMOVED_IN, MOVED_TO_ANALYSES
+from thermrs.moved import MOVED_NAMES_REMOVED_IN
+from thermrs.report import MOVED_TO_ANALYSES
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -27,18 +27,13 @@ Example
 
 from __future__ import annotations
 
-import warnings
-from typing import Any
-
 from thermrs.campaigns import summary
 from thermrs.campaigns.dataset import Dataset
 from thermrs.campaigns.engine import CampaignInterrupted, CampaignResult, campaign
+from thermrs.moved import handed_on
 
 __all__ = ["CampaignInterrupted", "CampaignResult", "Dataset", "campaign", "summary"]
 
-#: The version in which the names that moved to :mod:`thermrs.analyses` stop being handed on
-#: from here.
-MOVED_NAMES_REMOVED_IN = "0.2.0"
 
 #: Names that moved to :mod:`thermrs.analyses`, each with the module that exports it there.
 #: Handed on when first asked, with a warning: this package sits below :mod:`thermrs.analyses`
@@ -52,16 +47,4 @@ MOVED_TO_ANALYSES = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    if name in MOVED_TO_ANALYSES:
-        import importlib
-
-        home = MOVED_TO_ANALYSES[name]
-        warnings.warn(
-            f"thermrs.campaigns.{name} moved to {home}.{name}: import it from {home} "
-            f"(thermrs.campaigns.{name} goes in thermrs {MOVED_NAMES_REMOVED_IN})",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return getattr(importlib.import_module(home), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = handed_on("thermrs.campaigns", MOVED_TO_ANALYSES)

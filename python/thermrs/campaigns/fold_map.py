@@ -6,13 +6,10 @@
 
 from __future__ import annotations
 
-import warnings
-from typing import Any
+from thermrs.moved import handed_on
 
 __all__: list[str] = []
 
-#: The version in which this module, which only hands on names, goes.
-MOVED_NAMES_REMOVED_IN = "0.2.0"
 
 #: The names handed on from here, each with the module that defines it now.
 MOVED_TO_FOLDS = {
@@ -21,16 +18,4 @@ MOVED_TO_FOLDS = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    if name in MOVED_TO_FOLDS:
-        import importlib
-
-        home = MOVED_TO_FOLDS[name]
-        warnings.warn(
-            f"thermrs.campaigns.fold_map.{name} moved to {home}.{name}: import it from {home} "
-            f"(thermrs.campaigns.fold_map goes in thermrs {MOVED_NAMES_REMOVED_IN})",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return getattr(importlib.import_module(home), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = handed_on("thermrs.campaigns.fold_map", MOVED_TO_FOLDS, whole_module=True)

@@ -13,6 +13,7 @@ import polars as pl
 
 from thermrs.campaigns.dataset import Dataset
 from thermrs.campaigns.select import campaign_runs, folds, run_tables
+from thermrs.moved import handed_on
 
 __all__ = [
     "ALPHA_BY_RUN_SCHEMA",
@@ -368,10 +369,6 @@ def campaign_summary(
     )
 
 
-#: The version in which the names that moved to :mod:`thermrs.analyses` stop being handed on
-#: from here.
-MOVED_NAMES_REMOVED_IN = "0.2.0"
-
 #: Names that moved to :mod:`thermrs.analyses`, each with the module that defines it there
 #: (handed on when first asked, with a warning; this module imports nothing of it).
 MOVED_TO_ANALYSES = {
@@ -380,17 +377,4 @@ MOVED_TO_ANALYSES = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    if name in MOVED_TO_ANALYSES:
-        import importlib
-        import warnings
-
-        home = MOVED_TO_ANALYSES[name]
-        warnings.warn(
-            f"thermrs.campaigns.summary.{name} moved to {home}.{name}: import it from {home} "
-            f"(thermrs.campaigns.summary.{name} goes in thermrs {MOVED_NAMES_REMOVED_IN})",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return getattr(importlib.import_module(home), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = handed_on("thermrs.campaigns.summary", MOVED_TO_ANALYSES)

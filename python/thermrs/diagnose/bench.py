@@ -6,28 +6,13 @@ new path; this module imports nothing of :mod:`thermrs.bench`, which stands abov
 
 from __future__ import annotations
 
-import warnings
-from typing import Any
+from thermrs.moved import handed_on
 
 __all__: list[str] = []
 
-#: The version in which this module, which only hands on names, goes.
-MOVED_NAMES_REMOVED_IN = "0.2.0"
 
 #: The names handed on from here, each with the module that defines it now.
 MOVED_TO_BENCH = {"make_runs": "thermrs.bench", "run_bench": "thermrs.bench"}
 
 
-def __getattr__(name: str) -> Any:
-    if name in MOVED_TO_BENCH:
-        import importlib
-
-        home = MOVED_TO_BENCH[name]
-        warnings.warn(
-            f"thermrs.diagnose.bench.{name} moved to {home}.{name}: import it from {home} "
-            f"(thermrs.diagnose.bench goes in thermrs {MOVED_NAMES_REMOVED_IN})",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return getattr(importlib.import_module(home), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = handed_on("thermrs.diagnose.bench", MOVED_TO_BENCH, whole_module=True)

@@ -35,13 +35,13 @@ import os
 import shutil
 import subprocess
 import tempfile
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from thermrs.atomic import write_atomic, write_dir, write_text
 from thermrs.errors import InputError
+from thermrs.moved import handed_on
 from thermrs.report.blocks import Paragraph, Section
 from thermrs.report.data import ReportData, RunInput, Step
 from thermrs.report.document import compose
@@ -56,9 +56,6 @@ __all__ = [
     "write_document",
 ]
 
-#: The version in which the names that moved to :mod:`thermrs.analyses` stop being handed on
-#: from here.
-MOVED_NAMES_REMOVED_IN = "0.2.0"
 
 #: Names that moved to :mod:`thermrs.analyses` (they read runs or compute), each with its new
 #: module. Handed on when first asked, with a warning: this package renders, sits below
@@ -71,19 +68,7 @@ MOVED_TO_ANALYSES = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    if name in MOVED_TO_ANALYSES:
-        import importlib
-
-        home = MOVED_TO_ANALYSES[name]
-        warnings.warn(
-            f"thermrs.report.{name} moved to {home}.{name}: import it from {home} "
-            f"(thermrs.report.{name} goes in thermrs {MOVED_NAMES_REMOVED_IN})",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return getattr(importlib.import_module(home), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = handed_on("thermrs.report", MOVED_TO_ANALYSES)
 
 
 @dataclass(frozen=True)
