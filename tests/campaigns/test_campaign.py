@@ -21,6 +21,8 @@ import thermrs
 from polars.testing import assert_frame_equal
 from thermrs.simulate import simulate
 
+from tests.support.cli import interruptible
+
 SCENARIO = """format = "thermrs-scenario/1"
 seed = 2008
 [[run]]
@@ -311,20 +313,8 @@ def test_interrupted_campaign_resumes_and_unchanged_is_skipped(
 
 def _start_cli(args: list[str]) -> subprocess.Popen[str]:
     """``thermrs ARGS…`` in a session of its own (its process group: a terminal's Ctrl-C
-    signals the whole group), SIGINT as a terminal delivers it: a suite started in the
-    background has SIGINT ignored, which children inherit; the reset runs in the child
-    before it becomes thermrs (no ``preexec_fn`` in this threaded process)."""
-    reset = (
-        "import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); "
-        "os.execv(sys.executable, [sys.executable, '-m', 'thermrs', *sys.argv[1:]])"
-    )
-    return subprocess.Popen(
-        [sys.executable, "-c", reset, *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
+    signals the whole group), SIGINT as a terminal delivers it."""
+    return interruptible(*args, new_session=True)
 
 
 @pytest.mark.slow

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 import thermrs
 
-from tests.support.cli import cli
+from tests.support.cli import cli, interruptible
 from tests.support.rigs import REPO, UR5
 
 PAPER_RUNS = REPO / "fixtures" / "scenarios" / "paper-runs.toml"
@@ -152,16 +152,8 @@ def test_data_loss_survives_quiet_and_stays_with_the_tables(
 
 
 def _start(args: list[str], cwd: Path) -> subprocess.Popen[str]:
-    """The CLI in a child that takes SIGINT as a terminal's Ctrl-C would (a shell running this
-    suite in the background may have set SIGINT to ignored, which children inherit)."""
-    return subprocess.Popen(
-        [sys.executable, "-m", "thermrs", *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        cwd=cwd,
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
-    )
+    """The CLI in a child that takes SIGINT as a terminal's Ctrl-C would."""
+    return interruptible(*args, cwd=cwd)
 
 
 def test_ctrl_c_stops_simulate_at_once(tmp_path: Path) -> None:

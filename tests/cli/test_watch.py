@@ -6,10 +6,8 @@ bad input as one line; the page opened in Chromium (Debian's, driven by Playwrig
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -20,7 +18,7 @@ from thermrs.follow import STATE_KEY
 from thermrs.identity import RIG_KEY
 from thermrs.ingest import LOSS_KEY
 
-from tests.support.cli import bad, cli, ok
+from tests.support.cli import bad, cli, interruptible, ok
 
 TABLES = ("visits", "temperatures", "joints", "runs")
 
@@ -53,13 +51,7 @@ def test_a_closed_recording(data: dict[str, Path], tmp_path: Path) -> None:
 
 
 def _watch(*args: str) -> subprocess.Popen[str]:
-    return subprocess.Popen(
-        [sys.executable, "-m", "thermrs", "watch", *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env={**os.environ, "THERMRS_DEBUG": ""},
-    )
+    return interruptible("watch", *args)
 
 
 def test_ctrl_c_then_resumed(data: dict[str, Path], tmp_path: Path) -> None:

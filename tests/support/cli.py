@@ -34,3 +34,31 @@ def bad(p: subprocess.CompletedProcess[str], *words: str) -> str:
     for w in words:
         assert w in lines[0], (w, lines[0])
     return lines[0]
+
+
+def interruptible(
+    *args: str,
+    env: dict[str, str] | None = None,
+    cwd: Path | None = None,
+    new_session: bool = False,
+) -> subprocess.Popen[str]:
+    """``thermrs ARGS…`` started in a child that takes SIGINT as a terminal's Ctrl-C would.
+
+    A suite started in the background (``nohup``, ``&``, some CI runners) has SIGINT ignored,
+    and children inherit that: a Ctrl-C test would wait for an exit that never comes. The
+    reset runs in the child before it becomes thermrs (no ``preexec_fn``: this process has
+    threads). ``new_session``: a process group of its own, as a terminal's job is."""
+    reset = (
+        "import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); "
+        "signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT}); "
+        "os.execv(sys.executable, [sys.executable, '-m', 'thermrs', *sys.argv[1:]])"
+    )
+    return subprocess.Popen(
+        [sys.executable, "-c", reset, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "THERMRS_DEBUG": "", **(env or {})},
+        cwd=cwd,
+        start_new_session=new_session,
+    )
