@@ -50,7 +50,13 @@ def _covers(ci: Any, truth: Any) -> list[bool]:
 def one(args: tuple[str, str, int, float, float]) -> dict[str, Any]:
     import thermrs
     from thermrs.bench.world.cases import case_rigs, case_truths
-    from thermrs.bench.world.world import Campaign, draw_scene, measured_slopes, render
+    from thermrs.bench.world.world import (
+        Campaign,
+        closest_first_order_tau,
+        draw_scene,
+        measured_slopes,
+        render,
+    )
     from thermrs.compensate import compensation_law, diagnosed_model
     from thermrs.diagnose import diagnose
 
@@ -78,6 +84,7 @@ def one(args: tuple[str, str, int, float, float]) -> dict[str, Any]:
         ),
         "floor_um": doc["noise_floor_um"],
         "injected": injected,
+        "lags_min": [list(x) for x in truths[0].lags()],
         "params": v.get("params"),
         "params_ci95": v.get("params_ci95"),
         "alpha_truth_per_measured_k": alpha_meas,
@@ -93,6 +100,12 @@ def one(args: tuple[str, str, int, float, float]) -> dict[str, Any]:
         ci = (v.get("params_ci95") or {}).get(k)
         if ci is not None:
             cover[k] = _covers(ci, x)
+    if effect == "thermal_lag" and "tau_min" in (v.get("params_ci95") or {}):
+        # A two-time-constant lag against the first-order lag closest to it (what a
+        # first-order model estimates), beside its weighted mean time constant above.
+        tau_eq = closest_first_order_tau(scene, truths[0])
+        row["tau_closest_first_order_min"] = tau_eq
+        cover["tau_min (closest first-order lag)"] = _covers(v["params_ci95"]["tau_min"], tau_eq)
     if v.get("alpha_ci95"):
         cover["alpha (joint fit)"] = _covers(v["alpha_ci95"], alpha_meas)
     row["covers"] = cover

@@ -47,10 +47,11 @@ import numpy as np
 import numpy.typing as npt
 import polars as pl
 
-from thermrs.diagnose.candidates import Candidate, plausibility, profile_interval, score
+from thermrs.diagnose.candidates import Candidate, plausibility, score
 from thermrs.diagnose.closing import closing_interval
 from thermrs.diagnose.confounding import confounded_pairs
 from thermrs.diagnose.family_fit import DesignMatrix, Fit
+from thermrs.diagnose.final_model import final_model
 from thermrs.diagnose.floor import SCALE_SEPARATION, NoiseFloor, noise_floor, thermal_time_scales
 from thermrs.diagnose.input_checks import check_inputs, smooth_temperatures
 from thermrs.diagnose.location import drivers, location_table, phases, whiteness
@@ -350,7 +351,7 @@ def _diagnose(
     cands, n_eff_train = _evidence(b, grids, steps, rig, bootstrap=bootstrap, rng=rng)
     say("confounding")
     confounded = _confounded(b, cands)
-    final, selected = _final_model(b.design, steps, rig, n_eff_train)
+    final, selected = final_model(b.design, steps, n_eff_train)
     if final is not None:
         _floor_of_final_model(b, final, rig)
         if final.columns is not None:
@@ -661,111 +662,6 @@ def _with_final_model(b: _Base, batch: Batch, columns: FloatArray, seed: int) ->
             batch, b.design, b.floor, np.random.default_rng([seed % 2**63, 46]), columns=columns
         )
         ts["with_effects"] = None if after is None else after.to_json()
-
-
-def _final_model(
-    design: DesignMatrix, steps: list[Step], rig: Rig, n_eff_train: float
-) -> tuple[Fit | None, list[dict[str, Any]]]:
-    """The selected effects fitted together (non-linear parameters refined one by one), with
-    each effect's parameters from the joint fit: its amplitudes' intervals from the joint
-    fit's covariance (HAC) plus what the rig's stated tolerances move them by
-    (:meth:`.family_fit.DesignMatrix.tolerance_cov`), its time constant's by profile likelihood
-    with the other effects' amplitudes, α and the offsets fitted again at each value, and
-    α's from the joint fit and the tolerances likewise (``alpha_per_k``, ``alpha_ci95`` of
-    each entry)."""
-    chosen = [s.chosen for s in steps if s.chosen is not None]
-    if not chosen:
-        return None, []
-    cols: list[FloatArray] = []
-    eta: dict[str, float] = {}
-    sel: list[dict[str, Any]] = []
-    for ch in chosen:
-        fam = ch.grid.family
-        fixed = np.column_stack(cols) if cols else None
-        best = design.profile(fam, prefix=fixed)
-        use_eta = best.eta if best is not None else ch.eta
-        c = fam.columns(design.vs, use_eta)
-        cols.append(c)
-        eta.update({f"{fam.effect}.{k}": v for k, v in use_eta.items()})
-        sel.append({"family": fam, "eta": use_eta, "width": c.shape[1]})
-    x = np.column_stack(cols)
-    f = design.fit(x, eta, label=" + ".join(s["family"].label for s in sel))
-    # The parameters' intervals carry the noise (the fit's HAC covariance) and the rig's
-    # stated tolerances (what they move the fitted coefficients by).
-    cov = f.cov + design.tolerance_cov(x)
-    alpha_ci = _alpha_interval(f, cov)
-    out: list[dict[str, Any]] = []
-    ends: list[tuple[int, dict[str, float]]] = []
-    first = 0
-    for j, s in enumerate(sel):
-        fam = s["family"]
-        k = s["width"]
-        idx = [0, *range(1 + first, 1 + first + k)]
-        params, ci = fam.params(s["eta"], f.alpha, f.beta[first : first + k], cov[np.ix_(idx, idx)])
-        others = [c for i, c in enumerate(cols) if i != j]
-        prefix = np.column_stack(others) if others else None
-        probe = Fit(fam.label, f.alpha, f.beta, f.cov, dict(s["eta"]), f.residual, 0.0,
-                    0.0, 0.0, 0.0, 0)  # fmt: skip
-        prof = profile_interval(design, fam, probe, n_eff_train, prefix=prefix)
-        ci = {**ci, **prof}
-        for key, (lo, hi) in prof.items():
-            ends += [(j, {**s["eta"], key: float(lo)}), (j, {**s["eta"], key: float(hi)})]
-        out.append({"effect": fam.effect, "family": fam.label, "params": params, "params_ci95": ci})
-        first += k
-    # α and the amplitudes are fitted at the time constants found; over a time constant's
-    # interval they move with it (a slow lag trades with α): their intervals take in the
-    # fits at its ends too.
-    for j, eta_end in ends:
-        cols_end = list(cols)
-        cols_end[j] = sel[j]["family"].columns(design.vs, eta_end)
-        x_end = np.column_stack(cols_end)
-        try:
-            f_end = design.fit(x_end, eta, label="profile end")
-        except (ValueError, np.linalg.LinAlgError):
-            continue
-        cov_end = f_end.cov + design.tolerance_cov(x_end)
-        lo, hi = _alpha_interval(f_end, cov_end)
-        alpha_ci = (min(alpha_ci[0], lo), max(alpha_ci[1], hi))
-        first = sum(s["width"] for s in sel[:j])
-        k = sel[j]["width"]
-        idx = [0, *range(1 + first, 1 + first + k)]
-        _, ci_end = sel[j]["family"].params(
-            eta_end, f_end.alpha, f_end.beta[first : first + k], cov_end[np.ix_(idx, idx)]
-        )
-        out[j]["params_ci95"] = _union_ci(out[j]["params_ci95"], ci_end)
-    for o in out:
-        o["alpha_per_k"] = f.alpha
-        o["alpha_ci95"] = [float(alpha_ci[0]), float(alpha_ci[1])]
-    return f, out
-
-
-def _alpha_interval(f: Fit, cov: FloatArray) -> tuple[float, float]:
-    """α's 95 % interval of a fit: its own (HAC, Student t) widened in quadrature by the rig's
-    tolerances' share (``cov`` less the fit's own covariance)."""
-    lo, hi = f.lsq.interval(0) if f.lsq is not None else (np.nan, np.nan)
-    half = float(np.hypot((hi - lo) / 2.0, 1.96 * np.sqrt(max(cov[0, 0] - f.cov[0, 0], 0.0))))
-    return (f.alpha - half, f.alpha + half)
-
-
-def _union_ci(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
-    """Intervals of ``a`` widened to take in ``b``'s (scalars, lists of pairs, dicts)."""
-
-    def merge(x: Any, y: Any) -> Any:
-        if isinstance(x, dict) and isinstance(y, dict):
-            return {k: merge(v, y[k]) if k in y else v for k, v in x.items()}
-        if (
-            isinstance(x, list | tuple)
-            and len(x) == 2
-            and all(isinstance(v, int | float) for v in x)
-            and isinstance(y, list | tuple)
-            and len(y) == 2
-        ):
-            return [float(min(x[0], y[0])), float(max(x[1], y[1]))]
-        if isinstance(x, list | tuple) and isinstance(y, list | tuple) and len(x) == len(y):
-            return [merge(u, v) for u, v in zip(x, y, strict=True)]
-        return x
-
-    return {k: merge(v, b[k]) if k in b else v for k, v in a.items()}
 
 
 def __getattr__(name: str) -> Any:

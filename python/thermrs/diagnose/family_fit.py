@@ -277,17 +277,21 @@ class DesignMatrix:
         with the residual variance estimated from the best fit and the training rows counted
         by their effective number ``n_eff`` (correlated visits). The ends are found by root
         finding on log τ (never a bracket of the search grid); an end that does not close
-        within 1/10 … 10× the grid's span is that bound, which the JSON then shows. None for
-        a family without a refined parameter."""
+        within 1/10 … 10× the family's whole grid is that bound, which the JSON then shows;
+        the interval may reach below :attr:`min_tau_min`, the shortest time constant a lag
+        is named at. None for a family without a refined parameter."""
         if not fam.refine:
             return None
         from scipy.optimize import brentq
 
         key = fam.refine[0]
         vs = self.vs
-        grid = sorted(float(e[key]) for e in self.grid(fam)) or [float(eta[key])]
-        lo_bound = max(self.min_tau_min, grid[0] / 10.0) if key == "tau_min" else grid[0] / 10
-        hi_bound = grid[-1] * 10.0
+        # The whole grid's span: a time constant below :attr:`min_tau_min` is never chosen
+        # (not told from the noise's correlation), but the interval is every value the data
+        # do not reject, and they may not reject a faster lag.
+        grid = sorted(float(e[key]) for e in fam.grid) or [float(eta[key])]
+        lo_bound = min(grid[0], float(eta[key])) / 10.0
+        hi_bound = max(grid[-1], float(eta[key])) * 10.0
 
         def rss(logt: float) -> float:
             e = {**eta, key: float(np.exp(logt))}

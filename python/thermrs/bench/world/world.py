@@ -60,6 +60,7 @@ __all__ = [
     "WORLDS",
     "Campaign",
     "Scene",
+    "closest_first_order_tau",
     "draw_scene",
     "measured_slopes",
     "render",
@@ -476,3 +477,48 @@ def measured_slopes(
             moved = laser_spots(true, chip.name, q, a_mm=a, d_mm=d)[0]
             out[(chip.name, link)] = np.asarray((moved - base) / step_k, dtype=np.float64)
     return out
+
+
+def closest_first_order_tau(scene: Scene, truth: Truth) -> float:
+    """The time constant (min) of the first-order lag closest to the world's lag ``truth`` on
+    ``scene``'s days, in the form SPEC §6's ``thermal_lag`` takes (the structure at
+    ``T + w (lag_τ(T) - T)``, its weight ``w`` free): least squares between the structures'
+    departures from their surfaces and ``w`` times the surfaces' through one first-order lag,
+    every link over the whole of both days.
+
+    A two-time-constant lag is no first-order lag; what a first-order model can estimate of it
+    is this projection (its pseudo-true value), which depends on the runs' heating, and not its
+    weighted mean time constant. A one-time-constant lag gives back its own.
+
+    Examples
+    --------
+    >>> from thermrs.bench.world.truth import Truth
+    >>> closest_first_order_tau(scene, Truth("thermal_lag", 60.0))  # doctest: +SKIP
+    60.0
+    """
+    from scipy.optimize import minimize_scalar
+
+    lags = truth.lags()
+    if not lags:
+        raise ValueError(f"{truth.name} has no lag")
+    if len(lags) == 1:
+        return float(lags[0][0])
+    days = _days(scene, (truth,))
+    y = np.concatenate([dd.structure[k] - v for dd in days for k, v in dd.surface.items()])
+
+    def sse(log_tau: float) -> float:
+        tau_s = float(np.exp(log_tau)) * 60.0
+        x = np.concatenate(
+            [_first_order(dd.t_s, v, tau_s) - v for dd in days for v in dd.surface.values()]
+        )
+        w = float(x @ y) / float(x @ x)
+        return float(np.sum((y - w * x) ** 2))
+
+    taus = [t for t, _ in lags]
+    r = minimize_scalar(
+        sse,
+        bounds=(np.log(min(taus)), np.log(max(taus))),
+        method="bounded",
+        options={"xatol": 1e-4},
+    )
+    return float(np.exp(r.x))
