@@ -18,7 +18,13 @@ from pathlib import Path
 import pytest
 import thermrs
 from thermrs.bench.world.cases import case_rigs, case_truths, make_case
-from thermrs.bench.world.world import Campaign, draw_scene, measured_slopes, render
+from thermrs.bench.world.world import (
+    Campaign,
+    closest_first_order_tau,
+    draw_scene,
+    measured_slopes,
+    render,
+)
 from thermrs.compensate import compensation_law, diagnosed_model
 from thermrs.diagnose import diagnose
 from thermrs.errors import InputError
@@ -45,7 +51,7 @@ def _promise_kept(effect: str, world: str, seed: int) -> tuple[bool, list[bool]]
     assert checked["compensated_rms_um"] < checked["nominal_rms_um"]
     # Every interval the law prints, against the world's own truth: each µm/K coefficient
     # against the true rig's slope per measured kelvin (the world's kinematics and IR gains),
-    # the time constant against the injected one.
+    # the time constant against the injected one (below).
     truth = measured_slopes(scene, scene.alpha_per_k)
     covered = []
     for r in law.table.iter_rows(named=True):
@@ -56,7 +62,12 @@ def _promise_kept(effect: str, world: str, seed: int) -> tuple[bool, list[bool]]
             covered.append(bool(r["ci95_low"] <= t <= r["ci95_high"]))
     tau = doc["verdict"]["params_ci95"].get("tau_min")
     assert tau is not None and all(map(math.isfinite, tau))
-    covered.append(bool(tau[0] <= truths[0].spec(scene.alpha_per_k)["tau_min"] <= tau[1]))
+    # A first-order lag's τ against the first-order lag closest to the world's (its own, or
+    # the projection of a two-time-constant lag: no first-order τ is its weighted mean).
+    if effect == "thermal_lag":
+        covered.append(bool(tau[0] <= closest_first_order_tau(scene, truths[0]) <= tau[1]))
+    else:
+        covered.append(bool(tau[0] <= truths[0].spec(scene.alpha_per_k)["tau_min"] <= tau[1]))
     return bool(checked["inside"]), covered
 
 

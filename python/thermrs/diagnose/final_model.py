@@ -85,6 +85,25 @@ def final_model(
             ends += [(j, {**s["eta"], key: float(lo)}), (j, {**s["eta"], key: float(hi)})]
         out.append({"effect": fam.effect, "family": fam.label, "params": params, "params_ci95": ci})
         first += k
+    alpha_ci = _over_time_constants(design, f, alpha_ci, cols, sel, eta, ends, out)
+    for o in out:
+        o["alpha_per_k"] = f.alpha
+        o["alpha_ci95"] = [float(alpha_ci[0]), float(alpha_ci[1])]
+    return f, out
+
+
+def _over_time_constants(
+    design: DesignMatrix,
+    f: Fit,
+    alpha_ci: tuple[float, float],
+    cols: list[FloatArray],
+    sel: list[dict[str, Any]],
+    eta: dict[str, float],
+    ends: list[tuple[int, dict[str, float]]],
+    out: list[dict[str, Any]],
+) -> tuple[float, float]:
+    """α's interval, and each effect's amplitudes' in ``out``, widened by how far they move
+    over its time constant's interval (``ends``: the effect's index and η at each end)."""
     # α and the amplitudes are fitted at the time constants found; over a time constant's
     # interval they move with it (a slow lag trades with α). How far they move at its 95 %
     # ends is added in quadrature to their intervals at the value found: along the
@@ -119,10 +138,7 @@ def final_model(
         f.alpha - float(np.hypot(f.alpha - alpha_ci[0], alpha_shift[0])),
         f.alpha + float(np.hypot(alpha_ci[1] - f.alpha, alpha_shift[1])),
     )
-    for o in out:
-        o["alpha_per_k"] = f.alpha
-        o["alpha_ci95"] = [float(alpha_ci[0]), float(alpha_ci[1])]
-    return f, out
+    return alpha_ci
 
 
 def _alpha_interval(f: Fit, cov: FloatArray) -> tuple[float, float]:

@@ -67,6 +67,11 @@ class Sizer:
         dn = stack(render(self.scene, noise=False, nominal=True, alpha_per_k=a - h))[0]
         self._x_alpha = (up - dn) / (2 * h)
 
+    @property
+    def x_alpha(self) -> FloatArray:
+        """The nominal model's α column (µm per unit α, every row of :func:`stack`)."""
+        return self._x_alpha
+
     def residual(self, effects: tuple[Truth, ...]) -> FloatArray:
         """What ``effects`` leave on every row after the nominal refit (held-out rows: their
         offsets only; training rows: α and offsets)."""
