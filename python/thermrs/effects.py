@@ -248,6 +248,10 @@ def to_json(effects: Iterable[Effect]) -> str:
 # --- signature helpers ---------------------------------------------------------------------------
 
 
+#: The largest |κ| (1/K) of ``nonlinear_alpha`` the core accepts (its physical bound).
+KAPPA_PER_K_MAX = 0.1
+
+
 def _ci(v: float, sd: float) -> list[float]:
     return [v - 1.96 * sd, v + 1.96 * sd]
 
@@ -555,7 +559,15 @@ class NonlinearAlpha(Effect):
             eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
         ) -> tuple[dict[str, Any], dict[str, Any]]:
             k, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
-            return {"kappa_per_k": k}, {"kappa_per_k": _ci(k, sd)}
+            ci = _ci(k, sd)
+            if abs(k) > KAPPA_PER_K_MAX and ci[0] <= KAPPA_PER_K_MAX and ci[1] >= -KAPPA_PER_K_MAX:
+                # An estimate past the physical bound whose interval reaches inside it: the
+                # likelihood is quadratic in κ, so the bounded estimate is the bound, and the
+                # interval is what of it lies within (a κ at the bound is estimated past it
+                # half the time). One wholly past it stays there, and is no physical κ.
+                k = float(np.clip(k, -KAPPA_PER_K_MAX, KAPPA_PER_K_MAX))
+                ci = [max(ci[0], -KAPPA_PER_K_MAX), min(ci[1], KAPPA_PER_K_MAX)]
+            return {"kappa_per_k": k}, {"kappa_per_k": ci}
 
         return [
             Family(

@@ -111,6 +111,30 @@ def test_a_rig_three_times_worse_than_it_states_gets_no_effect_of_the_robot(
     assert sum(bool(n) for n in named) <= 1, named
 
 
+def test_where_the_rigs_excess_explains_the_gap_no_effect_of_the_robot_is_offered() -> None:
+    """Not even as what the gap might be: a rig three times worse than it states, the gap
+    within what it leaves erring by twice (``rig_tolerances_exceeded``): the verdict's effects
+    hold the thermal camera's at most, and its sentences name no effect of the robot."""
+    from thermrs.effects import EFFECT_NAMES
+
+    rig = thermrs.load_rig()
+    seen = 0
+    for world, seed in (("white", 1410004), ("ar1", 1410044)):
+        tables, _, _ = make_case(
+            str(thermrs.default_rig_path()), (), 1.0, world=world, seed=seed,
+            campaign=Campaign(hours=15), tolerance_scale=3.0,
+        )  # fmt: skip
+        v = diagnose(tables[:1], tables[1:], rig, bootstrap=0, seed=seed).to_json()["verdict"]
+        if not v["rig_tolerances_exceeded"]:
+            continue
+        seen += 1
+        assert v["status"] == "unexplained" and v["effect"] is None
+        assert all(is_instrument(e) for e in v["effects"]), v["effects"]
+        assert not [e for e in EFFECT_NAMES if e in v["reason"]], v["reason"]
+        assert "tolerances (docs/tolerances.md) before looking for an effect" in v["reason"]
+    assert seen, "no case whose gap the rig's excess explains: the test tests nothing"
+
+
 def test_the_factor_by_which_the_rig_errs_is_estimated_and_said(
     three_times_worse: list[dict[str, Any]],
 ) -> None:

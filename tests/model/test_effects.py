@@ -218,3 +218,29 @@ def test_a_users_own_effect_enters_the_diagnoser(paper_rig: thermrs.Rig) -> None
     assert {r["effect"] for r in d.ranking} == {"thermal_lag", "linear_creep"}
     # No chip creeps in these runs: the user's effect is ranked, never named.
     assert "linear_creep" not in d.verdict["effects"]
+
+
+def test_a_kappa_estimated_past_the_bound_is_held_at_it(paper_rig: thermrs.Rig) -> None:
+    """The bound the core enforces is the one the family holds its estimate to: κ = 0.105 ±
+    0.01 (1.96 sd) reads as the bound with the part of its interval inside it; one wholly past
+    it is left there (no physical κ: not plausible)."""
+    from thermrs.effects import KAPPA_PER_K_MAX, NonlinearAlpha, from_dict
+    from thermrs.errors import InputError
+
+    from_dict({"name": "nonlinear_alpha", "kappa_per_k": -KAPPA_PER_K_MAX})
+    with pytest.raises(InputError, match="kappa_per_k"):
+        from_dict({"name": "nonlinear_alpha", "kappa_per_k": KAPPA_PER_K_MAX * 1.0001})
+    fam = NonlinearAlpha.families(paper_rig, None)[0]  # type: ignore[arg-type]
+    alpha = 2e-5
+    sd = 0.01 / 1.96
+    # β = κ·α with var(β) = (sd·α)² and α known exactly: κ's delta-method sd is sd.
+    cov = np.diag([0.0, (sd * alpha) ** 2])
+    p, ci = fam.params({}, alpha, np.array([0.105 * alpha]), cov)
+    assert p["kappa_per_k"] == KAPPA_PER_K_MAX
+    assert ci["kappa_per_k"] == pytest.approx([0.095, KAPPA_PER_K_MAX])
+    p, ci = fam.params({}, alpha, np.array([0.13 * alpha]), cov)
+    assert p["kappa_per_k"] == pytest.approx(0.13)
+    assert ci["kappa_per_k"] == pytest.approx([0.12, 0.14])
+    p, ci = fam.params({}, alpha, np.array([-0.05 * alpha]), cov)
+    assert p["kappa_per_k"] == pytest.approx(-0.05)
+    assert ci["kappa_per_k"] == pytest.approx([-0.06, -0.04])

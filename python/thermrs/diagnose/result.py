@@ -333,17 +333,29 @@ def _rig_statement(
         # The data do not tell the effects of the robot from a rig that errs by as much more
         # than it states as they allow: the rig's statement is what to check first.
         status = "unexplained"
+        # No effect of the robot is offered, not even as what the gap might be: it is the
+        # rig's statement that fails first (the effects tested are in the test's record).
+        advice = [
+            instrument_advice(sel["effect"], sel["params"])
+            for sel in selected
+            if is_instrument(sel["effect"])
+        ]
+        found = (
+            f"; the thermal camera's error found with them stands: {'; '.join(advice)}"
+            if advice
+            else ""
+        )
         reason = (
             f"what these runs show is within what the rig leaves by itself were its errors "
-            f"{excess['scale']:.2g}× what it states ({english_list(robot)} not "
-            f"significant then, p at the floor {excess['p_at_floor']:.2f}): check the rig's "
-            f"tolerances (docs/tolerances.md) before taking it for an effect; with the stated "
-            f"tolerances: {reason}"
+            f"{excess['scale']:.2g}× what it states (no effect of the robot is significant "
+            f"then, p at the floor {excess['p_at_floor']:.2f}): check the rig's tolerances "
+            f"(docs/tolerances.md) before looking for an effect of the robot{found}"
         )
     scale_doc = floor.extra.get("tolerance_scale") or {}
     # What the verdict says of the rig: k on the residual of the model with the effects
-    # selected, where there are any (the one the test used); the nominal residual's otherwise.
-    with_effects = scale_doc.get("with_effects")
+    # selected, where there are any (the one the test used) and they are named; the nominal
+    # residual's otherwise.
+    with_effects = None if exceeded else scale_doc.get("with_effects")
     said_scale = with_effects or scale_doc
     errs_more = bool(said_scale.get("exceeds_stated"))
     if errs_more:
@@ -359,6 +371,12 @@ def _rig_statement(
                 f"along the rig's tolerances' signatures is {size}: the rig errs by more than "
                 f"it states, or {names} fit{'s' if len(selected) == 1 else ''} the data only "
                 "in part; check its tolerances (docs/tolerances.md)"
+            )
+        elif exceeded:
+            reason = reason.replace(
+                "): check the rig's tolerances",
+                f"), and they look {size} from the residual along its tolerances' "
+                "signatures: check its tolerances",
             )
         else:
             reason += (
@@ -601,7 +619,9 @@ def _verdict_doc(
         "effect": None
         if first is None or status in ("unexplained", "partially explained")
         else first["effect"],
-        "effects": [s["effect"] for s in selected],
+        # Where the rig's excess explains the gap, only the thermal camera's (no effect of
+        # the robot is offered).
+        "effects": [s["effect"] for s in selected if not exceeded or is_instrument(s["effect"])],
         # Those of them that are the thermal camera's errors, not the robot's.
         "instruments": [s["effect"] for s in selected if is_instrument(s["effect"])],
         # SPEC §7: no parameters without their effect (a partial explanation's are in
