@@ -195,3 +195,20 @@ def test_holm_step_down() -> None:
     # 0.01 < 0.05/3, 0.02 < 0.05/2, 0.04 < 0.05/1: all rejected (Bonferroni would keep 0.02).
     assert holm_kept({"a": 0.01, "b": 0.02, "c": 0.04}, 0.05) == []
     assert holm_kept({}, 0.05) == []
+
+
+def test_an_interval_takes_in_how_far_its_value_moves_over_a_time_constant_in_quadrature() -> None:
+    """Closed forms: a half-width h and a move m to one side make √(h² + m²) on that side and
+    leave the other; vectors per entry, dicts per key, a parameter without a move unchanged."""
+    from thermrs.diagnose.final_model import _widened
+
+    got = _widened([[-1.0, 1.0], [0.0, 2.0]], [0.0, 1.0], [[-2.0, 1.5], [0.5, 1.0]])
+    assert got[0] == pytest.approx([-np.sqrt(5.0), np.sqrt(1.25)])
+    assert got[1] == pytest.approx([0.0, 1.0 + np.sqrt(1.25)])
+    got = _widened(
+        {"alpha_per_k": {"link2": [1.0, 3.0]}, "gain": [0.1, 0.3]},
+        {"alpha_per_k": {"link2": 2.0}, "gain": 0.2},
+        [{"alpha_per_k": {"link2": 4.0}}],
+    )
+    assert got["alpha_per_k"]["link2"] == pytest.approx([1.0, 2.0 + np.sqrt(5.0)])
+    assert got["gain"] == [0.1, 0.3]

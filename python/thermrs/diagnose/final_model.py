@@ -168,11 +168,10 @@ def _widened(ci: Any, centre: Any, ends: list[Any]) -> Any:
             for k, c in ci.items()
         }  # fmt: skip
     if isinstance(centre, list | tuple) and isinstance(ci, list | tuple) and len(ci) == len(centre):
-        if not all(isinstance(v, int | float) for v in centre):
-            return [
-                _widened(c, x, [e[i] if isinstance(e, list | tuple) else None for e in ends])
-                for i, (c, x) in enumerate(zip(ci, centre, strict=True))
-            ]
+        return [
+            _widened(c, x, [e[i] if isinstance(e, list | tuple) else None for e in ends])
+            for i, (c, x) in enumerate(zip(ci, centre, strict=True))
+        ]
     if not isinstance(centre, int | float) or not isinstance(ci, list | tuple) or len(ci) != 2:
         return ci
     vals = [float(e) for e in ends if isinstance(e, int | float) and np.isfinite(e)]
