@@ -69,11 +69,16 @@ class ForwardModel:
     def structure_temperatures(
         self, t_s: npt.NDArray[np.float64], x: npt.NDArray[np.float64]
     ) -> npt.NDArray[np.float64]: ...
+    def has_mount_lag(self, camera: str) -> bool: ...
+    def mount_temperatures(
+        self, camera: str, t_s: npt.NDArray[np.float64], x: npt.NDArray[np.float64]
+    ) -> npt.NDArray[np.float64]: ...
     def chip_shifts(
         self,
         camera: str,
         ambient_c: npt.NDArray[np.float64],
         t_since_start_s: npt.NDArray[np.float64],
+        mount_c: npt.NDArray[np.float64] | None = None,
     ) -> npt.NDArray[np.float64]: ...
     def flange_positions(
         self,

@@ -588,10 +588,14 @@ def _chip_rows(e: Effect, cam: str, pose: str, ci: dict[str, Any]) -> list[dict[
             row(axis, "structure lag (filter every T first: dT_s/dt = (T - T_s)/tau)", "min",
                 d["tau_min"], *interval("tau_min", None, d["tau_min"]))  # fmt: skip
     elif e.name == "fixture_drift" and d["camera"] == cam:
+        tau = float(d.get("mount_tau_min", 0.0))
+        mount = f" (filter ambient first: dT_m/dt = (T - T_m)/{tau:.4g} min)" if tau > 0 else ""
         for k, axis in enumerate("uv"):
             v = d["um_per_k"][k]
-            row(axis, "ambient (T - reference_c), chip mount", "um/K", v,
+            row(axis, f"ambient (T - reference_c), chip mount{mount}", "um/K", v,
                 *interval("um_per_k", k, v))  # fmt: skip
+            if tau > 0:
+                row(axis, "chip mount lag", "min", tau, *interval("mount_tau_min", None, tau))
     elif e.name == "ir_drift":
         for axis in "uv":
             row(axis, f"{d['roi']} reading drift (subtract from T: k * t_run_h)", "K/h",

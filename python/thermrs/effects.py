@@ -80,6 +80,9 @@ EFFECT_NAMES: tuple[str, ...] = tuple(_native.effect_names())
 
 #: Time constants (min) the diagnoser profiles for first-order effects (then refines).
 TAU_GRID_MIN: tuple[float, ...] = (3, 6, 10, 15, 22, 33, 50, 75, 110, 160, 240, 360, 540)
+#: A camera mount's time constants (min) the diagnoser profiles ``fixture_drift`` over: from
+#: one that follows the room within a cycle to a heavy bracket's hour and more.
+MOUNT_TAU_GRID_MIN: tuple[float, ...] = (0.5, 4, 12, 35, 100)
 
 
 class Visits(Protocol):
@@ -414,7 +417,9 @@ def _chip_family(
         cols = []
         for unit in ((1.0, 0.0), (0.0, 1.0)):
             if name == "fixture_drift":
-                e: Effect = FixtureDrift(camera=camera, um_per_k=unit)
+                e: Effect = FixtureDrift(
+                    camera=camera, um_per_k=unit, mount_tau_min=eta["mount_tau_min"]
+                )
             else:
                 e = SensorDrift(camera=camera, tau_min=eta["tau_min"], um=unit)
             cols.append(vs.positions(effects=[e]) - vs.positions())
@@ -436,25 +441,35 @@ def _chip_family(
         columns,
         params,
         driver=driver,
-        refine=("tau_min",) if grid and "tau_min" in grid[0] else (),
+        refine=tuple(grid[0]) if grid else (),
     )
 
 
 @register
 @dataclass(frozen=True)
 class FixtureDrift(Effect):
-    """One camera's mount moves with ambient temperature: ``um_per_k`` [u, v] µm/K."""
+    """One camera's mount moves with ambient temperature: ``um_per_k`` [u, v] µm/K, the mount
+    following the room through its own first-order inertia ``mount_tau_min`` (an extension of
+    SPEC §6; 0: at once)."""
 
     name: ClassVar[str] = "fixture_drift"
     camera: str = ""
     um_per_k: tuple[float, float] = (0.0, 0.0)
+    mount_tau_min: float = 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        d = super().to_dict()
+        if not self.mount_tau_min:
+            d.pop("mount_tau_min", None)  # SPEC §6's own shape where the mount has no lag
+        return d
 
     @classmethod
     def families(cls, rig: Rig, visits: Visits) -> list[Family]:
         if not visits.has("ambient"):
             return []
+        grid = [{"mount_tau_min": float(t)} for t in MOUNT_TAU_GRID_MIN]
         return [
-            _chip_family(cls.name, rig, c.name, [{}], "um_per_k", "ambient") for c in rig.cameras
+            _chip_family(cls.name, rig, c.name, grid, "um_per_k", "ambient") for c in rig.cameras
         ]
 
 

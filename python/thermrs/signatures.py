@@ -194,6 +194,7 @@ class VisitSet:
                         np.ascontiguousarray(self.temps[n][idx]),
                     )
                 lagged[n] = out
+        mounts = self._mount_temperatures(native) if chips else {}
         for j, g in enumerate(self.groups):
             chip, q = self._group_geometry(j)
             cam = chip.name
@@ -207,7 +208,13 @@ class VisitSet:
                     if amb is not None
                     else np.full(len(g), self.rig.reference_c)
                 )
-                d = native.chip_shifts(cam, a, np.ascontiguousarray(self.t_since_chain[g]))
+                m = mounts.get(cam)
+                d = native.chip_shifts(
+                    cam,
+                    a,
+                    np.ascontiguousarray(self.t_since_chain[g]),
+                    None if m is None else np.ascontiguousarray(m[g]),
+                )
                 su = su + d[:, 0]
                 sv = sv + d[:, 1]
             u[g] = su
@@ -215,6 +222,25 @@ class VisitSet:
         out = np.concatenate([u, v])
         if len(self._cache) < 256:
             self._cache[key] = out
+        return out
+
+    def _mount_temperatures(self, native: _native.ForwardModel) -> dict[str, FloatArray]:
+        """Per camera whose mount lags the room (``fixture_drift``'s ``mount_tau_min``), the
+        ambient as its mount sees it at every visit, lagged along each chain of runs."""
+        amb = self.temps.get("ambient")
+        out: dict[str, FloatArray] = {}
+        if amb is None:
+            return out
+        for cam in dict.fromkeys(str(c) for c in self.camera):
+            if not native.has_mount_lag(cam):
+                continue
+            m = np.empty(self.n)
+            for chain in self.chains:
+                idx = np.concatenate(chain)
+                m[idx] = native.mount_temperatures(
+                    cam, np.ascontiguousarray(self.t_s[idx]), np.ascontiguousarray(amb[idx])
+                )
+            out[cam] = m
         return out
 
     def _group_geometry(self, j: int) -> tuple[Camera, FloatArray]:

@@ -184,6 +184,19 @@ def test_lag_and_chip_shifts_match_independent_closed_forms(paper_rig: thermrs.R
     assert np.allclose(d[:, 0], 2.0 * (amb - ref) + 5.0 * f, atol=1e-12)
     assert np.allclose(d[:, 1], -1.0 * (amb - ref) + 3.0 * f, atol=1e-12)
     assert np.all(m._native.chip_shifts("B", amb, t) == 0)
+    # A mount with inertia follows the room through its own first-order lag (independent
+    # implementation), and only its own camera's.
+    amb = 23 + 0.8 * np.sin(t / 3000) + 0.2 * t / 3600
+    m = ForwardModel(
+        paper_rig, effects=[FixtureDrift(camera="A", um_per_k=(2.0, -1.0), mount_tau_min=25.0)]
+    )
+    assert m._native.has_mount_lag("A") and not m._native.has_mount_lag("B")
+    mount = m._native.mount_temperatures("A", t, amb)
+    assert np.max(np.abs(mount - first_order_lag(t, amb, 25 * 60.0))) < 1e-9
+    d = m._native.chip_shifts("A", amb, t, mount)
+    assert np.allclose(d[:, 0], 2.0 * (mount - ref), atol=1e-12)
+    assert np.allclose(d[:, 1], -1.0 * (mount - ref), atol=1e-12)
+    assert np.array_equal(m._native.mount_temperatures("B", t, amb), amb)
 
 
 def test_a_users_own_effect_enters_the_diagnoser(paper_rig: thermrs.Rig) -> None:

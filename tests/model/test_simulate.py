@@ -387,3 +387,36 @@ def test_a_simulation_in_another_thread_stops_when_cancelled(
 
     with pytest.raises(KeyboardInterrupt):
         thermrs.extract(rec, paper_rig, progress=refuse)
+
+
+def test_a_mount_with_inertia_moves_the_truth_with_the_room_lagged(
+    tmp_path: Path, paper_rig: thermrs.Rig
+) -> None:
+    """fixture_drift on camera A whose mount follows the room through 30 min: A's true spot
+    moves by um_per_k·(T_m − reference), T_m the room (drifting 1 K/h) through a first-order
+    lag integrated here on a fine grid (an implementation of its own); B's does not move."""
+    from thermrs.bench import first_order_lag
+    from thermrs.simulate import simulate_truth
+
+    room = "[ambient]\nstart_c = 22.0\ndrift_c_per_h = 1.0\n"
+    base = simulate_truth(paper_rig, short(tmp_path, extra=room)).frames
+    eff = short(
+        tmp_path,
+        extra=room + '[[effect]]\nname = "fixture_drift"\ncamera = "A"\n'
+        "um_per_k = [4.0, -2.0]\nmount_tau_min = 30.0\n",
+    )
+    moved = simulate_truth(paper_rig, eff).frames
+    j = base.join(moved, on=["camera", "t_ns"], suffix="_e")
+    b = j.filter(camera="B")
+    assert np.allclose(b["x_px"], b["x_px_e"]) and np.allclose(b["y_px"], b["y_px_e"])
+    a = j.filter(camera="A")
+    t = (a["t_ns"].to_numpy() - 1_750_000_000 * 10**9) / 1e9 + 0.005
+    grid = np.linspace(0.0, t.max() + 60.0, 20_001)
+    mount = np.interp(t, grid, first_order_lag(grid, 22.0 + grid / 3600.0, 30 * 60.0))
+    ref = paper_rig.reference_c
+    got_u = (a["x_px_e"] - a["x_px"]).to_numpy() * 8.6
+    got_v = (a["y_px_e"] - a["y_px"]).to_numpy() * 8.3
+    assert np.allclose(got_u, 4.0 * (mount - ref), atol=0.02)
+    assert np.allclose(got_v, -2.0 * (mount - ref), atol=0.02)
+    # Not the room's own temperature: an hour in, the mount trails it by ~0.4 K.
+    assert np.max(np.abs(got_u - 4.0 * (22.0 + t / 3600.0 - ref))) > 1.0

@@ -136,28 +136,60 @@ impl PyForwardModel {
         Ok(y.into_pyarray(py))
     }
 
+    /// Whether camera `camera`'s mount follows the room through a lag (`fixture_drift`'s
+    /// `mount_tau_min`).
+    fn has_mount_lag(&self, camera: &str) -> PyResult<bool> {
+        let cam = call("finding a camera", || self.inner.camera_index(camera))?;
+        Ok(self.effects.mount_lag_s(cam).is_some())
+    }
+
+    /// An ambient temperature series as camera `camera`'s mount sees it (`fixture_drift`'s
+    /// `mount_tau_min`; unchanged without one), times in seconds.
+    fn mount_temperatures<'py>(
+        &self,
+        py: Python<'py>,
+        camera: &str,
+        t_s: PyReadonlyArray1<'py, f64>,
+        x: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let cam = call("finding a camera", || self.inner.camera_index(camera))?;
+        let (t, x) = (t_s.as_slice()?, x.as_slice()?);
+        let y = call("lagging temperatures", || {
+            self.effects.mount_series(cam, t, x)
+        })?;
+        Ok(y.into_pyarray(py))
+    }
+
     /// The chip effects' apparent shift (N, 2) µm of one camera's spot, per sample of ambient
-    /// temperature and time since the run began (s).
+    /// temperature and time since the run began (s); `mount_c`, the temperature the camera's
+    /// mount has reached (default: the ambient).
+    #[pyo3(signature = (camera, ambient_c, t_since_start_s, mount_c=None))]
     fn chip_shifts<'py>(
         &self,
         py: Python<'py>,
         camera: &str,
         ambient_c: PyReadonlyArray1<'py, f64>,
         t_since_start_s: PyReadonlyArray1<'py, f64>,
+        mount_c: Option<PyReadonlyArray1<'py, f64>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let cam = call("finding a camera", || self.inner.camera_index(camera))?;
         let (a, t) = (ambient_c.as_slice()?, t_since_start_s.as_slice()?);
-        if a.len() != t.len() {
+        let m = match &mount_c {
+            Some(m) => m.as_slice()?,
+            None => a,
+        };
+        if a.len() != t.len() || m.len() != a.len() {
             return Err(InputError::new_err(format!(
-                "ambient_c and t_since_start_s must have equal lengths, got {} and {}",
+                "ambient_c, t_since_start_s and mount_c must have equal lengths, got {}, {} and {}",
                 a.len(),
-                t.len()
+                t.len(),
+                m.len()
             )));
         }
         let out = call("shifting chips", || {
             let mut out = Vec::with_capacity(2 * a.len());
-            for (&ak, &tk) in a.iter().zip(t) {
-                out.extend_from_slice(&self.effects.chip_shift_um(cam, ak, tk));
+            for ((&ak, &tk), &mk) in a.iter().zip(t).zip(m) {
+                out.extend_from_slice(&self.effects.chip_shift_um(cam, ak, mk, tk));
             }
             Ok(out)
         })?;

@@ -91,6 +91,7 @@ class Truth:
                 "name": self.name,
                 "camera": d["camera"],
                 "um_per_k": [float(x) for x in a * d["dir"]],
+                "mount_tau_min": float(d["mount_tau_min"]),
             }
         if self.name == "laser_tilt":
             return {"name": self.name, "tilt_deg": a}

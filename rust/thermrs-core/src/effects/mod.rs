@@ -67,8 +67,15 @@ pub enum Effect {
     ThermalLag { tau_min: f64 },
     /// A DH length (`a<i>`/`d<i>`) the rig does not list expands with `temperature`.
     UnmodelledLength { length: String, temperature: String },
-    /// `camera`'s mount moves with ambient: `um_per_k` [u, v] per kelvin above reference.
-    FixtureDrift { camera: String, um_per_k: [f64; 2] },
+    /// `camera`'s mount moves with ambient: `um_per_k` [u, v] per kelvin above reference; the
+    /// mount follows the room through its own first-order inertia `mount_tau_min` (an
+    /// extension, default 0: at once).
+    FixtureDrift {
+        camera: String,
+        um_per_k: [f64; 2],
+        #[serde(default)]
+        mount_tau_min: f64,
+    },
     /// The true laser direction is the rig's turned by `tilt_deg` (about the axis direction ×
     /// flange z, itself turned by `azimuth_deg` about the ray; an extension, default 0).
     LaserTilt {
@@ -122,6 +129,8 @@ pub struct EffectSpec {
     pub kappa_per_k: Option<f64>,
     #[serde(default)]
     pub um: Option<[f64; 2]>,
+    #[serde(default)]
+    pub mount_tau_min: Option<f64>,
 }
 
 /// A problem with an effect: the key (relative to the effect) and what is wrong.
@@ -181,7 +190,7 @@ impl Effect {
             "alpha_per_link" => (&["alpha_per_k"], &[]),
             "thermal_lag" => (&["tau_min"], &[]),
             "unmodelled_length" => (&["length", "temperature"], &[]),
-            "fixture_drift" => (&["camera", "um_per_k"], &[]),
+            "fixture_drift" => (&["camera", "um_per_k"], &["mount_tau_min"]),
             "laser_tilt" => (&["tilt_deg"], &["azimuth_deg"]),
             "joint_offset" => (&["joint", "temperature", "urad_per_k"], &[]),
             "nonlinear_alpha" => (&["kappa_per_k"], &[]),
@@ -241,6 +250,7 @@ impl Effect {
             "fixture_drift" => Effect::FixtureDrift {
                 camera: text(&s.camera),
                 um_per_k: s.um_per_k.unwrap_or([f64::NAN; 2]),
+                mount_tau_min: s.mount_tau_min.unwrap_or(0.0),
             },
             "laser_tilt" => Effect::LaserTilt {
                 tilt_deg: s.tilt_deg.unwrap_or(f64::NAN),
@@ -291,10 +301,17 @@ impl Effect {
                 }
                 nonempty("temperature", temperature)?;
             }
-            Effect::FixtureDrift { camera, um_per_k } => {
+            Effect::FixtureDrift {
+                camera,
+                um_per_k,
+                mount_tau_min,
+            } => {
                 nonempty("camera", camera)?;
                 for v in um_per_k {
                     finite_within("um_per_k", *v, UM_PER_K, "µm/K")?;
+                }
+                if *mount_tau_min != 0.0 {
+                    time_constant("mount_tau_min", *mount_tau_min)?;
                 }
             }
             Effect::LaserTilt {
@@ -458,8 +475,8 @@ impl EffectSpec {
 /// A chip shift: an apparent spot displacement on one camera's chip.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum ChipShift {
-    /// `fixture_drift`: (camera index, µm per K above reference).
-    Fixture(usize, [f64; 2]),
+    /// `fixture_drift`: (camera index, µm per K above reference, the mount's lag s or 0).
+    Fixture(usize, [f64; 2], f64),
     /// `sensor_drift`: (camera index, τ min, µm).
     Sensor(usize, f64, [f64; 2]),
 }
@@ -554,7 +571,12 @@ impl Effects {
             Effect::FixtureDrift {
                 camera: c,
                 um_per_k,
-            } => self.chip.push(ChipShift::Fixture(camera(c), *um_per_k)),
+                mount_tau_min,
+            } => self.chip.push(ChipShift::Fixture(
+                camera(c),
+                *um_per_k,
+                mount_tau_min * 60.0,
+            )),
             Effect::SensorDrift {
                 camera: c,
                 tau_min,
@@ -581,19 +603,45 @@ impl Effects {
         }
     }
 
+    /// An ambient temperature series (times `t_s`, seconds) as camera `camera`'s mount sees it
+    /// (`fixture_drift`'s `mount_tau_min`; unchanged without one).
+    pub fn mount_series(&self, camera: usize, t_s: &[f64], x: &[f64]) -> Result<Vec<f64>> {
+        match self.mount_lag_s(camera) {
+            Some(tau) => Ok(crate::heat::first_order_lag(t_s, x, tau)?),
+            None => Ok(x.to_vec()),
+        }
+    }
+
     /// Whether any effect shifts chips.
     pub fn shifts_chips(&self) -> bool {
         !self.chip.is_empty()
     }
 
-    /// The apparent shift (u, v) µm of camera `camera`'s spot at an ambient temperature and a
-    /// time since the run began (s).
-    pub fn chip_shift_um(&self, camera: usize, ambient_c: f64, t_since_start_s: f64) -> [f64; 2] {
+    /// The first-order lag (s) through which camera `camera`'s mount follows the room
+    /// (`fixture_drift`'s `mount_tau_min`), if it has one.
+    pub fn mount_lag_s(&self, camera: usize) -> Option<f64> {
+        self.chip.iter().find_map(|s| match *s {
+            ChipShift::Fixture(c, _, tau) if c == camera && tau > 0.0 => Some(tau),
+            _ => None,
+        })
+    }
+
+    /// The apparent shift (u, v) µm of camera `camera`'s spot at an ambient temperature, the
+    /// temperature its mount has reached (the ambient through [`Effects::mount_lag_s`]; the
+    /// ambient itself without one) and a time since the run began (s).
+    pub fn chip_shift_um(
+        &self,
+        camera: usize,
+        ambient_c: f64,
+        mount_c: f64,
+        t_since_start_s: f64,
+    ) -> [f64; 2] {
         let mut d = [0.0; 2];
         for s in &self.chip {
             let add = match *s {
-                ChipShift::Fixture(c, k) if c == camera => {
-                    fixture_drift_um(k, self.params.reference_c, ambient_c)
+                ChipShift::Fixture(c, k, tau) if c == camera => {
+                    let at = if tau > 0.0 { mount_c } else { ambient_c };
+                    fixture_drift_um(k, self.params.reference_c, at)
                 }
                 ChipShift::Sensor(c, tau, um) if c == camera => {
                     sensor_drift_um(um, tau, t_since_start_s)

@@ -181,6 +181,7 @@ fn chip_shifts_have_their_closed_forms() {
             Effect::FixtureDrift {
                 camera: "A".into(),
                 um_per_k: [2.0, -1.0],
+                mount_tau_min: 0.0,
             },
             Effect::SensorDrift {
                 camera: "A".into(),
@@ -192,9 +193,51 @@ fn chip_shifts_have_their_closed_forms() {
         20.0,
     )
     .unwrap();
-    let d = fx.chip_shift_um(0, 23.0, 600.0);
+    let d = fx.chip_shift_um(0, 23.0, 99.0, 600.0);
     let f = 1.0 - (-1.0f64).exp();
     assert!((d[0] - (6.0 + 4.0 * f)).abs() < 1e-12);
     assert!((d[1] + 3.0).abs() < 1e-12);
-    assert_eq!(fx.chip_shift_um(1, 23.0, 600.0), [0.0, 0.0]);
+    assert_eq!(fx.chip_shift_um(1, 23.0, 99.0, 600.0), [0.0, 0.0]);
+    assert_eq!(fx.mount_lag_s(0), None);
+}
+
+#[test]
+fn a_mount_with_inertia_follows_the_room_through_its_lag() {
+    let r = rig();
+    let fx = Effects::build(
+        &r,
+        &[Effect::FixtureDrift {
+            camera: "A".into(),
+            um_per_k: [2.0, -1.0],
+            mount_tau_min: 20.0,
+        }],
+        2e-5,
+        20.0,
+    )
+    .unwrap();
+    assert_eq!(fx.mount_lag_s(0), Some(1200.0));
+    assert_eq!(fx.mount_lag_s(1), None);
+    // The shift follows the mount's temperature, not the room's.
+    let d = fx.chip_shift_um(0, 30.0, 23.0, 0.0);
+    assert!((d[0] - 6.0).abs() < 1e-12 && (d[1] + 3.0).abs() < 1e-12);
+    // The room rises by 1 K over the first minute and stays: after the ramp the mount is at
+    // 1 − (τ/h)(1 − e^(−h/τ))·e^(−(t − h)/τ) of the rise (h = 60 s), the closed form.
+    let t: Vec<f64> = (0..=120).map(|k| 60.0 * k as f64).collect();
+    let x: Vec<f64> = t
+        .iter()
+        .map(|&tk| if tk > 0.0 { 21.0 } else { 20.0 })
+        .collect();
+    let y = fx.mount_series(0, &t, &x).unwrap();
+    let (h, tau): (f64, f64) = (60.0, 1200.0);
+    for (tk, yk) in t.iter().zip(&y).skip(1) {
+        let want = 21.0 - (tau / h) * (1.0 - (-h / tau).exp()) * (-(tk - h) / tau).exp();
+        assert!((yk - want).abs() < 1e-9, "{tk}: {yk} against {want}");
+    }
+    // Out of range: a mount time constant is a time constant.
+    let bad = Effect::FixtureDrift {
+        camera: "A".into(),
+        um_per_k: [1.0, 0.0],
+        mount_tau_min: -3.0,
+    };
+    assert_eq!(bad.validate().unwrap_err().key, "mount_tau_min");
 }

@@ -8,7 +8,7 @@ use rand_distr::{Distribution, StandardNormal};
 
 use super::render::{render_ccd, render_ir};
 use super::setup::{write_error, Setup};
-use super::state::{ambient_at, State};
+use super::state::{ambient_at, mount_at, State};
 use super::trajectory::{self, Segment};
 use super::{LOG_DELAY_NS, MAX_SMEAR_SAMPLES};
 use crate::error::{Error, Result};
@@ -67,9 +67,12 @@ fn spot_at(
     let q = trajectory::q_at(&c.segs, t);
     setup.model.spot_batch(ci, &q, Some(tcols), &mut out)?;
     let (mut x, mut y) = (out[0], out[1]);
-    let d = setup
+    let amb = ambient_at(&setup.sc.ambient, t);
+    let mount = setup
         .fx
-        .chip_shift_um(ci, ambient_at(&setup.sc.ambient, t), t - c.run_start_s);
+        .mount_lag_s(ci)
+        .map_or(amb, |tau| mount_at(&setup.sc.ambient, t, tau));
+    let d = setup.fx.chip_shift_um(ci, amb, mount, t - c.run_start_s);
     x += d[0] / cam.pixel_pitch_um[0];
     y += d[1] / cam.pixel_pitch_um[1];
     let (w, h) = (cam.size_px[0] as f64, cam.size_px[1] as f64);

@@ -17,6 +17,22 @@ pub(super) fn ambient_at(amb: &AmbientProfile, t_s: f64) -> f64 {
         + amb.swing_c * (2.0 * std::f64::consts::PI * t_s / 86_400.0).sin()
 }
 
+/// The temperature at `t_s` of a camera mount that follows the room through a first-order lag
+/// `tau_s` (`fixture_drift`'s `mount_tau_min`), at the room's temperature when the first run
+/// starts: the closed form of the lag of [`ambient_at`]'s drift and daily sine.
+pub(super) fn mount_at(amb: &AmbientProfile, t_s: f64, tau_s: f64) -> f64 {
+    if tau_s <= 0.0 || t_s <= 0.0 {
+        return ambient_at(amb, t_s);
+    }
+    let b = amb.drift_c_per_h / 3600.0;
+    let w = 2.0 * std::f64::consts::PI / 86_400.0;
+    let decay = (-t_s / tau_s).exp();
+    let wt = w * tau_s;
+    let sine =
+        amb.swing_c * ((w * t_s).sin() - wt * (w * t_s).cos() + wt * decay) / (1.0 + wt * wt);
+    amb.start_c + b * (t_s - tau_s) + b * tau_s * decay + sine
+}
+
 /// The running state of a simulation.
 pub(super) struct State {
     /// Motion noise (repeatability).
@@ -100,5 +116,34 @@ impl State {
                     .fx
                     .structure_step(before, self.surface[k], self.structure[k], dt);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The closed form against the lag integrated step by step on a fine grid
+    /// ([`crate::heat::first_order_lag`]) of the room's own series.
+    #[test]
+    fn the_mounts_closed_form_is_the_lag_of_the_room() {
+        let amb = AmbientProfile {
+            start_c: 21.0,
+            drift_c_per_h: 0.3,
+            swing_c: 1.5,
+            ..AmbientProfile::default()
+        };
+        let tau = 25.0 * 60.0;
+        let t: Vec<f64> = (0..=48 * 360).map(|k| 10.0 * k as f64).collect();
+        let x: Vec<f64> = t.iter().map(|&tk| ambient_at(&amb, tk)).collect();
+        let y = crate::heat::first_order_lag(&t, &x, tau).unwrap();
+        for k in (0..t.len()).step_by(97) {
+            assert!(
+                (mount_at(&amb, t[k], tau) - y[k]).abs() < 1e-6,
+                "t = {}",
+                t[k]
+            );
+        }
+        assert_eq!(mount_at(&amb, 3600.0, 0.0), ambient_at(&amb, 3600.0));
     }
 }
