@@ -12,6 +12,12 @@ experiment (``thermrs design``) can.
 
     thermrs diagnose-bench --hours 15 --seeds 2 --snr 0.5 1 2 4 --json h15.json
     python benchmarks/bench_separability.py h15.json --jobs 2
+
+With ``--guarded 2 3``, each case also gets
+:func:`thermrs.bench.world.separability.guarded_power_bound` at those scales: the most any test
+could name an effect at all while naming one in at most 5 % of the effect-free worlds whose
+rig errs by that many times its stated tolerances (the guard :mod:`thermrs.diagnose.guard`
+keeps). Summed per family beside the lenient count.
 """
 
 from __future__ import annotations
@@ -24,10 +30,10 @@ from typing import Any
 
 def one(args: tuple[dict[str, Any], dict[str, Any], str]) -> dict[str, Any]:
     from thermrs.bench.world.cases import case_rigs, case_truths
-    from thermrs.bench.world.separability import strict_power_bound
+    from thermrs.bench.world.separability import guarded_power_bound, strict_power_bound
     from thermrs.bench.world.world import Campaign, draw_scene
 
-    row, setup, rig_path = args
+    row, setup, rig_path, guarded = args
     rig, wrig = case_rigs(rig_path)
     campaign = Campaign(
         hours=float(setup["hours"]), cycle_s=float(setup["cycle_s"]), sigma_um=setup["sigma_um"]
@@ -44,12 +50,18 @@ def one(args: tuple[dict[str, Any], dict[str, Any], str]) -> dict[str, Any]:
         wrig, scene, tuple(row["truth"]), float(row["target_snr"]), row["seed"]
     )
     b = strict_power_bound(scene, tuple(truths))
+    for k in guarded:
+        g = guarded_power_bound(
+            scene, tuple(truths), tolerances=rig.tolerances, scale=k, seed=row["seed"]
+        )
+        b[f"guarded_{k:g}"] = g["power_bound"]
     return {
         "effect": row["truth"][0],
         "world": row["world"],
         "seed": row["seed"],
         "snr": snrs[0],
         "strict_outcome": row.get("strict_outcome"),
+        "outcome": row.get("outcome"),
         "status": row.get("status"),
         "named": row.get("named"),
         **b,
@@ -66,6 +78,13 @@ def main() -> None:
     ap.add_argument("--min-snr", type=float, default=1.0)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--json", default=None)
+    ap.add_argument(
+        "--guarded",
+        type=float,
+        nargs="*",
+        default=[],
+        help="also the guarded bound at these multiples of the stated tolerances",
+    )
     a = ap.parse_args()
     todo = []
     for path in a.bench_json:
@@ -73,7 +92,7 @@ def main() -> None:
             doc = json.load(f)
         for r in doc["results"]:
             if r["kind"] == "single" and "skipped" not in r and r["target_snr"] >= a.min_snr:
-                todo.append((r, doc["setup"], a.rig))
+                todo.append((r, doc["setup"], a.rig, tuple(a.guarded)))
     with ProcessPoolExecutor(a.jobs) as pool:
         rows = list(pool.map(one, todo))
     print(
@@ -91,6 +110,14 @@ def main() -> None:
             f"{e:<18} {len(here):>5} {right:>12} {bound:>11.1f} ({bound / len(here):.0%}) "
             + ", ".join(f"{k} {v}" for k, v in sorted(hard.items(), key=lambda kv: -kv[1]))
         )
+    for k in a.guarded:
+        print(f"\nnamed at all, the null's rig at {k:g}x its tolerances:")
+        print(f"{'effect':<18} {'cases':>5} {'lenient right':>13} {'any test, at most':>18}")
+        for e in sorted({r["effect"] for r in rows}):
+            here = [r for r in rows if r["effect"] == e]
+            right = sum(r["outcome"] == "right" for r in here)
+            bound = float(np.sum([r[f"guarded_{k:g}"] for r in here]))
+            print(f"{e:<18} {len(here):>5} {right:>13} {bound:>11.1f} ({bound / len(here):.0%})")
     if a.json:
         with open(a.json, "w") as f:
             json.dump(rows, f, indent=1, default=float)

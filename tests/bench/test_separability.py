@@ -10,7 +10,11 @@ import thermrs
 from scipy.stats import norm
 from thermrs.bench.world import Campaign, Truth, draw_scene, render
 from thermrs.bench.world.cases import case_rigs
-from thermrs.bench.world.separability import rival_members, strict_power_bound
+from thermrs.bench.world.separability import (
+    guarded_power_bound,
+    rival_members,
+    strict_power_bound,
+)
 from thermrs.bench.world.snr import stack
 from thermrs.bench.world.world import _days, _first_order, closest_first_order_tau
 
@@ -87,3 +91,44 @@ def test_the_closest_first_order_lag_is_closer_than_the_weighted_mean() -> None:
     mean = sum(t * w for t, w in two.lags())
     assert sse(tau) <= sse(mean)
     assert sse(tau) <= min(sse(tau * 0.97), sse(tau * 1.03))
+
+
+def test_the_guarded_bound_is_the_level_for_no_effect_and_one_for_a_large_one() -> None:
+    """Against a null whose rig errs by 3× its statement: an effect of nearly no size cannot
+    be detected more often than the level (the two hypotheses then differ only in the rig's
+    errors, larger under the null), and one far above the noise always is."""
+    rig, _ = case_rigs(str(thermrs.default_rig_path()))
+    scene = _scene(34, hours=12.0)
+    tiny = Truth(
+        "sensor_drift", 1e-6, {"camera": "A", "dir": np.array([1.0, 0.0]), "tau_min": 30.0}
+    )
+    got = guarded_power_bound(
+        scene, (tiny,), tolerances=rig.tolerances, scale=3.0, draws=200, sims=8000, seed=1
+    )
+    assert got["power_bound"] <= 0.05 + 4 * 0.0025, got
+    large = Truth(
+        "sensor_drift", 30.0, {"camera": "A", "dir": np.array([1.0, 0.0]), "tau_min": 30.0}
+    )
+    got = guarded_power_bound(
+        scene, (large,), tolerances=rig.tolerances, scale=3.0, draws=200, sims=8000, seed=1
+    )
+    assert got["power_bound"] > 0.999, got
+
+
+def test_the_redrawn_rig_is_the_worlds_distribution() -> None:
+    """The rig drawn again for the guarded bound errs as :func:`draw_scene`'s does: a DH
+    length's error has the stated standard deviation times the scale."""
+    from thermrs.bench.world.world import with_nuisances_redrawn
+
+    rig, _ = case_rigs(str(thermrs.default_rig_path()))
+    scene = _scene(35)
+    rng = np.random.default_rng(3)
+    i = int(np.flatnonzero(scene.nominal.a_mm != 0)[0])
+    err = [
+        with_nuisances_redrawn(scene, rig.tolerances, 2.0, rng).true.a_mm[i] - scene.nominal.a_mm[i]
+        for _ in range(400)
+    ]
+    sd = float(np.std(err))
+    assert abs(sd / (2.0 * rig.tolerances["length_mm"]) - 1) < 0.15, sd
+    redrawn = with_nuisances_redrawn(scene, rig.tolerances, 2.0, rng)
+    assert redrawn.days == scene.days and redrawn.links == scene.links

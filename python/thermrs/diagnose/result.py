@@ -319,7 +319,8 @@ def _rig_statement(
 ) -> tuple[str, str, bool, bool]:
     """The verdict with what the data say of the rig's errors against its statement:
     ``unexplained`` where the effects of the robot it would name are not significant against
-    a rig erring by twice its stated tolerances (``tests.tolerance_excess``), and the factor
+    a rig erring by up to three times its stated tolerances (``tests.tolerance_excess``,
+    :mod:`.guard`), and the factor
     the data give (``tests.tolerance_scale``) said where its interval lies above 1. Returns
     (status, reason, exceeded, errs_more)."""
     excess = floor.extra.get("tolerance_excess") or {}
@@ -345,11 +346,12 @@ def _rig_statement(
             if advice
             else ""
         )
+        p_robot = min((excess.get("p_by_effect") or {}).get(e, 1.0) for e in robot)
         reason = (
-            f"what these runs show is within what the rig leaves by itself were its errors "
-            f"{excess['scale']:.2g}× what it states (no effect of the robot is significant "
-            f"then, p at the floor {excess['p_at_floor']:.2f}): check the rig's tolerances "
-            f"(docs/tolerances.md) before looking for an effect of the robot{found}"
+            f"what these runs show is within what the rig leaves by itself were its errors up "
+            f"to {excess['scale']:.2g}× what it states (no effect of the robot stands out of "
+            f"that, p {p_robot:.2f}): check the rig's tolerances (docs/tolerances.md) before "
+            f"looking for an effect of the robot{found}"
         )
     scale_doc = floor.extra.get("tolerance_scale") or {}
     # What the verdict says of the rig: k on the residual of the model with the effects
@@ -608,8 +610,8 @@ def _verdict_doc(
         "status": "unexplained" if status == "partially explained" else status,
         "outcome": status,
         "partially_explained": status == "partially explained",
-        # The gap is within what the rig leaves if it errs by twice its stated tolerances
-        # (tests.tolerance_excess): no effect of the robot is named.
+        # The gap is within what the rig leaves if it errs by up to three times its stated
+        # tolerances (tests.tolerance_excess, .guard): no effect of the robot is named.
         "rig_tolerances_exceeded": exceeded,
         # The data show the rig's errors exceed what it states: the 95 % interval of the
         # factor (tests.tolerance_scale, on the residual of the model reported) lies above 1.
@@ -674,8 +676,8 @@ def _tests_doc(
         # The factor by which the rig's errors exceed its stated tolerances, estimated
         # from the held-out residual (:mod:`.tolerance_scale`).
         "tolerance_scale": floor.extra.get("tolerance_scale"),
-        # The first step again with the rig erring by twice its stated tolerances (where it
-        # found something).
+        # Whether the effects of the robot stand out of a rig erring by up to three times its
+        # stated tolerances (where the first step found something: .guard).
         "tolerance_excess": floor.extra.get("tolerance_excess"),
         "tolerance_signatures": tolerances[1],
     }

@@ -30,7 +30,8 @@ noise, and the room thermometer reads ±0.1 K off with 0.02 K noise.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -64,6 +65,7 @@ __all__ = [
     "draw_scene",
     "measured_slopes",
     "render",
+    "with_nuisances_redrawn",
 ]
 
 #: The rig file's ``[tolerances]`` keys the world draws its nuisances from (module docs).
@@ -171,7 +173,32 @@ def draw_scene(
         tolerances = load_rig(nominal.source).tolerances
     rng = np.random.default_rng([seed, WORLDS.index(world)])
     tol = {k: scale * float(tolerances[k]) for k in TOLERANCE_KEYS}
-    true = perturbed(
+    true = _true_rig(nominal, tol, rng)
+    rois = nominal.rois or ("link",)
+    common = 1.0 + rng.normal(0.0, tol["ir_scale"])
+    jac = [_jacobian(true, c.name) for c in true.chips]
+    per_axis = np.mean([np.sum(j**2, axis=1) for j in jac])
+    alpha_per_k = nominal.alpha_per_k * rng.uniform(0.95, 1.05)
+    links = draw_links(tuple(rois), rng)
+    days = (draw_ambient(rng), draw_ambient(rng))
+    return Scene(
+        nominal=nominal,
+        true=true,
+        campaign=campaign,
+        world=world,
+        alpha_per_k=alpha_per_k,
+        links=links,
+        days=days,
+        **_instrument_errors(tuple(rois), tol, common, rng),
+        corr_time_min=rng.uniform(10.0, 30.0),
+        joint_sigma_rad=AR_SHARE * campaign.sigma_um / float(np.sqrt(per_axis)),
+        seed=seed,
+    )
+
+
+def _true_rig(nominal: WorldRig, tol: Mapping[str, float], rng: np.random.Generator) -> WorldRig:
+    """The rig's geometry drawn at the standard uncertainties ``tol`` (:func:`perturbed`)."""
+    return perturbed(
         nominal,
         rng,
         length_mm=tol["length_mm"],
@@ -181,27 +208,33 @@ def draw_scene(
         laser_mm=tol["laser_mm"],
         laser_deg=tol["laser_deg"],
     )
-    rois = nominal.rois or ("link",)
+
+
+def _instrument_errors(
+    rois: tuple[str, ...], tol: Mapping[str, float], common: float, rng: np.random.Generator
+) -> dict[str, Any]:
+    """The thermal camera's and the room thermometer's errors, drawn at ``tol`` (``common``:
+    the IR scale shared by every ROI): the :class:`Scene` fields of that name."""
+    return {
+        "ir_clock_s": float(rng.normal(0.0, tol["ir_clock_s"])),
+        "ir_gain": {r: common * (1 + rng.normal(0.0, tol["ir_gain"])) for r in rois},
+        "ir_offset": {r: rng.uniform(-0.3, 0.3) for r in rois},
+        "ir_drift": {(r, run[0]): rng.normal(0.0, tol["ir_drift_k"]) for r in rois for run in RUNS},
+        "room_offset": rng.uniform(-0.1, 0.1),
+    }
+
+
+def with_nuisances_redrawn(
+    scene: Scene, tolerances: Mapping[str, float], scale: float, rng: np.random.Generator
+) -> Scene:
+    """``scene`` with its rig and instruments drawn again, at ``scale`` times ``tolerances``
+    (as :func:`draw_scene` draws them), its thermal history, α and visit errors kept: another
+    rig of the same distribution in the same day."""
+    tol = {k: scale * float(tolerances[k]) for k in TOLERANCE_KEYS}
+    true = _true_rig(scene.nominal, tol, rng)
+    rois = tuple(scene.ir_gain)
     common = 1.0 + rng.normal(0.0, tol["ir_scale"])
-    jac = [_jacobian(true, c.name) for c in true.chips]
-    per_axis = np.mean([np.sum(j**2, axis=1) for j in jac])
-    return Scene(
-        nominal=nominal,
-        true=true,
-        campaign=campaign,
-        world=world,
-        alpha_per_k=nominal.alpha_per_k * rng.uniform(0.95, 1.05),
-        links=draw_links(tuple(rois), rng),
-        days=(draw_ambient(rng), draw_ambient(rng)),
-        ir_clock_s=float(rng.normal(0.0, tol["ir_clock_s"])),
-        ir_gain={r: common * (1 + rng.normal(0.0, tol["ir_gain"])) for r in rois},
-        ir_offset={r: rng.uniform(-0.3, 0.3) for r in rois},
-        ir_drift={(r, run[0]): rng.normal(0.0, tol["ir_drift_k"]) for r in rois for run in RUNS},
-        room_offset=rng.uniform(-0.1, 0.1),
-        corr_time_min=rng.uniform(10.0, 30.0),
-        joint_sigma_rad=AR_SHARE * campaign.sigma_um / float(np.sqrt(per_axis)),
-        seed=seed,
-    )
+    return replace(scene, true=true, **_instrument_errors(rois, tol, common, rng))
 
 
 @dataclass(frozen=True)
