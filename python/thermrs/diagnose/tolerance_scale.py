@@ -18,13 +18,12 @@ exact model (not by Wilks's χ², which a handful of informative components does
 its one-sided 95 % upper bound is the upper end of the 90 % interval.
 
 The estimate is made under the hypothesis of no effect: an effect whose held-out signature
-lies along the tolerances' raises it. That is what the test needs: the diagnoser names an
-effect of the robot only if it is significant against a null whose rig errs by the upper
-bound (:func:`thermrs.diagnose._tolerance_excess`), so the test keeps its level on a rig that
-understates its errors by any factor up to it, and an effect that stands out from the
-tolerances' directions keeps its power. There the estimate is made with the effects named
-fitted too: what they absorb of the tolerances' signatures is then counted, and the estimate
-holds whether they are real or not.
+lies along the tolerances' raises it. It is reported, and the verdict says when its interval
+lies above 1; where effects are named it is made with them fitted too (what they absorb of
+the tolerances' signatures is then counted, and the estimate holds whether they are real or
+not). The test an effect of the robot is named behind does not take it: it holds its level on
+any rig erring by up to three times its statement (:mod:`.guard`), since an effect the
+library's form fits only in part raises this estimate far above what the rig errs by.
 """
 
 from __future__ import annotations
