@@ -12,7 +12,8 @@ the linear model of every row of every run,
 
 α and the per-series offsets free (the nominal model's own freedom), the tolerances' weights a
 normal prior of ``scale`` times their stated size (generalised least squares: the columns ``N``
-with ``p`` rows of ``I/scale`` appended), each row weighted by its series' noise variance. The
+with ``p`` rows of ``I/scale`` appended), every series whitened by the floor's model of its
+noise (white plus a stationary AR(1) in time). The
 statistic is each family's χ² tail probability at its best grid point, the most significant of
 every family of the robot; its null distribution is simulated by drawing the floor's noise
 model (:func:`.null.draw_noise`, correlated parts and cross-channel correlation included) and
@@ -28,10 +29,12 @@ rig at three times its tolerances keeps it (``benchmarks/bench_separability.py -
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from scipy.linalg import solve_triangular
 from scipy.special import gammaln
 from scipy.stats import chi2
 
@@ -51,20 +54,38 @@ FloatArray = npt.NDArray[np.float64]
 GUARD_SCALE = 3.0
 
 
-def _row_sd(design: DesignMatrix, floor: NoiseFloor) -> FloatArray:
-    """Each row's noise standard deviation (µm) from the floor's model of its series."""
+def _whitener(design: DesignMatrix, floor: NoiseFloor) -> Callable[[FloatArray], FloatArray]:
+    """Rows whitened by the floor's noise model of their series: each (run, camera, axis)
+    series' covariance, white plus a stationary AR(1) in time (:class:`.floor.SeriesNoise`),
+    factored (Cholesky) and solved against; a series without a model by the floor's rms."""
     vs = design.vs
     n = vs.n
     noise = floor.by_key()
-    fallback = floor.holdout_um if np.isfinite(floor.holdout_um) else floor.train_um
-    sd = np.full(2 * n, float(fallback))
+    fallback = float(floor.holdout_um if np.isfinite(floor.holdout_um) else floor.train_um)
+    parts: list[tuple[npt.NDArray[np.intp], FloatArray | float]] = []
     for g in vs.groups:
         run, cam = str(vs.run[g[0]]), str(vs.camera[g[0]])
+        t = vs.t_s[g]
         for rows, axis in ((g, "u"), (g + n, "v")):
             s = noise.get((run, cam, axis))
-            if s is not None and s.floor_um > 0:
-                sd[rows] = s.floor_um
-    return sd
+            if s is None or s.floor_um <= 0:
+                parts.append((rows, fallback))
+                continue
+            cov = np.eye(rows.size) * s.white_um**2
+            if s.correlated_um > 0 and s.tau_c_s > 0:
+                cov += s.correlated_um**2 * np.exp(-np.abs(t[:, None] - t[None, :]) / s.tau_c_s)
+            parts.append((rows, np.linalg.cholesky(cov)))
+
+    def white(x: FloatArray) -> FloatArray:
+        out = np.empty_like(x)
+        for rows, f in parts:
+            if isinstance(f, float):
+                out[rows] = x[rows] / f
+            else:
+                out[rows] = solve_triangular(f, x[rows], lower=True)
+        return out
+
+    return white
 
 
 def _orthonormal(x: FloatArray) -> FloatArray | None:
@@ -125,20 +146,19 @@ def rig_excess_guard(
         ``p`` (the most significant family's family-wise p-value), ``p_by_effect`` (each
         effect's), ``significant_effects`` (at ``level``), ``scale``, ``draws``, ``method``.
     """
-    sd = _row_sd(design, floor)
-    w = 1.0 / sd
+    white = _whitener(design, floor)
     nuis = design.nuisance
     p = nuis.shape[1]
     # The fixed effects (α, offsets) and the tolerances' columns with their prior's rows.
-    fixed = np.column_stack([design.s, design.offsets]) * w[:, None]
+    fixed = white(np.column_stack([design.s, design.offsets]))
     fixed = fixed[:, np.linalg.norm(fixed, axis=0) > 0]
-    top = np.column_stack([fixed, nuis * w[:, None]])
+    top = np.column_stack([fixed, white(nuis)])
     bottom = np.column_stack([np.zeros((p, fixed.shape[1])), np.eye(p) / scale])
     q = _orthonormal(np.vstack([top, bottom]))
     if q is None:
         return {"tested": False, "scale": scale}
     noise = draw_noise(design, floor, draws, rng) + scale * nuis @ rng.standard_normal((p, draws))
-    ys = np.column_stack([design.y, noise]) * w[:, None]
+    ys = white(np.column_stack([design.y, noise]))
     ys = np.vstack([ys, np.zeros((p, ys.shape[1]))])
     resid = ys - q @ (q.T @ ys)
     stat: dict[str, FloatArray] = {}
@@ -149,7 +169,7 @@ def rig_excess_guard(
         tried = False
         for cols in g.cols:
             c = cols if cols.ndim == 2 else cols[:, None]
-            x = np.vstack([c * w[:, None], np.zeros((p, c.shape[1]))])
+            x = np.vstack([white(c), np.zeros((p, c.shape[1]))])
             x = x - q @ (q.T @ x)
             x = x - q @ (q.T @ x)
             q1 = _orthonormal(x)
@@ -179,8 +199,8 @@ def rig_excess_guard(
         "method": (
             "likelihood ratio of each family of the robot on every row of every run, α and the "
             "offsets free, the rig's tolerances a normal prior of scale× their stated size "
-            "(generalised least squares), rows weighted by the floor's noise; the most "
-            "significant family against its distribution in replicates of the floor's noise "
-            "model and the rig erring by scale× its tolerances (family-wise)"
+            "(generalised least squares), each series whitened by the floor's noise model; "
+            "the most significant family against its distribution in replicates of the "
+            "floor's noise model and the rig erring by scale× its tolerances (family-wise)"
         ),
     }
