@@ -33,7 +33,7 @@ def one(args: tuple[dict[str, Any], dict[str, Any], str]) -> dict[str, Any]:
     from thermrs.bench.world.separability import guarded_power_bound, strict_power_bound
     from thermrs.bench.world.world import Campaign, draw_scene
 
-    row, setup, rig_path, guarded = args
+    row, setup, rig_path, guarded, draws, strict = args
     rig, wrig = case_rigs(rig_path)
     campaign = Campaign(
         hours=float(setup["hours"]), cycle_s=float(setup["cycle_s"]), sigma_um=setup["sigma_um"]
@@ -49,10 +49,10 @@ def one(args: tuple[dict[str, Any], dict[str, Any], str]) -> dict[str, Any]:
     truths, snrs, _ = case_truths(
         wrig, scene, tuple(row["truth"]), float(row["target_snr"]), row["seed"]
     )
-    b = strict_power_bound(scene, tuple(truths))
+    b: dict[str, Any] = strict_power_bound(scene, tuple(truths)) if strict else {}
     for k in guarded:
         g = guarded_power_bound(
-            scene, tuple(truths), tolerances=rig.tolerances, scale=k, seed=row["seed"]
+            scene, tuple(truths), tolerances=rig.tolerances, scale=k, draws=draws, seed=row["seed"]
         )
         b[f"guarded_{k:g}"] = g["power_bound"]
     return {
@@ -78,6 +78,11 @@ def main() -> None:
     ap.add_argument("--min-snr", type=float, default=1.0)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--effect", nargs="*", default=[], help="only these effects' cases")
+    ap.add_argument(
+        "--no-strict", action="store_true", help="the guarded bound only (no strict ceiling)"
+    )
+    ap.add_argument("--draws", type=int, default=400, help="nuisance draws per scale (guarded)")
     ap.add_argument(
         "--guarded",
         type=float,
@@ -92,14 +97,16 @@ def main() -> None:
             doc = json.load(f)
         for r in doc["results"]:
             if r["kind"] == "single" and "skipped" not in r and r["target_snr"] >= a.min_snr:
-                todo.append((r, doc["setup"], a.rig, tuple(a.guarded)))
+                if a.effect and r["truth"][0] not in a.effect:
+                    continue
+                todo.append((r, doc["setup"], a.rig, tuple(a.guarded), a.draws, not a.no_strict))
     with ProcessPoolExecutor(a.jobs) as pool:
         rows = list(pool.map(one, todo))
     print(
         f"{'effect':<18} {'cases':>5} {'strict right':>12} {'any test, at most':>18} "
         "hardest rival (cases)"
     )
-    for e in sorted({r["effect"] for r in rows}):
+    for e in sorted({r["effect"] for r in rows} if not a.no_strict else ()):
         here = [r for r in rows if r["effect"] == e]
         right = sum(r["strict_outcome"] == "right" for r in here)
         bound = float(np.sum([r["power_bound"] for r in here]))
