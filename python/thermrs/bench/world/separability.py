@@ -193,6 +193,42 @@ def _nuisance(scene: Scene) -> FloatArray:
     return truth - np.concatenate(nominal_prediction(scene, readings))
 
 
+def _logpdf(y: FloatArray, m: FloatArray, chol: FloatArray) -> FloatArray:
+    """The normal log-density of the rows of ``y`` (mean ``m``, covariance ``chol·cholᵀ``), up to
+    a constant common to every covariance."""
+    z = np.linalg.solve(chol, (y - m).T)
+    return np.asarray(-0.5 * np.sum(z**2, axis=0) - np.sum(np.log(np.diag(chol))))
+
+
+def _np_powers(
+    alt: FloatArray,
+    d: FloatArray,
+    nulls: dict[float, FloatArray],
+    *,
+    white2: float,
+    level: float,
+    sims: int,
+    rng: np.random.Generator,
+) -> dict[float, float]:
+    """Per scale, the simulated power of the level-``level`` likelihood-ratio test of "no
+    effect, the nuisances drawn at that scale" (``nulls``: draws × directions) against "the
+    effect ``d``, the nuisances ``alt``", both normal with their draws' mean and covariance
+    plus the white noise ``white2``: a test that names an effect in at most ``level`` of the
+    effect-free worlds at every scale is, at each, at most as powerful (Neyman–Pearson)."""
+    eye = np.eye(d.size) * white2
+    m1 = alt.mean(axis=0) + d
+    l1 = np.linalg.cholesky(np.cov(alt, rowvar=False) + eye)
+    y1 = m1 + rng.standard_normal((sims, d.size)) @ l1.T
+    powers = {}
+    for k, zn in nulls.items():
+        m0 = zn.mean(axis=0)
+        l0 = np.linalg.cholesky(np.cov(zn, rowvar=False) + eye)
+        y0 = m0 + rng.standard_normal((sims, d.size)) @ l0.T
+        threshold = np.quantile(_logpdf(y0, m1, l1) - _logpdf(y0, m0, l0), 1.0 - level)
+        powers[k] = float(np.mean(_logpdf(y1, m1, l1) - _logpdf(y1, m0, l0) > threshold))
+    return powers
+
+
 def guarded_power_bound(
     scene: Scene,
     truths: tuple[Truth, ...],
@@ -270,26 +306,15 @@ def guarded_power_bound(
     u, sv, _ = np.linalg.svd(nulls[scales[-1]].T, full_matrices=False)
     keep = sv**2 / draws > 1e-4 * white2
     basis, _ = np.linalg.qr(np.column_stack([u[:, keep], d]))
-    eye = np.eye(basis.shape[1]) * white2
-    za = alt @ basis
-    m1 = za.mean(axis=0) + d @ basis
-    l1 = np.linalg.cholesky(np.cov(za, rowvar=False) + eye)
-    y1 = m1 + rng.standard_normal((sims, basis.shape[1])) @ l1.T
-
-    def logpdf(y: FloatArray, m: FloatArray, chol: FloatArray) -> FloatArray:
-        z = np.linalg.solve(chol, (y - m).T)
-        return np.asarray(-0.5 * np.sum(z**2, axis=0) - np.sum(np.log(np.diag(chol))))
-
-    # A test that names an effect in at most `level` of the effect-free worlds at every scale
-    # up to `scale` is, at each, at most the most powerful test of that simple null.
-    powers = {}
-    for k in scales:
-        zn = nulls[k] @ basis
-        m0 = zn.mean(axis=0)
-        l0 = np.linalg.cholesky(np.cov(zn, rowvar=False) + eye)
-        y0 = m0 + rng.standard_normal((sims, basis.shape[1])) @ l0.T
-        threshold = np.quantile(logpdf(y0, m1, l1) - logpdf(y0, m0, l0), 1.0 - level)
-        powers[k] = float(np.mean(logpdf(y1, m1, l1) - logpdf(y1, m0, l0) > threshold))
+    powers = _np_powers(
+        alt @ basis,
+        d @ basis,
+        {k: v @ basis for k, v in nulls.items()},
+        white2=white2,
+        level=level,
+        sims=sims,
+        rng=rng,
+    )
     power = min(powers.values())
     return {
         "power_bound": power,
