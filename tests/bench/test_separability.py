@@ -98,19 +98,19 @@ def test_the_guarded_bound_is_the_level_for_no_effect_and_one_for_a_large_one() 
     be detected more often than the level (the two hypotheses then differ only in the rig's
     errors, larger under the null), and one far above the noise always is."""
     rig, _ = case_rigs(str(thermrs.default_rig_path()))
-    scene = _scene(34, hours=12.0)
+    scene = _scene(34, hours=4.0)
     tiny = Truth(
         "sensor_drift", 1e-6, {"camera": "A", "dir": np.array([1.0, 0.0]), "tau_min": 30.0}
     )
     got = guarded_power_bound(
-        scene, (tiny,), tolerances=rig.tolerances, scale=3.0, draws=200, sims=8000, seed=1
+        scene, (tiny,), tolerances=rig.tolerances, scale=3.0, draws=80, sims=8000, seed=1
     )
     assert got["power_bound"] <= 0.05 + 4 * 0.0025, got
     large = Truth(
         "sensor_drift", 30.0, {"camera": "A", "dir": np.array([1.0, 0.0]), "tau_min": 30.0}
     )
     got = guarded_power_bound(
-        scene, (large,), tolerances=rig.tolerances, scale=3.0, draws=200, sims=8000, seed=1
+        scene, (large,), tolerances=rig.tolerances, scale=3.0, draws=80, sims=8000, seed=1
     )
     assert got["power_bound"] > 0.999, got
 
