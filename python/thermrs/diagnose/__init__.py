@@ -53,13 +53,13 @@ from thermrs.diagnose.confounding import confounded_pairs
 from thermrs.diagnose.family_fit import DesignMatrix, Fit
 from thermrs.diagnose.final_model import final_model
 from thermrs.diagnose.floor import SCALE_SEPARATION, NoiseFloor, noise_floor, thermal_time_scales
+from thermrs.diagnose.guard import GUARD_SCALE, rig_excess_guard
 from thermrs.diagnose.input_checks import check_inputs, smooth_temperatures
 from thermrs.diagnose.location import drivers, location_table, phases, whiteness
 from thermrs.diagnose.null import Batch
 from thermrs.diagnose.resample import cycle_units
 from thermrs.diagnose.result import Diagnosis, assemble
 from thermrs.diagnose.selection import FamilyGrid, Step, build_grids, forward_selection
-from thermrs.diagnose.guard import GUARD_SCALE, rig_excess_guard
 from thermrs.diagnose.tolerance_scale import tolerance_scale
 from thermrs.diagnose.tolerances import nuisance_signatures
 from thermrs.diagnose.verdict import decide

@@ -66,7 +66,10 @@ def _whitener(design: DesignMatrix, floor: NoiseFloor) -> Callable[[FloatArray],
     for g in vs.groups:
         run, cam = str(vs.run[g[0]]), str(vs.camera[g[0]])
         t = vs.t_s[g]
-        for rows, axis in ((g, "u"), (g + n, "v")):
+        for rows, axis in (
+            (np.asarray(g, dtype=np.intp), "u"),
+            (np.asarray(g + n, dtype=np.intp), "v"),
+        ):
             s = noise.get((run, cam, axis))
             if s is None or s.floor_um <= 0:
                 parts.append((rows, fallback))
@@ -74,7 +77,7 @@ def _whitener(design: DesignMatrix, floor: NoiseFloor) -> Callable[[FloatArray],
             cov = np.eye(rows.size) * s.white_um**2
             if s.correlated_um > 0 and s.tau_c_s > 0:
                 cov += s.correlated_um**2 * np.exp(-np.abs(t[:, None] - t[None, :]) / s.tau_c_s)
-            parts.append((rows, np.linalg.cholesky(cov)))
+            parts.append((rows, np.asarray(np.linalg.cholesky(cov), dtype=np.float64)))
 
     def white(x: FloatArray) -> FloatArray:
         out = np.empty_like(x)

@@ -216,13 +216,13 @@ def _np_powers(
     plus the white noise ``white2``: a test that names an effect in at most ``level`` of the
     effect-free worlds at every scale is, at each, at most as powerful (Neyman–Pearson)."""
     eye = np.eye(d.size) * white2
-    m1 = alt.mean(axis=0) + d
-    l1 = np.linalg.cholesky(np.cov(alt, rowvar=False) + eye)
+    m1 = np.asarray(alt.mean(axis=0) + d, dtype=np.float64)
+    l1 = np.asarray(np.linalg.cholesky(np.cov(alt, rowvar=False) + eye), dtype=np.float64)
     y1 = m1 + rng.standard_normal((sims, d.size)) @ l1.T
     powers = {}
     for k, zn in nulls.items():
-        m0 = zn.mean(axis=0)
-        l0 = np.linalg.cholesky(np.cov(zn, rowvar=False) + eye)
+        m0 = np.asarray(zn.mean(axis=0), dtype=np.float64)
+        l0 = np.asarray(np.linalg.cholesky(np.cov(zn, rowvar=False) + eye), dtype=np.float64)
         y0 = m0 + rng.standard_normal((sims, d.size)) @ l0.T
         threshold = np.quantile(_logpdf(y0, m1, l1) - _logpdf(y0, m0, l0), 1.0 - level)
         powers[k] = float(np.mean(_logpdf(y1, m1, l1) - _logpdf(y1, m0, l0) > threshold))
