@@ -6,6 +6,7 @@ the power of the most powerful test, simulated with the world's own noise, is th
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import thermrs
 from scipy.stats import norm
 from thermrs.bench.world import Campaign, Truth, draw_scene, render
@@ -93,6 +94,7 @@ def test_the_closest_first_order_lag_is_closer_than_the_weighted_mean() -> None:
     assert sse(tau) <= min(sse(tau * 0.97), sse(tau * 1.03))
 
 
+@pytest.mark.slow
 def test_the_guarded_bound_is_the_level_for_no_effect_and_one_for_a_large_one() -> None:
     """Against a null whose rig errs by 3× its statement: an effect of nearly no size cannot
     be detected more often than the level (the two hypotheses then differ only in the rig's

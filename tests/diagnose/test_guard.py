@@ -1,9 +1,9 @@
 """The guard an effect of the robot is named behind (:mod:`thermrs.diagnose.guard`): its
-statistic against a closed form, its level on effect-free runs of the independent bench world
-(:mod:`thermrs.bench.world`) whose rig errs by three times what it states, and its power where
-the most powerful test against such a rig has all of it
-(:func:`thermrs.bench.world.separability.guarded_power_bound`). Seeds from 1960000 up, which
-no rule of the diagnoser was chosen on."""
+statistic against a closed form, and its power on runs of the independent bench world
+(:mod:`thermrs.bench.world`) where the most powerful test against a rig erring by three times
+what it states has all of it (:func:`thermrs.bench.world.separability.guarded_power_bound`);
+its level on effect-free runs of such a rig is checked in ``test_tolerance_scale.py``. Seeds
+from 1961000 up, which no rule of the diagnoser was chosen on."""
 
 from __future__ import annotations
 
@@ -26,28 +26,6 @@ def test_the_tail_statistic_is_the_chi2_tail_and_keeps_its_order_past_doubles() 
     assert np.allclose(three, -np.log(chi2.sf([1.0, 40.0], 3)))
     far = _neg_log_tail(np.array([2000.0, 3000.0, 4000.0]), 5)
     assert np.all(np.isfinite(far)) and np.all(np.diff(far) > 0)
-
-
-def test_effect_free_runs_of_a_rig_three_times_worse_seldom_pass_the_guard() -> None:
-    """Where the first step finds something on effect-free runs whose rig errs by 3× its
-    statement, the guard's family-wise p-value is as a valid test's: at most 5 % of the time
-    at or below 0.05."""
-    rig = thermrs.load_rig()
-    path = str(thermrs.default_rig_path())
-    ps = []
-    for world in ("white", "ar1"):
-        for k in range(5):
-            seed = 1960000 + 10 * k + (world == "ar1")
-            tables, _, _ = make_case(
-                path, (), 1.0, world=world, seed=seed, campaign=Campaign(), tolerance_scale=3.0
-            )
-            doc = diagnose(tables[:1], tables[1:], rig, bootstrap=0, null_draws=99, seed=seed)
-            g = doc.to_json()["tests"].get("tolerance_excess") or {}
-            if g.get("tested"):
-                ps.append(g["p"])
-    assert ps, "the guard ran on none of the cases: the test tests nothing"
-    # Each p is ≤ 0.05 with probability ≤ 5 %: three or more of ten has probability 1.2 %.
-    assert sum(p <= 0.05 for p in ps) <= 2, ps
 
 
 @pytest.mark.slow

@@ -111,6 +111,22 @@ def test_a_rig_three_times_worse_than_it_states_gets_no_effect_of_the_robot(
     assert sum(bool(n) for n in named) <= 1, named
 
 
+def test_effect_free_runs_of_a_rig_three_times_worse_seldom_pass_the_guard(
+    three_times_worse: list[dict[str, Any]],
+) -> None:
+    """Where the first step finds something on them, the guard's family-wise p-value
+    (:mod:`thermrs.diagnose.guard`) is as a valid test's at a rig erring by as much as it
+    allows: at most 5 % of the time at or below 0.05."""
+    ps = [
+        g["p"]
+        for d in three_times_worse
+        if (g := d["tests"].get("tolerance_excess") or {}).get("tested")
+    ]
+    assert ps, "the guard ran on none of the cases: the test tests nothing"
+    # Each p is ≤ 0.05 with probability ≤ 5 %: three or more of six has probability 0.2 %.
+    assert sum(p <= 0.05 for p in ps) <= 2, ps
+
+
 def test_where_the_rigs_excess_explains_the_gap_no_effect_of_the_robot_is_offered() -> None:
     """Not even as what the gap might be: a rig three times worse than it states, the gap
     within what it leaves erring by twice (``rig_tolerances_exceeded``): the verdict's effects
