@@ -286,6 +286,20 @@ def andrews_bandwidth(scores: FloatArray, chains: list[IntArray]) -> int:
     return int(min(np.floor(bw), max(lengths) - 1))
 
 
+def unit_qr(x: FloatArray, *, rtol: float) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+    """QR of ``x``'s columns scaled to unit norm: (q, r, the norms); None where a column is
+    zero or not finite, or where the columns are dependent (a diagonal of r below ``rtol``
+    times its largest)."""
+    norms = np.linalg.norm(x, axis=0)
+    if np.any(norms == 0) or not np.all(np.isfinite(norms)):
+        return None
+    q, r = np.linalg.qr(x / norms)
+    dg = np.abs(np.diag(r))
+    if dg.min() < rtol * dg.max():
+        return None
+    return np.asarray(q, dtype=np.float64), np.asarray(r, dtype=np.float64), norms
+
+
 def _qr_solve(xw: FloatArray, yw: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Coefficients and (XᵀX)⁻¹ by QR on unit-norm columns; raises on a rank-deficient X."""
     norms = np.linalg.norm(xw, axis=0)

@@ -43,6 +43,7 @@ from thermrs.diagnose.floor import NoiseFloor
 from thermrs.diagnose.null import draw_noise
 from thermrs.diagnose.selection import FamilyGrid
 from thermrs.effects import is_instrument
+from thermrs.stats import unit_qr
 
 __all__ = ["GUARD_SCALE", "rig_excess_guard"]
 
@@ -93,14 +94,8 @@ def _whitener(design: DesignMatrix, floor: NoiseFloor) -> Callable[[FloatArray],
 
 def _orthonormal(x: FloatArray) -> FloatArray | None:
     """An orthonormal basis of ``x``'s unit-norm columns; None if they are dependent."""
-    norms = np.linalg.norm(x, axis=0)
-    if np.any(norms == 0) or not np.all(np.isfinite(norms)):
-        return None
-    q, r = np.linalg.qr(x / norms)
-    dg = np.abs(np.diag(r))
-    if dg.min() < 1e-8 * dg.max():
-        return None
-    return np.asarray(q, dtype=np.float64)
+    qr = unit_qr(x, rtol=1e-8)
+    return None if qr is None else qr[0]
 
 
 def _neg_log_tail(t: FloatArray, dof: int) -> FloatArray:

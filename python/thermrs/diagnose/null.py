@@ -33,6 +33,7 @@ from scipy.linalg import solve_triangular
 
 from thermrs.diagnose.family_fit import DesignMatrix
 from thermrs.diagnose.floor import NoiseFloor
+from thermrs.stats import unit_qr
 
 __all__ = [
     "Batch",
@@ -180,13 +181,10 @@ class Batch:
         x_all = self._x_all(columns)
         k = x_all.shape[1]
         x = np.column_stack([x_all[self.tr], self.off_tr]) * self.sw[self.tr, None]
-        norms = np.linalg.norm(x, axis=0)
-        if np.any(norms == 0) or not np.all(np.isfinite(norms)):
+        qr = unit_qr(x, rtol=1e-10)
+        if qr is None:
             return None
-        q, r = np.linalg.qr(x / norms)
-        dg = np.abs(np.diag(r))
-        if dg.min() < 1e-10 * dg.max():
-            return None
+        q, r, norms = qr
         qty = q.T @ obs.yw
         coef = solve_triangular(r, qty) / norms[:, None]
         rss = obs.yy - np.sum(qty * qty, axis=0)
