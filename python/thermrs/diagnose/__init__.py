@@ -345,6 +345,7 @@ def _diagnose(
         margin_um=margin,
         rng=rng,
         scale_rng=np.random.default_rng([seed % 2**63, 45]),
+        guard_rng=np.random.default_rng([seed % 2**63, 46]),
         say=say,
     )
     margin = steps[0].margin_um
@@ -358,7 +359,9 @@ def _diagnose(
         if final.columns is not None:
             _with_final_model(b, batch, final.columns, seed)
     first = steps[0]
-    if first.significant or min(first.p_at_floor, first.p_low) < level / 4.0:
+    if first.significant or min(first.p_at_floor, first.p_low, first.p_floor_contradicted) < (
+        level / 4.0
+    ):
         # At the verdict's own level: an effect of the robot is named only if the selection
         # and this test both find it (intersection–union), so the share of effect-free runs on
         # a rig erring by up to GUARD_SCALE× its statement that name one is at most `level`.
@@ -443,6 +446,7 @@ def _select(
     margin_um: float | None,
     rng: np.random.Generator,
     scale_rng: np.random.Generator,
+    guard_rng: np.random.Generator,
     say: Callable[[str], object],
 ) -> tuple[list[FamilyGrid], list[Step], Batch]:
     """Every family of the library on these runs, and the forward selection among them
@@ -458,12 +462,22 @@ def _select(
         others.extend(cls.families(rig, b.vs))
     grids += build_grids(others, b.vs, b.design, nameable=False)
     batch = Batch(b.design, window_s=3.0 * b.floor.tau_c_max_s)
+
+    def guard() -> dict[str, Any]:
+        # Once per diagnosis, on its own generator; the verdict's test reuses it.
+        if "tolerance_excess" not in b.floor.extra:
+            b.floor.extra["tolerance_excess"] = _guard(b, grids, level, null_draws, guard_rng)
+        out: dict[str, Any] = b.floor.extra["tolerance_excess"]
+        return out
+
     steps = forward_selection(
         batch,
         b.design,
         b.floor,
         grids,
         level=level / 4.0,
+        gap_level=level,
+        guard=guard,
         draws=null_draws,
         margin_um=margin_um,
         rng=rng,
@@ -504,14 +518,21 @@ def _test_at_tolerance_scale(
     named |= {r for st in steps for r in st.rivals}
     robot = sorted(e for e in named if not is_instrument(e))
     say(f"the effects against a rig erring by up to {GUARD_SCALE:g}× its tolerances")
-    if b.design.nuisance.shape[1] == 0:
-        b.floor.extra["tolerance_excess"] = {"scale": GUARD_SCALE, "tested": False}
-        return
-    out = rig_excess_guard(b.design, b.floor, grids, level=level, draws=draws, rng=rng)
+    out = b.floor.extra.get("tolerance_excess") or _guard(b, grids, level, draws, rng)
     if out.get("tested"):
         still = set(out["significant_effects"])
         out["explains"] = bool(not set(robot) & still) if robot else not still
     b.floor.extra["tolerance_excess"] = out
+
+
+def _guard(
+    b: _Base, grids: list[FamilyGrid], level: float, draws: int, rng: np.random.Generator
+) -> dict[str, Any]:
+    """The guard's test (:mod:`.guard`) of the library's families on these runs."""
+    if b.design.nuisance.shape[1] == 0:
+        return {"scale": GUARD_SCALE, "tested": False}
+    nameable = [g for g in grids if g.nameable]
+    return rig_excess_guard(b.design, b.floor, nameable, level=level, draws=draws, rng=rng)
 
 
 def _evidence(

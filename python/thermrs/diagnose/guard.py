@@ -142,7 +142,9 @@ def rig_excess_guard(
     -------
     dict
         ``p`` (the most significant family's family-wise p-value), ``p_by_effect`` (each
-        effect's), ``significant_effects`` (at ``level``), ``scale``, ``draws``, ``method``.
+        effect's), ``significant_effects`` (at ``level``), ``best`` (each effect's most
+        significant family and grid point on the data, with its −log χ² tail, the most
+        significant first), ``scale``, ``draws``, ``method``.
     """
     white = _whitener(design, floor)
     nuis = design.nuisance
@@ -159,25 +161,7 @@ def rig_excess_guard(
     ys = white(np.column_stack([design.y, noise]))
     ys = np.vstack([ys, np.zeros((p, ys.shape[1]))])
     resid = ys - q @ (q.T @ ys)
-    stat: dict[str, FloatArray] = {}
-    for g in grids:
-        if not g.nameable or is_instrument(g.family.effect):
-            continue
-        best = np.full(ys.shape[1], -np.inf)
-        tried = False
-        for cols in g.cols:
-            c = cols if cols.ndim == 2 else cols[:, None]
-            x = np.vstack([white(c), np.zeros((p, c.shape[1]))])
-            x = x - q @ (q.T @ x)
-            x = x - q @ (q.T @ x)
-            q1 = _orthonormal(x)
-            if q1 is None:
-                continue
-            t = np.sum((q1.T @ resid) ** 2, axis=0)
-            best = np.maximum(best, _neg_log_tail(t, q1.shape[1]))
-            tried = True
-        if tried:
-            stat[g.family.effect] = np.maximum(stat.get(g.family.effect, best), best)
+    stat, where = _family_stats(grids, white, q, resid, p)
     if not stat:
         return {"tested": False, "scale": scale}
     most = np.max(np.stack(list(stat.values())), axis=0)
@@ -194,6 +178,12 @@ def rig_excess_guard(
         "p": p_of(float(most[0])),
         "p_by_effect": p_by,
         "significant_effects": sorted(e for e, pv in p_by.items() if pv <= level),
+        # The family and grid point of each effect most significant on the data, the most
+        # significant effect first.
+        "best": {
+            e: {"family": lab, "index": i, "neg_log_p": v}
+            for e, (v, lab, i) in sorted(where.items(), key=lambda kv: -kv[1][0])
+        },
         "method": (
             "likelihood ratio of each family of the robot on every row of every run, α and the "
             "offsets free, the rig's tolerances a normal prior of scale× their stated size "
@@ -202,3 +192,40 @@ def rig_excess_guard(
             "floor's noise model and the rig erring by scale× its tolerances (family-wise)"
         ),
     }
+
+
+def _family_stats(
+    grids: list[FamilyGrid],
+    white: Callable[[FloatArray], FloatArray],
+    q: FloatArray,
+    resid: FloatArray,
+    p: int,
+) -> tuple[dict[str, FloatArray], dict[str, tuple[float, str, int]]]:
+    """Each effect of the robot's statistic (−log χ² tail at its best family and grid point)
+    on the data and every replicate (columns of ``resid``, the fixed part ``q`` projected
+    out), and where on the data it is most significant (−log tail, family, grid index)."""
+    stat: dict[str, FloatArray] = {}
+    where: dict[str, tuple[float, str, int]] = {}
+    for g in grids:
+        if not g.nameable or is_instrument(g.family.effect):
+            continue
+        best = np.full(resid.shape[1], -np.inf)
+        tried = False
+        for i, cols in enumerate(g.cols):
+            c = cols if cols.ndim == 2 else cols[:, None]
+            x = np.vstack([white(c), np.zeros((p, c.shape[1]))])
+            x = x - q @ (q.T @ x)
+            x = x - q @ (q.T @ x)
+            q1 = _orthonormal(x)
+            if q1 is None:
+                continue
+            t = np.sum((q1.T @ resid) ** 2, axis=0)
+            tail = _neg_log_tail(t, q1.shape[1])
+            best = np.maximum(best, tail)
+            tried = True
+            e = g.family.effect
+            if e not in where or tail[0] > where[e][0]:
+                where[e] = (float(tail[0]), g.family.label, i)
+        if tried:
+            stat[g.family.effect] = np.maximum(stat.get(g.family.effect, best), best)
+    return stat, where

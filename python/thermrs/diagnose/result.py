@@ -281,7 +281,9 @@ def _tests(steps: list[Step], level: float) -> dict[str, Any]:
         "method": "parametric bootstrap of the whole pipeline in a world where the model of "
         "each step is the truth (its fit, the floor's noise model per series, and the rig "
         "drawn within its stated tolerances); Bonferroni over the four tests that `none` must "
-        "pass; p-values are (1 + k)/(B + 1), never below what the draws resolve",
+        "pass, the first step's gains at the level itself where its other tests already "
+        "show a gap (closed testing); p-values are (1 + k)/(B + 1), never below what the "
+        "draws resolve",
         "steps": [
             {
                 "model": [c.label for c in s.model],
@@ -294,8 +296,10 @@ def _tests(steps: list[Step], level: float) -> dict[str, Any]:
                 "p_best_gain": s.p_gain,
                 "p_floor_contradicted": s.p_floor_contradicted,
                 "gain_threshold_um2": s.threshold,
+                "gain_level": s.gain_level,
                 "significant": s.significant,
                 "chosen": None if s.chosen is None else s.chosen.label,
+                "chosen_by": None if s.chosen is None else s.chosen_by,
                 "draws": s.draws,
                 "rival_draws": s.rival_draws,
                 "detectable_um": s.detectable_um,

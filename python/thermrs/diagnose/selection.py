@@ -10,6 +10,17 @@ from the new model. Selection stops when nothing is significant, when what is le
 a gap (at the floor and white at the thermal time scales against the first step's gap-free
 world), or when three effects are in.
 
+The first step. Once its other tests show a gap at the step's level, the verdict cannot be
+`none` whatever the gains say, so the gains are tested at ``gap_level`` (the verdict's level)
+instead of the Bonferroni share `none` needs (closed testing; naming an effect of the robot
+still takes the guard, :mod:`.guard`, at the verdict's level: intersection–union). And where
+the held-out gains then choose no effect, or one of the robot the guard does not find, while
+the guard finds effects of the robot, the guard's most significant family that is plausible
+and takes something off the held-out rms at its grid point on every run is chosen instead,
+the other effects it finds its rivals: a family fitted on the training run alone can miss
+what every run shows (a non-linear α's curvature, which a run at one speed hardly shows), and
+no choice the guard does not find could be named.
+
 Rivals of a selected effect A are the other significant, plausible effects B (one family per
 effect name) that the data cannot reject as the truth: in a world where B (fitted) is the
 truth, how much better than B does A come out on the held-out runs? The k rivals' p-values go
@@ -23,6 +34,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -30,7 +42,7 @@ import numpy.typing as npt
 from thermrs.diagnose.family_fit import DesignMatrix
 from thermrs.diagnose.floor import NoiseFloor
 from thermrs.diagnose.null import Batch, BatchFit, Observations, draw_noise, quantile_above
-from thermrs.effects import Family
+from thermrs.effects import Family, is_instrument
 from thermrs.signatures import VisitSet
 
 __all__ = ["FamilyGrid", "Step", "build_grids", "forward_selection"]
@@ -114,6 +126,12 @@ class Step:
     #: approximation, the gain's spread under the effect taken as the null's).
     detectable_by_family: dict[str, float] = field(default_factory=dict)
     draws: int = 0
+    #: What chose the step's effect: the held-out gains, or the every-run test against a rig
+    #: erring by more than it states where they chose none it finds (:func:`run_step`).
+    chosen_by: str = "held-out gain"
+    #: The level the families' gains were tested at: the selection's, or the verdict's where
+    #: the step's other tests had already shown a gap (:func:`run_step`'s ``gap_level``).
+    gain_level: float = 0.0
     rival_draws: int = 0
     #: The null world's held-out mean squares with the model's last effect re-profiled on its
     #: grid in every replicate (its non-linear parameters' estimation error included).
@@ -208,11 +226,14 @@ def run_step(
     plausible: Callable[[list[Choice], Choice], bool],
     margin_um: float | None = 0.0,
     prefer: str | None = None,
+    gap_level: float | None = None,
+    guard: Callable[[], dict[str, Any]] | None = None,
 ) -> Step:
     """Test the model against its null world and score every family added to it. A family
     is significant when its held-out gain beats the null's threshold *and* it takes at least
     ``margin_um`` off the held-out rms (practical significance). The family chosen is the
-    significant one that leaves least, or ``prefer`` (a label) where it is significant."""
+    significant one that leaves least, or ``prefer`` (a label) where it is significant.
+    ``gap_level`` and ``guard`` (the first step only): module docs, "The first step"."""
     ys_raw, cur = _world(batch, design, floor, model, draws, rng)
     if not model and floor.holdout_se_um is None:
         _floor_uncertainty(batch, design, floor, ys_raw, cur)
@@ -226,15 +247,7 @@ def run_step(
     low = batch.low(cur.hold_resid)
     sc = _Scores.of(batch, model, grids, ys, cur)
     gains, hold = sc.gains, sc.hold
-    # Each family's gain studentized by its own null spread before the maximum: a family that
-    # is unstable once the model so far is in (a wide null) cannot set the bar for the others.
-    centre: dict[str, float] = {}
-    spread: dict[str, float] = {}
-    for k, v in gains.items():
-        null = v[1:][np.isfinite(v[1:])]
-        centre[k] = float(np.median(null)) if len(null) else 0.0
-        mad = float(np.median(np.abs(null - centre[k]))) * 1.4826 if len(null) else 0.0
-        spread[k] = max(mad, float(np.std(null)) * 0.1, 1e-12)
+    centre, spread = _studentizers(gains)
     z = {k: (v - centre[k]) / spread[k] for k, v in gains.items()}
     # The bar and the tests of the model so far are the library's: an effect outside it
     # (excluded) is only ever a rival.
@@ -247,7 +260,13 @@ def run_step(
         max_null = np.zeros(draws)
         min_hold_null = cur.hold_ms[1:]
         obs_min_hold = float(cur.hold_ms[0])
-    z_cut = float(np.quantile(max_null, 1.0 - level))
+    p_at_floor = quantile_above(cur.hold_ms[1:], float(cur.hold_ms[0]))
+    p_low = quantile_above(low[1:], float(low[0]))
+    # How often the null's best candidate leaves as little as the data's best does.
+    p_contradicted = float((1 + np.sum(min_hold_null <= obs_min_hold)) / (len(min_hold_null) + 1))
+    gap = min(p_at_floor, p_low, p_contradicted) < level
+    gain_level = max(level, gap_level) if gap_level is not None and gap else level
+    z_cut = float(np.quantile(max_null, 1.0 - gain_level))
     # Each family's bar in µm² (its gain at the studentized cut).
     bars = {k: centre[k] + z_cut * spread[k] for k in gains}
     threshold = max((bars[k] for k in named), default=0.0)
@@ -256,13 +275,10 @@ def run_step(
     step = Step(
         model=list(model),
         hold_ms=float(cur.hold_ms[0]),
-        p_at_floor=quantile_above(cur.hold_ms[1:], float(cur.hold_ms[0])),
-        p_low=quantile_above(low[1:], float(low[0])),
+        p_at_floor=p_at_floor,
+        p_low=p_low,
         p_gain=quantile_above(max_null, max((float(z[k][0]) for k in named), default=0.0)),
-        # How often the null's best candidate leaves as little as the data's best does.
-        p_floor_contradicted=float(
-            (1 + np.sum(min_hold_null <= obs_min_hold)) / (len(min_hold_null) + 1)
-        ),
+        p_floor_contradicted=p_contradicted,
         gain={k: float(gains[k][0]) for k in named},
         gain_p={k: quantile_above(max_null, float(z[k][0])) for k in named},
         best_index=sc.best_idx,
@@ -275,6 +291,7 @@ def run_step(
             k: float(np.sqrt(max((z_cut + Z_POWER_80) * spread[k], 0.0))) for k in named
         },
         draws=draws,
+        gain_level=gain_level,
     )
     step.margin_um = margin_um
     if model:
@@ -283,14 +300,77 @@ def run_step(
             step.null_hold_ms_profiled = again[0][1:]
     sig = sc.significant(bars, model, plausible, removes=np.sqrt(h0) - margin_um)
     ok = [c for c in sig if c.grid.nameable]
+    ok.sort(key=lambda c: c.label != prefer)  # stable: the preferred one first, if there
+    if guard is not None and gap and not model:
+        ok = _guarded_choices(ok, guard(), grids, _admissible(batch, design, cur, plausible))
+        if ok and ok[0].label not in {c.label for c in sig}:
+            step.chosen_by = "guard"
     step.significant = [c.label for c in ok]
     if not ok:
         return step
-    ok.sort(key=lambda c: c.label != prefer)  # stable: the preferred one first, if there
     step.chosen = ok[0]
     outside = [c for c in sig if not c.grid.nameable]
     _test_rivals(step, ok, outside, batch, design, floor, model, level=level, draws=draws, rng=rng)
     return step
+
+
+def _studentizers(gains: dict[str, FloatArray]) -> tuple[dict[str, float], dict[str, float]]:
+    """Each family's null centre and spread (median, MAD): its gain is studentized by them
+    before the maximum, so that a family unstable once the model so far is in (a wide null)
+    cannot set the bar for the others."""
+    centre: dict[str, float] = {}
+    spread: dict[str, float] = {}
+    for k, v in gains.items():
+        null = v[1:][np.isfinite(v[1:])]
+        centre[k] = float(np.median(null)) if len(null) else 0.0
+        mad = float(np.median(np.abs(null - centre[k]))) * 1.4826 if len(null) else 0.0
+        spread[k] = max(mad, float(np.std(null)) * 0.1, 1e-12)
+    return centre, spread
+
+
+def _admissible(
+    batch: Batch,
+    design: DesignMatrix,
+    cur: BatchFit,
+    plausible: Callable[[list[Choice], Choice], bool],
+) -> Callable[[Choice], bool]:
+    """Whether a first choice is plausible and takes something off the held-out rms."""
+
+    def ok(ch: Choice) -> bool:
+        if not plausible([], ch):
+            return False
+        got = batch.fit(_stack([ch]), design.y[:, None])
+        return got is not None and float(got.hold_ms[0]) < float(cur.hold_ms[0])
+
+    return ok
+
+
+def _guarded_choices(
+    ok: list[Choice],
+    found: dict[str, Any],
+    grids: list[FamilyGrid],
+    admissible: Callable[[Choice], bool],
+) -> list[Choice]:
+    """The first step's candidates, the chosen first: the held-out gains' (``ok``) unless
+    they choose no effect, or one of the robot the guard (``found``, :mod:`.guard`) does not
+    find, while it finds effects of the robot; then the guard's families of the effects it
+    finds that are ``admissible`` (plausible, and taking something off the held-out rms at
+    the guard's grid point), the most significant first, and the thermal camera's candidates
+    among ``ok`` (which the guard does not test) as their rivals."""
+    sig = set(found.get("significant_effects") or []) if found.get("tested") else set()
+    if not sig or (ok and (is_instrument(ok[0].effect) or ok[0].effect in sig)):
+        return ok
+    by_label = {g.family.label: g for g in grids if g.nameable}
+    picks = []
+    for e, b in (found.get("best") or {}).items():
+        g = by_label.get(b["family"])
+        if e in sig and g is not None:
+            ch = Choice(g, int(b["index"]))
+            if admissible(ch):
+                picks.append(ch)
+    if not picks:
+        return ok
+    return [*picks, *(c for c in ok if is_instrument(c.effect))]
 
 
 #: The standard normal quantile of 80 % power (per-family detectable sizes).
@@ -599,9 +679,13 @@ def forward_selection(
     plausible: Callable[[list[Choice], Choice], bool],
     max_effects: int = 3,
     margin_um: float | None = 0.0,
+    gap_level: float | None = None,
+    guard: Callable[[], dict[str, Any]] | None = None,
     say: Callable[[str], object] = lambda _m: None,
 ) -> list[Step]:
-    """The selection's steps (module docs); the last step tests the final model."""
+    """The selection's steps (module docs); the last step tests the final model. The first
+    step's gains are tested at ``gap_level`` where its other tests show a gap, and ``guard``
+    may choose its effect (:func:`run_step`)."""
     steps: list[Step] = []
     model: list[Choice] = []
     revised: set[int] = set()
@@ -620,6 +704,8 @@ def forward_selection(
             plausible=plausible,
             margin_um=margin_um,
             prefer=prefer,
+            gap_level=gap_level if not model else None,
+            guard=guard if not model else None,
         )
         prefer = None
         steps.append(st)
