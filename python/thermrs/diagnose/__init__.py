@@ -463,8 +463,10 @@ def _select(
     grids += build_grids(others, b.vs, b.design, nameable=False)
     batch = Batch(b.design, window_s=3.0 * b.floor.tau_c_max_s)
 
-    def guard() -> dict[str, Any]:
-        # Once per diagnosis, on its own generator; the verdict's test reuses it.
+    def guard(given: FloatArray | None, skip: frozenset[str]) -> dict[str, Any]:
+        # On its own generator; the nominal model's once, which the verdict's test reuses.
+        if given is not None:
+            return _guard(b, grids, level, null_draws, guard_rng, given=given, skip=skip)
         if "tolerance_excess" not in b.floor.extra:
             b.floor.extra["tolerance_excess"] = _guard(b, grids, level, null_draws, guard_rng)
         out: dict[str, Any] = b.floor.extra["tolerance_excess"]
@@ -526,13 +528,23 @@ def _test_at_tolerance_scale(
 
 
 def _guard(
-    b: _Base, grids: list[FamilyGrid], level: float, draws: int, rng: np.random.Generator
+    b: _Base,
+    grids: list[FamilyGrid],
+    level: float,
+    draws: int,
+    rng: np.random.Generator,
+    *,
+    given: FloatArray | None = None,
+    skip: frozenset[str] = frozenset(),
 ) -> dict[str, Any]:
-    """The guard's test (:mod:`.guard`) of the library's families on these runs."""
+    """The guard's test (:mod:`.guard`) of the library's families on these runs, given the
+    effects' columns ``given`` (their effects ``skip``ped)."""
     if b.design.nuisance.shape[1] == 0:
         return {"scale": GUARD_SCALE, "tested": False}
     nameable = [g for g in grids if g.nameable]
-    return rig_excess_guard(b.design, b.floor, nameable, level=level, draws=draws, rng=rng)
+    return rig_excess_guard(
+        b.design, b.floor, nameable, level=level, draws=draws, rng=rng, given=given, skip=skip
+    )
 
 
 def _evidence(

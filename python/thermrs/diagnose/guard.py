@@ -116,6 +116,8 @@ def rig_excess_guard(
     level: float,
     draws: int,
     rng: np.random.Generator,
+    given: FloatArray | None = None,
+    skip: frozenset[str] = frozenset(),
 ) -> dict[str, Any]:
     """The effects of the robot that stand out of a rig erring by up to ``scale`` times its
     stated tolerances (module docs).
@@ -137,6 +139,11 @@ def rig_excess_guard(
         Null replicates.
     rng
         Generator of the replicates.
+    given
+        Columns of effects already in the model (one row per design row), free like α and
+        the offsets: the test is then of the other effects given these.
+    skip
+        Effects not tested (those ``given``).
 
     Returns
     -------
@@ -150,7 +157,8 @@ def rig_excess_guard(
     nuis = design.nuisance
     p = nuis.shape[1]
     # The fixed effects (α, offsets) and the tolerances' columns with their prior's rows.
-    fixed = white(np.column_stack([design.s, design.offsets]))
+    extra = [] if given is None else [given]
+    fixed = white(np.column_stack([design.s, design.offsets, *extra]))
     fixed = fixed[:, np.linalg.norm(fixed, axis=0) > 0]
     top = np.column_stack([fixed, white(nuis)])
     bottom = np.column_stack([np.zeros((p, fixed.shape[1])), np.eye(p) / scale])
@@ -161,7 +169,9 @@ def rig_excess_guard(
     ys = white(np.column_stack([design.y, noise]))
     ys = np.vstack([ys, np.zeros((p, ys.shape[1]))])
     resid = ys - q @ (q.T @ ys)
-    stat, where = _family_stats(grids, white, q, resid, p)
+    stat, where = _family_stats(
+        [g for g in grids if g.family.effect not in skip], white, q, resid, p
+    )
     if not stat:
         return {"tested": False, "scale": scale}
     most = np.max(np.stack(list(stat.values())), axis=0)

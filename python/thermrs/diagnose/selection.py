@@ -13,21 +13,15 @@ world), or when three effects are in.
 The first step. Once its other tests show a gap at the step's level, the verdict cannot be
 `none` whatever the gains say, so the gains are tested at ``gap_level`` (the verdict's level)
 instead of the Bonferroni share `none` needs (closed testing; naming an effect of the robot
-still takes the guard, :mod:`.guard`, at the verdict's level: intersection–union). And where
-the held-out gains then choose no effect, or one of the robot the guard does not find, while
-the guard finds effects of the robot, the guard's most significant family that is plausible
-and takes something off the held-out rms at its grid point on every run is chosen instead,
-the other effects it finds its rivals: a family fitted on the training run alone can miss
-what every run shows (a non-linear α's curvature, which a run at one speed hardly shows), and
-no choice the guard does not find could be named.
+still takes the guard, :mod:`.guard`, at the verdict's level: intersection–union).
 
-Rivals of a selected effect A are the other significant, plausible effects B (one family per
-effect name) that the data cannot reject as the truth: in a world where B (fitted) is the
-truth, how much better than B does A come out on the held-out runs? The k rivals' p-values go
-through Holm's step-down (the smallest against level/k, the next against level/(k − 1), …),
-which, like Bonferroni, rejects them all together at the level. A parametric Cox-type test:
-collinear pairs are judged by what their difference would be under each, not
-by a standard error that vanishes with collinearity.
+The guard at every step. Where a step shows a gap and the held-out gains choose no effect, or
+one of the robot the guard does not find, while the guard (given the model so far: its
+effects' columns free like α) finds effects of the robot, the guard's most significant family
+that is plausible and takes something off the held-out rms at its grid point on every run is
+chosen instead, the other effects it finds its rivals: a family fitted on the training run
+alone can miss what every run shows (a non-linear α's curvature, which a run at one speed
+hardly shows), and no choice the guard does not find could be named.
 """
 
 from __future__ import annotations
@@ -227,13 +221,14 @@ def run_step(
     margin_um: float | None = 0.0,
     prefer: str | None = None,
     gap_level: float | None = None,
-    guard: Callable[[], dict[str, Any]] | None = None,
+    guard: Callable[[FloatArray | None, frozenset[str]], dict[str, Any]] | None = None,
 ) -> Step:
     """Test the model against its null world and score every family added to it. A family
     is significant when its held-out gain beats the null's threshold *and* it takes at least
     ``margin_um`` off the held-out rms (practical significance). The family chosen is the
     significant one that leaves least, or ``prefer`` (a label) where it is significant.
-    ``gap_level`` and ``guard`` (the first step only): module docs, "The first step"."""
+    ``gap_level`` (the first step only) and ``guard``: module docs, "The first step" and "The
+    guard at every step"."""
     ys_raw, cur = _world(batch, design, floor, model, draws, rng)
     if not model and floor.holdout_se_um is None:
         _floor_uncertainty(batch, design, floor, ys_raw, cur)
@@ -301,8 +296,9 @@ def run_step(
     sig = sc.significant(bars, model, plausible, removes=np.sqrt(h0) - margin_um)
     ok = [c for c in sig if c.grid.nameable]
     ok.sort(key=lambda c: c.label != prefer)  # stable: the preferred one first, if there
-    if guard is not None and gap and not model:
-        ok = _guarded_choices(ok, guard(), grids, _admissible(batch, design, cur, plausible))
+    if guard is not None and gap:
+        found = guard(_stack(model), frozenset(c.effect for c in model))
+        ok = _guarded_choices(ok, found, grids, _admissible(batch, design, cur, model, plausible))
         if ok and ok[0].label not in {c.label for c in sig}:
             step.chosen_by = "guard"
     step.significant = [c.label for c in ok]
@@ -332,14 +328,15 @@ def _admissible(
     batch: Batch,
     design: DesignMatrix,
     cur: BatchFit,
+    model: list[Choice],
     plausible: Callable[[list[Choice], Choice], bool],
 ) -> Callable[[Choice], bool]:
     """Whether a first choice is plausible and takes something off the held-out rms."""
 
     def ok(ch: Choice) -> bool:
-        if not plausible([], ch):
+        if ch.effect in {c.effect for c in model} or not plausible(model, ch):
             return False
-        got = batch.fit(_stack([ch]), design.y[:, None])
+        got = batch.fit(_stack([*model, ch]), design.y[:, None])
         return got is not None and float(got.hold_ms[0]) < float(cur.hold_ms[0])
 
     return ok
@@ -680,12 +677,12 @@ def forward_selection(
     max_effects: int = 3,
     margin_um: float | None = 0.0,
     gap_level: float | None = None,
-    guard: Callable[[], dict[str, Any]] | None = None,
+    guard: Callable[[FloatArray | None, frozenset[str]], dict[str, Any]] | None = None,
     say: Callable[[str], object] = lambda _m: None,
 ) -> list[Step]:
     """The selection's steps (module docs); the last step tests the final model. The first
     step's gains are tested at ``gap_level`` where its other tests show a gap, and ``guard``
-    may choose its effect (:func:`run_step`)."""
+    may choose a step's effect (:func:`run_step`)."""
     steps: list[Step] = []
     model: list[Choice] = []
     revised: set[int] = set()
@@ -705,7 +702,7 @@ def forward_selection(
             margin_um=margin_um,
             prefer=prefer,
             gap_level=gap_level if not model else None,
-            guard=guard if not model else None,
+            guard=guard,
         )
         prefer = None
         steps.append(st)
