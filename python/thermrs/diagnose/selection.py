@@ -18,10 +18,10 @@ still takes the guard, :mod:`.guard`, at the verdict's level: intersection–uni
 The guard at every step. Where a step shows a gap and the held-out gains choose no effect, or
 one of the robot the guard does not find, while the guard (given the model so far: its
 effects' columns free like α) finds effects of the robot, the guard's most significant family
-that is plausible and takes something off the held-out rms at its grid point on every run is
-chosen instead, the other effects it finds its rivals: a family fitted on the training run
-alone can miss what every run shows (a non-linear α's curvature, which a run at one speed
-hardly shows), and no choice the guard does not find could be named.
+that is plausible and takes at least the practical margin off the held-out rms (at its grid
+point on every run) is chosen instead, the other effects it finds its rivals: a family fitted
+on the training run alone can miss what every run shows (a non-linear α's curvature, which a
+run at one speed hardly shows), and no choice the guard does not find could be named.
 """
 
 from __future__ import annotations
@@ -298,7 +298,8 @@ def run_step(
     ok.sort(key=lambda c: c.label != prefer)  # stable: the preferred one first, if there
     if guard is not None and gap:
         found = guard(_stack(model), frozenset(c.effect for c in model))
-        ok = _guarded_choices(ok, found, grids, _admissible(batch, design, cur, model, plausible))
+        admissible = _admissible(batch, design, cur, model, plausible, margin_um)
+        ok = _guarded_choices(ok, found, grids, admissible)
         if ok and ok[0].label not in {c.label for c in sig}:
             step.chosen_by = "guard"
     step.significant = [c.label for c in ok]
@@ -330,14 +331,19 @@ def _admissible(
     cur: BatchFit,
     model: list[Choice],
     plausible: Callable[[list[Choice], Choice], bool],
+    margin_um: float,
 ) -> Callable[[Choice], bool]:
-    """Whether a first choice is plausible and takes something off the held-out rms."""
+    """Whether a choice added to ``model`` is plausible and takes at least ``margin_um`` off
+    the held-out rms (the practical significance the held-out gains' choices need too)."""
 
     def ok(ch: Choice) -> bool:
         if ch.effect in {c.effect for c in model} or not plausible(model, ch):
             return False
         got = batch.fit(_stack([*model, ch]), design.y[:, None])
-        return got is not None and float(got.hold_ms[0]) < float(cur.hold_ms[0])
+        if got is None:
+            return False
+        after = np.sqrt(max(float(got.hold_ms[0]), 0.0))
+        return bool(after < np.sqrt(max(float(cur.hold_ms[0]), 0.0)) - margin_um)
 
     return ok
 
