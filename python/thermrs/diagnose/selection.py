@@ -226,9 +226,8 @@ def run_step(
     """Test the model against its null world and score every family added to it. A family
     is significant when its held-out gain beats the null's threshold *and* it takes at least
     ``margin_um`` off the held-out rms (practical significance). The family chosen is the
-    significant one that leaves least, or ``prefer`` (a label) where it is significant.
-    ``gap_level`` (the first step only) and ``guard``: module docs, "The first step" and "The
-    guard at every step"."""
+    significant one that leaves least, or ``prefer`` (a label) where it is significant;
+    ``gap_level`` and ``guard``: module docs ("The first step", "The guard at every step")."""
     ys_raw, cur = _world(batch, design, floor, model, draws, rng)
     if not model and floor.holdout_se_um is None:
         _floor_uncertainty(batch, design, floor, ys_raw, cur)
@@ -297,9 +296,8 @@ def run_step(
     ok = [c for c in sig if c.grid.nameable]
     ok.sort(key=lambda c: c.label != prefer)  # stable: the preferred one first, if there
     if guard is not None and gap:
-        found = guard(_stack(model), frozenset(c.effect for c in model))
-        admissible = _admissible(batch, design, cur, model, plausible, margin_um)
-        ok = _guarded_choices(ok, found, grids, admissible)
+        adm = _admissible(batch, design, cur, model, plausible, margin_um)
+        ok = _guarded_choices(ok, guard, model, grids, adm)
         if ok and ok[0].label not in {c.label for c in sig}:
             step.chosen_by = "guard"
     step.significant = [c.label for c in ok]
@@ -350,18 +348,22 @@ def _admissible(
 
 def _guarded_choices(
     ok: list[Choice],
-    found: dict[str, Any],
+    guard: Callable[[FloatArray | None, frozenset[str]], dict[str, Any]],
+    model: list[Choice],
     grids: list[FamilyGrid],
     admissible: Callable[[Choice], bool],
 ) -> list[Choice]:
-    """The first step's candidates, the chosen first: the held-out gains' (``ok``) unless
-    they choose no effect, or one of the robot the guard (``found``, :mod:`.guard`) does not
-    find, while it finds effects of the robot; then the guard's families of the effects it
-    finds that are ``admissible`` (plausible, and taking something off the held-out rms at
-    the guard's grid point), the most significant first, and the thermal camera's candidates
-    among ``ok`` (which the guard does not test) as their rivals."""
+    """A step's candidates, the chosen first: the held-out gains' (``ok``) unless they choose
+    no effect, or one of the robot the guard (:mod:`.guard`, given ``model``) does not find,
+    while it finds effects of the robot; then the guard's families of the effects it
+    finds that are ``admissible`` (plausible, and taking the practical margin off the
+    held-out rms at the guard's grid point), the most significant first, and the thermal
+    camera's candidates among ``ok`` (which the guard does not test) as their rivals."""
+    if ok and is_instrument(ok[0].effect):
+        return ok
+    found = guard(_stack(model), frozenset(c.effect for c in model))
     sig = set(found.get("significant_effects") or []) if found.get("tested") else set()
-    if not sig or (ok and (is_instrument(ok[0].effect) or ok[0].effect in sig)):
+    if not sig or (ok and ok[0].effect in sig):
         return ok
     by_label = {g.family.label: g for g in grids if g.nameable}
     picks = []
