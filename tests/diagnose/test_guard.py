@@ -60,10 +60,11 @@ def test_a_curved_expansion_stands_out_of_a_rig_three_times_worse_on_long_runs()
 @pytest.mark.slow
 def test_a_curved_expansion_the_held_out_gains_miss_is_named_on_long_runs() -> None:
     """A non-linear α at SNR 1 on three 64-h runs: fitted on the training run alone its
-    curvature hardly predicts the held-out runs (the held-out gains chose it in none of four
-    bench cases before the guard could choose), while every run shows it. Where a gap is
-    shown, the step takes the guard's family: the truth is named in at least half the cases
-    (0 of 4 before), and never an effect the guard does not find."""
+    curvature hardly predicts the held-out runs (the held-out gains named it in none of the
+    four such cases of the bench's seeds 19640000 before the guard could choose), while every
+    run shows it. Where a gap is shown, a step takes the guard's family where the held-out
+    gains choose none the guard finds: the truth is named in at least three of four cases,
+    and a first choice the guard made is always one it finds."""
     rig = thermrs.load_rig()
     path = str(thermrs.default_rig_path())
     named = 0
@@ -81,4 +82,4 @@ def test_a_curved_expansion_the_held_out_gains_miss_is_named_on_long_runs() -> N
             if st.get("chosen_by") == "guard" and not st["model"]:
                 chosen = st["chosen"].split()[0]
                 assert chosen in g.get("significant_effects", []), (chosen, g)
-    assert named >= 2, named
+    assert named >= 3, named

@@ -15,13 +15,18 @@ The first step. Once its other tests show a gap at the step's level, the verdict
 instead of the Bonferroni share `none` needs (closed testing; naming an effect of the robot
 still takes the guard, :mod:`.guard`, at the verdict's level: intersection–union).
 
-The guard at every step. Where a step shows a gap and the held-out gains choose no effect, or
-one of the robot the guard does not find, while the guard (given the model so far: its
-effects' columns free like α) finds effects of the robot, the guard's most significant family
-that is plausible and takes at least the practical margin off the held-out rms (at its grid
-point on every run) is chosen instead, the other effects it finds its rivals: a family fitted
-on the training run alone can miss what every run shows (a non-linear α's curvature, which a
-run at one speed hardly shows), and no choice the guard does not find could be named.
+The guard until an effect of the robot is in. Where a step whose model so far holds no effect
+of the robot (none, or the thermal camera's errors) shows a gap and the held-out gains choose
+no effect, or one of the robot the guard does not find, while the guard (given the model so
+far: its effects' columns free like α) finds effects of the robot, the guard's most
+significant family that is plausible and takes at least the practical margin off the held-out
+rms (at its grid point on every run) is chosen instead, the other effects it finds its
+rivals: a family fitted on the training run alone can miss what every run shows (a non-linear
+α's curvature, which a run at one speed hardly shows), and no choice the guard does not find
+could be named. Once an effect of the robot is in, the held-out gains choose, as before (and
+a step may be taken again with another of their choices: :func:`forward_selection`): the
+guard's choices in turn made three effects of a rig erring by three times its tolerances, and
+pre-empted that revision, which finds the second effect of a pair.
 """
 
 from __future__ import annotations
@@ -227,7 +232,7 @@ def run_step(
     is significant when its held-out gain beats the null's threshold *and* it takes at least
     ``margin_um`` off the held-out rms (practical significance). The family chosen is the
     significant one that leaves least, or ``prefer`` (a label) where it is significant;
-    ``gap_level`` and ``guard``: module docs ("The first step", "The guard at every step")."""
+    ``gap_level`` and ``guard``: module docs ("The first step", "The guard until ...")."""
     ys_raw, cur = _world(batch, design, floor, model, draws, rng)
     if not model and floor.holdout_se_um is None:
         _floor_uncertainty(batch, design, floor, ys_raw, cur)
@@ -710,7 +715,9 @@ def forward_selection(
             margin_um=margin_um,
             prefer=prefer,
             gap_level=gap_level if not model else None,
-            guard=guard,
+            # Until an effect of the robot is in: past that, the held-out gains (and the
+            # revision of their choices) choose, as before the guard could.
+            guard=guard if all(is_instrument(c.effect) for c in model) else None,
         )
         prefer = None
         steps.append(st)
