@@ -46,6 +46,7 @@ import numpy.typing as npt
 import thermrs._native as _native
 from thermrs.effect_family import Family, Visits
 from thermrs.errors import InputError
+from thermrs.stats import loess2
 
 if TYPE_CHECKING:
     from thermrs.rig import Rig
@@ -701,6 +702,8 @@ class IrClock(InstrumentEffect):
     def corrected(
         self, temps: Mapping[str, FloatArray], visits: Any, reference_c: float
     ) -> dict[str, FloatArray]:
+        """Each reading moved by the change of the run's heating curve over ``s``
+        (:func:`clock_shifted`): the signal is shifted, the reading's own noise is not."""
         out = dict(temps)
         for name, t in temps.items():
             if name == "ambient":
@@ -709,14 +712,32 @@ class IrClock(InstrumentEffect):
             for r in np.unique(visits.run):
                 m = np.flatnonzero(visits.run == r)
                 order = m[np.argsort(visits.t_s[m], kind="stable")]
-                ts = visits.t_s[order]
-                fixed[order] = np.interp(ts + self.s, ts, t[order])
+                fixed[order] = clock_shifted(visits.t_s[order], t[order], self.s)
             out[name] = fixed
         return out
 
     @classmethod
     def families(cls, rig: Rig, visits: Visits) -> list[Family]:
         return cls._families(rig, visits, lambda x: IrClock(s=x), 10.0)
+
+
+#: Half-width (s) of the local quadratic whose change over a clock offset moves a reading:
+#: three times the largest plausible offset (:attr:`IrClock.bound`), so that t + s stays well
+#: inside the window fitted around t.
+CLOCK_CURVE_HALF_WIDTH_S = 3.0 * IrClock.bound
+
+
+def clock_shifted(t_s: FloatArray, y: FloatArray, s: float) -> FloatArray:
+    """The readings ``y`` (at the sorted times ``t_s`` of one run) as read ``s`` seconds
+    later: each moves by the change of the run's heating curve over ``s`` — a local quadratic
+    (:func:`thermrs.stats.loess2`, half-width :data:`CLOCK_CURVE_HALF_WIDTH_S`), held at the
+    run's ends. Interpolating between the readings themselves would average their noise
+    (above all between two cameras' visits), and the noise so taken off the model's
+    prediction would read as a clock error in every run."""
+    if s == 0.0 or len(y) < 2:
+        return np.asarray(y, dtype=np.float64).copy()
+    curve = loess2(t_s, np.asarray(y, dtype=np.float64), CLOCK_CURVE_HALF_WIDTH_S)
+    return np.asarray(y + np.interp(t_s + s, t_s, curve) - curve, dtype=np.float64)
 
 
 #: The instrument effects' names (the thermal camera's, not the robot's).

@@ -51,6 +51,7 @@ __all__ = [
     "ar1_coefficient",
     "ar1_variance_inflation",
     "effective_sample_size",
+    "loess2",
     "lstsq_qr",
     "moving_block_indices",
 ]
@@ -617,3 +618,33 @@ def moving_block_indices(
             idx = (starts[:, None] + np.arange(b)[None, :]).ravel()[:m]
             out.append(c[idx])
         yield np.concatenate(out) if out else np.zeros(0, dtype=np.intp)
+
+
+def loess2(t: np.ndarray, y: np.ndarray, h: float) -> np.ndarray:
+    """Local quadratic regression with tricube weights of half-width ``h`` (every sample's
+    weighted least squares by QR on its window, all windows at once)."""
+    ok = np.isfinite(y)
+    if ok.sum() < 5:
+        return y
+    tt, yy = t[ok], y[ok]
+    out = y.copy()
+    lo = np.searchsorted(tt, t - h, side="left")
+    hi = np.searchsorted(tt, t + h, side="right")
+    idx = np.flatnonzero(ok & (hi - lo >= 5))
+    if not len(idx):
+        return out
+    width = int((hi - lo)[idx].max())
+    j = lo[idx, None] + np.arange(width)[None, :]
+    inside = j < hi[idx, None]
+    j = np.minimum(j, len(tt) - 1)
+    x = (tt[j] - t[idx, None]) / h
+    sw = np.where(inside, (1 - np.clip(np.abs(x), 0, 1) ** 3) ** 1.5, 0.0)
+    xm = np.stack([np.ones_like(x), x, x * x], axis=-1) * sw[..., None]
+    q, r = np.linalg.qr(xm)
+    good = np.abs(r[:, 2, 2]) > 1e-9 * np.abs(r[:, 0, 0])
+    rhs = np.einsum("nwk,nw->nk", q, yy[j] * sw)
+    coef = np.zeros_like(rhs)
+    for i in np.flatnonzero(good):
+        coef[i] = scipy.linalg.solve_triangular(r[i], rhs[i])
+    out[idx[good]] = coef[good, 0]
+    return out

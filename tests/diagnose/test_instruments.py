@@ -17,7 +17,15 @@ import thermrs
 from thermrs.bench.world.cases import case_rigs
 from thermrs.bench.world.world import Campaign, draw_scene, render
 from thermrs.diagnose import diagnose
-from thermrs.effects import INSTRUMENT_EFFECTS, IrClock, IrDrift, IrGain, effect_classes, from_dict
+from thermrs.effects import (
+    INSTRUMENT_EFFECTS,
+    IrClock,
+    IrDrift,
+    IrGain,
+    clock_shifted,
+    effect_classes,
+    from_dict,
+)
 
 
 @pytest.mark.slow
@@ -63,6 +71,34 @@ def test_instrument_effects_correct_the_readings_as_stated() -> None:
     got = IrClock(s=300.0).corrected(temps, Visits(), 20.0)
     np.testing.assert_allclose(got["link3"], [21.5, 24.5, 26.0, 30.5, 31.0])
     np.testing.assert_array_equal(got["ambient"], temps["ambient"])
+
+
+def test_a_clock_shift_moves_the_heating_curve_not_the_reading_noise() -> None:
+    # Readings every 5 min (two cameras' visits interleaved) on a quadratic heating curve,
+    # with 0.03 K of independent reading noise. Read s later, each reading must move by the
+    # curve's own change over s, 2c·t·s + c·s² (closed form; the curve is read between two
+    # visits by straight lines, off by at most c·s·(300 − s)), and keep its noise: averaging
+    # neighbours' noise would take noise off the model's prediction and read as a clock
+    # error in a run that has none.
+    rng = np.random.default_rng(7)
+    t = np.arange(180) * 300.0
+    c = 2e-9
+    curve = 20.0 + 1e-4 * t + c * t**2
+    noise = rng.normal(0.0, 0.03, t.size)
+    s = 150.0
+    inside = t + s <= t[-1]
+    exact = clock_shifted(t, curve, s)
+    np.testing.assert_allclose(
+        exact[inside] - curve[inside],
+        1e-4 * s + 2 * c * t[inside] * s + c * s**2,
+        atol=c * s * (300.0 - s) * (1 + 1e-6),
+    )
+    moved = clock_shifted(t, curve + noise, s) - (curve + noise)
+    want = 1e-4 * s + 2 * c * t * s + c * s**2
+    assert np.std(moved[inside] - want[inside]) < 0.003
+    # What interpolating between the readings does instead: half of each neighbour's noise.
+    interp = np.interp(t + s, t, curve + noise) - (curve + noise)
+    assert np.std(interp[inside] - want[inside]) > 0.015
 
 
 def test_instrument_effects_are_checked_against_the_rig_and_their_bounds() -> None:

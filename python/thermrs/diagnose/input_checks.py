@@ -6,12 +6,12 @@ from collections.abc import Sequence
 
 import numpy as np
 import polars as pl
-from scipy.linalg import solve_triangular
 
 from thermrs.effects import EFFECT_NAMES, Effect, effect_classes
 from thermrs.errors import InputError
 from thermrs.memo import ContentCache, content_key
 from thermrs.rig import Rig
+from thermrs.stats import loess2
 
 __all__ = ["check_inputs", "smooth_temperatures"]
 
@@ -147,33 +147,3 @@ def _smoothed(ts: np.ndarray, y: np.ndarray, half_width_s: float) -> np.ndarray:
         return out
 
     return _SMOOTHED.get(content_key(ts, y, float(half_width_s)), compute)
-
-
-def loess2(t: np.ndarray, y: np.ndarray, h: float) -> np.ndarray:
-    """Local quadratic regression with tricube weights of half-width ``h`` (every sample's
-    weighted least squares by QR on its window, all windows at once)."""
-    ok = np.isfinite(y)
-    if ok.sum() < 5:
-        return y
-    tt, yy = t[ok], y[ok]
-    out = y.copy()
-    lo = np.searchsorted(tt, t - h, side="left")
-    hi = np.searchsorted(tt, t + h, side="right")
-    idx = np.flatnonzero(ok & (hi - lo >= 5))
-    if not len(idx):
-        return out
-    width = int((hi - lo)[idx].max())
-    j = lo[idx, None] + np.arange(width)[None, :]
-    inside = j < hi[idx, None]
-    j = np.minimum(j, len(tt) - 1)
-    x = (tt[j] - t[idx, None]) / h
-    sw = np.where(inside, (1 - np.clip(np.abs(x), 0, 1) ** 3) ** 1.5, 0.0)
-    xm = np.stack([np.ones_like(x), x, x * x], axis=-1) * sw[..., None]
-    q, r = np.linalg.qr(xm)
-    good = np.abs(r[:, 2, 2]) > 1e-9 * np.abs(r[:, 0, 0])
-    rhs = np.einsum("nwk,nw->nk", q, yy[j] * sw)
-    coef = np.zeros_like(rhs)
-    for i in np.flatnonzero(good):
-        coef[i] = solve_triangular(r[i], rhs[i])
-    out[idx[good]] = coef[good, 0]
-    return out
