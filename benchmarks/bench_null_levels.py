@@ -6,11 +6,11 @@ and so must each of the four tests `none` must pass (the first step's: the held-
 the floor, white at the thermal time scales, the best candidate's gain, and the floor not
 contradicted; Bonferroni at level/4 each). The bench's ``--nulls`` cases draw one noise per
 world, so a world whose own rig errs in its tails weighs as much as the rest; here each
-effect-free world (``--worlds`` of them from ``--seed`` on, each drawn from its seed as a bench
-case's is, :func:`thermrs.bench.world.world.draw_scene`, its nuisances at ``--tolerance-scale``
-times the rig's stated tolerances) is rendered again ``--noises`` times with fresh visit and instrument noise, and
-every rendering diagnosed. Printed: the share of renderings whose test falls below level/4 and
-below the level, per test, and the share that are not `none`.
+effect-free world (``--worlds`` of them from ``--seed`` on, each drawn from its seed as a
+bench case's is, :func:`thermrs.bench.world.world.draw_scene`, its nuisances at
+``--tolerance-scale`` times the rig's stated tolerances) is rendered again ``--noises`` times
+with fresh visit and instrument noise, and every rendering diagnosed. Printed: how many
+renderings have each test below level/4 and below the level, and how many are not `none`.
 
     python benchmarks/bench_null_levels.py --world ar1 --worlds 10 --noises 6 --seed 2300000
 """
@@ -78,9 +78,7 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1))
     ap.add_argument("--json", default=None)
     a = ap.parse_args()
-    jobs = [
-        (a.world, a.seed + k, a.noises, a.hours, a.tolerance_scale) for k in range(a.worlds)
-    ]
+    jobs = [(a.world, a.seed + k, a.noises, a.hours, a.tolerance_scale) for k in range(a.worlds)]
     with ProcessPoolExecutor(a.jobs) as ex:
         rows = [r for got in ex.map(one, jobs) for r in got]
     p = np.array([[r[k] for k in TESTS] for r in rows])
