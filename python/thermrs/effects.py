@@ -46,7 +46,6 @@ import numpy.typing as npt
 import thermrs._native as _native
 from thermrs.effect_family import Family, Visits
 from thermrs.errors import InputError
-from thermrs.stats import loess2
 
 if TYPE_CHECKING:
     from thermrs.rig import Rig
@@ -734,6 +733,8 @@ def clock_shifted(t_s: FloatArray, y: FloatArray, s: float) -> FloatArray:
     run's ends. Interpolating between the readings themselves would average their noise
     (above all between two cameras' visits), and the noise so taken off the model's
     prediction would read as a clock error in every run."""
+    from thermrs.stats import loess2  # the fit is the analysis's; effects only name it
+
     if s == 0.0 or len(y) < 2:
         return np.asarray(y, dtype=np.float64).copy()
     curve = loess2(t_s, np.asarray(y, dtype=np.float64), CLOCK_CURVE_HALF_WIDTH_S)
