@@ -14,6 +14,20 @@ Visit repeatability
     series): γ(h) = σ_w² + σ_a²·(1 − e^(−h/τ_c)) + c·h², white noise,
     a pose error correlated over τ_c, and a smooth structure that grows with the lag
     (non-negative least squares, τ_c profiled on a grid). The floor is √(σ_w² + σ_a²).
+    One pose error moves every chip of a run, so the series of a run share one τ_c: the one
+    whose fits leave least over all of them (relative to each variogram's size). A τ_c
+    shorter than the cycle is kept (an AR(1) of lag-one correlation e^(−cycle/τ_c) is not
+    white). Fitted one series at a time, with τ_c under a cycle read as white, τ_c from 90
+    visits was biased short (white noise of 1.3 µm and a pose error of 1.5 µm correlated
+    over 17 min, a cycle of 10 min: median estimate 13 min, 37 % of the series read white),
+    which gives the null world less slow power than the data have (:func:`pooled_noise`).
+Channel correlation
+    How the channels' (camera × chip axis) white parts correlate with each other and how
+    their correlated parts do, from their cross-variograms with each run's τ_c, averaged
+    over the runs (:func:`channel_correlations`): the slow part of a pose error is far more
+    coherent across cameras and axes than the visit-to-visit scatter, and a null world
+    drawing both with one correlation (that of the cycle-to-cycle increments) had a too
+    narrow spread of every statistic summed over channels.
 Correlated pose errors
     Allowed only with a correlation time τ_c at most one tenth of the shortest thermal time
     constant (one decade below it): anything slower is a gap to explain, never noise. The
@@ -30,6 +44,7 @@ compared with is theirs, never one pooled with the training runs.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -42,8 +57,13 @@ from thermrs.memo import ContentCache, content_key
 from thermrs.signatures import VisitSet
 
 __all__ = [
+    "ChannelCorrelation",
     "NoiseFloor",
     "SeriesNoise",
+    "as_correlation",
+    "channel_correlations",
+    "correlation_lags",
+    "cross_variogram_parts",
     "holdout_floor_draws",
     "noise_floor",
     "thermal_time_scales",
@@ -77,6 +97,18 @@ class SeriesNoise:
         return float(np.hypot(self.white_um, self.correlated_um))
 
 
+@dataclass(frozen=True)
+class ChannelCorrelation:
+    """How the noise of one run's channels (camera × chip axis) is correlated: the white
+    parts with each other, and the correlated parts with each other (one pose error moves
+    every chip through the kinematics' Jacobian; at the chips its slow part is far more
+    coherent across channels than the visit-to-visit scatter is)."""
+
+    channels: tuple[tuple[str, str], ...]  # (camera, axis)
+    white: FloatArray  # k × k correlation
+    correlated: FloatArray  # k × k correlation
+
+
 @dataclass
 class NoiseFloor:
     """The floor and its parts (module docs)."""
@@ -96,6 +128,8 @@ class NoiseFloor:
     #: replicates of the null world (:func:`holdout_floor_draws`); unset until then.
     holdout_se_um: float | None = None
     holdout_ci95: tuple[float, float] | None = None
+    #: Per run: how its channels' noise is correlated (:func:`channel_correlations`).
+    correlations: dict[str, ChannelCorrelation] = field(default_factory=dict)
 
     def by_key(self) -> dict[tuple[str, str, str], SeriesNoise]:
         """The series' noise by (run, camera, axis)."""
@@ -135,6 +169,16 @@ class NoiseFloor:
                 "repeatability)"
                 if self.joints_um is None
                 else "rms of the joint states' reported scatter",
+            },
+            "channel_correlation": {
+                run: {
+                    "channels": [f"{cam}/{ax}" for cam, ax in c.channels],
+                    "white": np.round(c.white, 4).tolist(),
+                    "correlated": np.round(c.correlated, 4).tolist(),
+                    "how": "cross-variograms of the run's channels with its correlation "
+                    "time; the covariances averaged over the runs with the same channels",
+                }
+                for run, c in self.correlations.items()
             },
             "thermal_time_constants_min": self.thermal_tau_min,
             "thermal_time_constants": self.thermal_source,
@@ -243,28 +287,19 @@ def _nnls_many(a: FloatArray, g: FloatArray) -> tuple[FloatArray, FloatArray]:
     return best, best_err
 
 
-def series_noise_many(r: FloatArray, t: FloatArray, tau_c_max_s: float) -> FloatArray:
-    """(σ_w, σ_a, τ_c) of every column of ``r`` (visits × series, sampled at the times ``t``)
-    by the constrained variogram: series × 3, NaN where a series is too short. Columns with
-    the same missing visits are fitted together."""
-    r = np.asarray(r, dtype=np.float64)
-    out = np.full((r.shape[1], 3), np.nan)
-    if r.shape[1] == 0:
-        return out
-    ok = np.isfinite(r)
-    patterns: dict[bytes, list[int]] = {}
-    for b in range(r.shape[1]):
-        patterns.setdefault(ok[:, b].tobytes(), []).append(b)
-    for cols in patterns.values():
-        keep = ok[:, cols[0]]
-        got = _series_noise_same(r[keep][:, cols], t[keep], tau_c_max_s)
-        if got is not None:
-            out[cols] = got
-    return out
+def _tau_grid(dt: float, tau_c_max_s: float) -> FloatArray:
+    """The correlation times tried: none, then 24 from a quarter of the sampling interval
+    ``dt`` to the largest allowed, geometrically spaced."""
+    grid = np.geomspace(max(dt / 4.0, 1.0), max(tau_c_max_s, dt / 4.0 + 1), 24)
+    return np.array([0.0, *[x for x in grid if not (x > tau_c_max_s and x > 0)]])
 
 
-def _series_noise_same(r: FloatArray, t: FloatArray, tau_c_max_s: float) -> FloatArray | None:
-    """:func:`series_noise_many` of series with no missing visit (None if too short)."""
+def _grid_fit(
+    r: FloatArray, t: FloatArray, tau_c_max_s: float, taus: FloatArray
+) -> tuple[FloatArray, FloatArray] | None:
+    """The variogram model of every column of ``r`` (no missing visit) at every τ of
+    ``taus``: coefficients (T × 3 × B, τ = 0 without a correlated part) and the residual
+    norms relative to each column's variogram (T × B); None if too short."""
     if len(r) < 12:
         return None
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
@@ -277,29 +312,78 @@ def _series_noise_same(r: FloatArray, t: FloatArray, tau_c_max_s: float) -> Floa
     lags = np.arange(1, k_max + 1)
     gam = _variogram(r, lags)
     h = lags * dt
-    grid = np.geomspace(max(dt / 4.0, 1.0), max(tau_c_max_s, dt / 4.0 + 1), 24)
-    taus = np.array([0.0, *[x for x in grid if not (x > tau_c_max_s and x > 0)]])
     corr = np.zeros((len(taus), len(h)))
     corr[1:] = 1.0 - np.exp(-h[None, :] / taus[1:, None])
     a = np.stack([np.ones_like(corr), corr, np.broadcast_to((h / h[-1]) ** 2, corr.shape)], axis=2)
     coef, err = _nnls_many(a, gam)
     coef[0, 1] = 0.0  # τ = 0: no correlated part
-    # The first τ whose fit is better than every earlier one by more than 1e-12.
-    pick = np.zeros(gam.shape[1], dtype=np.intp)
-    best = err[0].copy()
-    for i in range(1, len(taus)):
-        better = err[i] < best - 1e-12
-        pick = np.where(better, i, pick)
-        best = np.where(better, err[i], best)
-    cols = np.arange(gam.shape[1])
-    w2 = coef[pick, 0, cols]
-    a2 = coef[pick, 1, cols]
-    tau = taus[pick]
-    white = tau < dt  # decorrelated within one cycle: white at this sampling
-    w2 = np.where(white, w2 + a2, w2)
-    a2 = np.where(white, 0.0, a2)
-    tau = np.where(white, 0.0, tau)
-    return np.column_stack([np.sqrt(np.maximum(w2, 0.0)), np.sqrt(np.maximum(a2, 0.0)), tau])
+    scale = np.linalg.norm(gam, axis=0)
+    return coef, err / np.where(scale > 0, scale, 1.0)
+
+
+def pooled_noise(
+    sets: Sequence[tuple[FloatArray, FloatArray]], tau_c_max_s: float
+) -> list[FloatArray]:
+    """(σ_w, σ_a, τ_c) of the series of one process by the constrained variogram, with one
+    correlation time for them all.
+
+    Parameters
+    ----------
+    sets
+        Per series, its values (visits × B: B replicates of it, NaN at missing visits) and
+        the visits' times.
+    tau_c_max_s
+        The largest correlation time allowed (module docs).
+
+    Returns
+    -------
+    list
+        Per series, B × 3: (σ_w, σ_a, τ_c) of each replicate, NaN where the series is too
+        short. In each replicate τ_c is the one that fits every series' variogram best
+        (least sum of squared residuals relative to each variogram's size): one pose error
+        moves every camera and axis with one correlation time, and a correlation time
+        estimated on a hundred visits of one series alone is biased short.
+    """
+    dts = [
+        float(np.median(np.diff(t))) for _, t in sets if len(t) > 1 and np.median(np.diff(t)) > 0
+    ]
+    out = [np.full((np.asarray(r).shape[1], 3), np.nan) for r, _ in sets]
+    if not dts:
+        return out
+    taus = _tau_grid(min(dts), tau_c_max_s)
+    fits: list[tuple[int, list[int], FloatArray, FloatArray]] = []
+    b_n = max(np.asarray(r).shape[1] for r, _ in sets)
+    total = np.zeros((len(taus), b_n))
+    for i, (r, t) in enumerate(sets):
+        r = np.asarray(r, dtype=np.float64)
+        ok = np.isfinite(r)
+        patterns: dict[bytes, list[int]] = {}
+        for b in range(r.shape[1]):
+            patterns.setdefault(ok[:, b].tobytes(), []).append(b)
+        for cols in patterns.values():
+            keep = ok[:, cols[0]]
+            got = _grid_fit(r[keep][:, cols], np.asarray(t)[keep], tau_c_max_s, taus)
+            if got is None:
+                continue
+            coef, err = got
+            total[:, cols] += err**2
+            fits.append((i, cols, coef, err))
+    pick = np.argmin(total, axis=0)  # the first of equals: the shortest τ
+    for i, cols, coef, _ in fits:
+        p = pick[cols]
+        c = np.arange(len(cols))
+        w2, a2 = coef[p, 0, c], coef[p, 1, c]
+        out[i][cols] = np.column_stack(
+            [np.sqrt(np.maximum(w2, 0.0)), np.sqrt(np.maximum(a2, 0.0)), taus[p]]
+        )
+    return out
+
+
+def series_noise_many(r: FloatArray, t: FloatArray, tau_c_max_s: float) -> FloatArray:
+    """(σ_w, σ_a, τ_c) of every column of ``r`` (visits × series, sampled at the times ``t``)
+    by the constrained variogram, each column on its own: series × 3, NaN where a series is
+    too short."""
+    return pooled_noise([(np.asarray(r, dtype=np.float64), t)], tau_c_max_s)[0]
 
 
 def series_noise(
@@ -324,25 +408,37 @@ def holdout_floor_draws(
     ``residuals`` (held-out rows ``rows`` of the 2n vector × replicates)."""
     n = visits.n
     where = {int(r): i for i, r in enumerate(rows)}
-    series: list[tuple[npt.NDArray[np.intp], FloatArray, int]] = []
+    series: list[tuple[str, npt.NDArray[np.intp], FloatArray, int]] = []
     for g in visits.groups:
-        if str(visits.run[g[0]]) not in holdout_runs:
+        run = str(visits.run[g[0]])
+        if run not in holdout_runs:
             continue
         for off in (0, n):
             pos = [where.get(int(i) + off, -1) for i in g]
             if min(pos) < 0:
                 continue
-            series.append((np.asarray(pos, dtype=np.intp), visits.t_s[g], len(g)))
-    # Per series, every replicate at once; pooled per replicate over the series it has.
+            series.append((run, np.asarray(pos, dtype=np.intp), visits.t_s[g], len(g)))
+    # Per process, every replicate at once; pooled per replicate over the series it has.
     num = np.zeros(residuals.shape[1])
     den = np.zeros(residuals.shape[1])
-    for idx, t, m in series:
-        got = series_noise_many(residuals[idx], t, tau_c_max_s)
-        have = np.isfinite(got[:, 0])
-        num[have] += m * (got[have, 0] ** 2 + got[have, 1] ** 2)
-        den[have] += m
+    for members in _processes([run for run, _, _, _ in series]):
+        sets = [(residuals[series[i][1]], series[i][2]) for i in members]
+        for i, got in zip(members, pooled_noise(sets, tau_c_max_s), strict=True):
+            m = series[i][3]
+            have = np.isfinite(got[:, 0])
+            num[have] += m * (got[have, 0] ** 2 + got[have, 1] ** 2)
+            den[have] += m
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(den > 0, np.sqrt(num / np.where(den > 0, den, 1.0)), np.nan)
+
+
+def _processes(runs: Sequence[str]) -> list[list[int]]:
+    """The series (by index) that share one correlation time: every series of a run (one
+    pose error moves all of a run's channels; runs may differ in speed and load)."""
+    out: dict[str, list[int]] = {}
+    for i, r in enumerate(runs):
+        out.setdefault(r, []).append(i)
+    return list(out.values())
 
 
 def noise_floor(
@@ -358,7 +454,7 @@ def noise_floor(
     visits
         The visits (row order of ``residual``: u rows then v rows).
     residual
-        The nominal model's residual per row (2n).
+        A model's residual per row (2n): the nominal model's, or one with effects.
     holdout_runs
         Names of the held-out runs (each gets its own floor).
     temperatures
@@ -369,16 +465,21 @@ def noise_floor(
     series: list[SeriesNoise] = []
     n = visits.n
     cen, cen_note = _centroid(visits)
+    keys: list[tuple[str, str, str, int]] = []
+    sets: list[tuple[FloatArray, FloatArray]] = []
     for g in visits.groups:
-        run = str(visits.run[g[0]])
-        cam = str(visits.camera[g[0]])
         for ax, off in (("u", 0), ("v", n)):
-            got = series_noise(residual[g + off], visits.t_s[g], tau_c_max_s)
-            if got is None:
+            keys.append((str(visits.run[g[0]]), str(visits.camera[g[0]]), ax, len(g)))
+            sets.append((residual[g + off][:, None], visits.t_s[g]))
+    for members in _processes([k[0] for k in keys]):
+        got = pooled_noise([sets[i] for i in members], tau_c_max_s)
+        for i, est in zip(members, got, strict=True):
+            if not np.isfinite(est[0, 0]):
                 continue
-            w, a, tau = got
+            run, cam, ax, m = keys[i]
             c = None if cen is None else cen.get((run, cam, ax))
-            series.append(SeriesNoise(run, cam, ax, len(g), w, a, tau, c))
+            w, a, tau = (float(x) for x in est[0])
+            series.append(SeriesNoise(run, cam, ax, m, w, a, tau, c))
     if not series:
         # Series too short for a variogram: the plain von Neumann estimate per series.
         for g in visits.groups:
@@ -398,6 +499,7 @@ def noise_floor(
                             None,
                         )
                     )
+    correlations = channel_correlations(visits, residual, series, tau_c_max_s)
     per_run: dict[str, float] = {}
     for r in dict.fromkeys(visits.run.tolist()):
         ss = [s for s in series if s.run == r]
@@ -424,6 +526,7 @@ def noise_floor(
         centroid_um=float(np.sqrt(np.mean(np.square(all_cen)))) if all_cen else None,
         centroid_note=cen_note,
         joints_um=joints,
+        correlations=correlations,
     )
 
 
@@ -449,3 +552,130 @@ def _centroid(visits: VisitSet) -> tuple[dict[tuple[str, str, str], float] | Non
                     np.sqrt(np.mean(sd[m] ** 2 / k[m]))
                 )
     return out, "the scatter of the centroid between the frames of each visit, σ²/n per visit"
+
+
+def _nearest_correlation(c: FloatArray) -> FloatArray:
+    """A symmetric matrix made a correlation matrix: eigenvalues at least 1e-6, unit
+    diagonal."""
+    c = np.clip((c + c.T) / 2.0, -1.0, 1.0)
+    np.fill_diagonal(c, 1.0)
+    w, v = np.linalg.eigh(c)
+    c = (v * np.maximum(w, 1e-6)) @ v.T
+    d = np.sqrt(np.diag(c))
+    out: FloatArray = c / np.outer(d, d)
+    return out
+
+
+def channel_correlations(
+    visits: VisitSet, residual: FloatArray, series: Sequence[SeriesNoise], tau_c_max_s: float
+) -> dict[str, ChannelCorrelation]:
+    """Per run, the correlation of its channels' white parts and of their correlated parts.
+
+    The channels' residuals are put on the run's cycles (:func:`.resample.cycle_units`), and
+    their cross-variograms ``½·E[Δx_i·Δx_j](h) = c_w + c_a·(1 − e^(−h/τ_c)) + c_s·(h/h_max)²``
+    with the run's correlation time τ_c, over lags up to three of them
+    (:func:`correlation_lags`), fitted by least squares entry by entry
+    (:func:`cross_variogram_parts`); c_w and c_a, averaged over the runs with the same
+    channels and normalised by their diagonals, are the two correlation matrices (a part
+    absent from a channel is uncorrelated with the rest)."""
+    from thermrs.diagnose.resample import cycle_units
+
+    n = visits.n
+    units = cycle_units(visits)
+    tau_of = {(s.run, s.camera, s.axis): s.tau_c_s for s in series}
+    parts: dict[tuple[tuple[str, str], ...], list[tuple[str, int, FloatArray, FloatArray]]] = {}
+    for run in dict.fromkeys(visits.run.tolist()):
+        groups = [g for g in visits.groups if visits.run[g[0]] == run]
+        chans = [(g, ax, off) for g in groups for ax, off in (("u", 0), ("v", n))]
+        keys = tuple((str(visits.camera[g[0]]), ax) for g, ax, _ in chans)
+        taus = [tau_of.get((str(run), c, a)) for c, a in keys]
+        k = len(chans)
+        if k < 2 or len(set(keys)) < k or any(t is None for t in taus):
+            continue
+        cyc = np.unique(units[visits.run == run])
+        mat = np.full((len(cyc), k), np.nan)
+        for c, (g, _, off) in enumerate(chans):
+            mat[np.searchsorted(cyc, units[g]), c] = residual[g + off]
+        dts = [np.median(np.diff(visits.t_s[g])) for g in groups if len(g) > 1]
+        dt = float(np.median(dts)) if dts else 0.0
+        if dt <= 0 or len(cyc) < 12:
+            continue
+        tau = float(np.median(np.asarray(taus, dtype=np.float64)))
+        cw, ca = cross_variogram_parts(mat, dt, tau, correlation_lags(tau, dt, len(cyc)))
+        parts.setdefault(keys, []).append((str(run), len(cyc), cw, ca))
+    # The chips sit at the same poses in every run: one pose error's mixing into the
+    # channels is the runs' common one, so the covariances are averaged over the runs (by
+    # their cycles) before they are made correlations (a ratio of one run's noisy estimates
+    # is biased toward none).
+    out: dict[str, ChannelCorrelation] = {}
+    for keys, got in parts.items():
+        w = np.array([m for _, m, _, _ in got], dtype=np.float64)
+        white = as_correlation(np.tensordot(w, np.array([g[2] for g in got]), 1))
+        has = [bool(np.any(g[3])) for g in got]
+        correlated = (
+            as_correlation(np.tensordot(w, np.array([g[3] for g in got]), 1))
+            if any(has)
+            else np.eye(len(keys))
+        )
+        for run_name, *_ in got:
+            out[run_name] = ChannelCorrelation(keys, white, correlated)
+    return out
+
+
+def correlation_lags(tau_c_s: float, dt: float, cycles: int) -> int:
+    """The longest lag (cycles) of the channels' cross-variograms: three correlation times,
+    where the correlated part has reached 95 % of its sill (at least 4, at most a third of
+    the run). A gap's slow structure grows with the lag, and every channel moves with it
+    at once: over the series' own lags, out to the thermal time constant, it read as a
+    coherent pose error, and the null world drew every effect of the robot's look-alikes
+    as noise (a non-linear α at SNR 1 on 48-h runs lost to the thermal camera's drift)."""
+    return int(np.clip(np.ceil(3.0 * tau_c_s / dt) + 1, 4, max(4, cycles // 3)))
+
+
+def cross_variogram_parts(
+    mat: FloatArray, dt: float, tau_c_s: float, k_max: int
+) -> tuple[FloatArray, FloatArray]:
+    """The covariances of k channels' white parts and of their correlated parts, from their
+    cross-variograms (:func:`channel_correlations`).
+
+    Parameters
+    ----------
+    mat
+        The channels' residuals on a regular grid of cycles (cycles × k, NaN where missing).
+    dt
+        The cycle time (s).
+    tau_c_s
+        The channels' common correlation time (s; 0: no correlated part).
+    k_max
+        The longest lag (cycles).
+
+    Returns
+    -------
+    white, correlated
+        k × k covariance estimates (zeros where a part is absent).
+    """
+    k = mat.shape[1]
+    lags = np.arange(1, k_max + 1)
+    gam = np.empty((len(lags), k, k))
+    for i, lag in enumerate(lags):
+        d = mat[lag:] - mat[:-lag]
+        f = np.isfinite(d).astype(np.float64)
+        dz = np.where(np.isfinite(d), d, 0.0)
+        cnt = f.T @ f
+        gam[i] = (dz.T @ dz) / np.where(cnt > 0, 2.0 * cnt, np.inf)
+    h = lags * dt
+    corr = 1.0 - np.exp(-h / tau_c_s) if tau_c_s > 0 else np.zeros_like(h)
+    x = np.column_stack([np.ones_like(h), corr, (h / h[-1]) ** 2])
+    if tau_c_s <= 0:
+        x = x[:, [0, 2]]
+    coef = np.linalg.lstsq(x, gam.reshape(len(lags), k * k), rcond=None)[0].reshape(-1, k, k)
+    return coef[0], (coef[1] if tau_c_s > 0 else np.zeros((k, k)))
+
+
+def as_correlation(c: FloatArray) -> FloatArray:
+    """A covariance estimate as a correlation matrix (:func:`_nearest_correlation`); a
+    channel whose variance estimate is not positive uncorrelated with the rest."""
+    dg = np.diag(c)
+    ok = dg > 0
+    sd = np.sqrt(np.where(ok, dg, 1.0))
+    return _nearest_correlation(np.where(np.outer(ok, ok), c / np.outer(sd, sd), 0.0))

@@ -4,7 +4,7 @@ Every decision of the diagnoser that a constant once made is a test here, at a s
 calibrated on the data at hand. A *world* is a model taken as the truth (the nominal model, or
 the nominal model with the effects selected so far) with its fitted values, plus noise drawn
 from the fitted noise model of every (run, camera, axis) series (:mod:`.floor`: white and a
-short-correlated part, u and v of a visit correlated as their increments are). In each
+short-correlated part, the channels of a cycle correlated as the floor found them). In each
 replicate the whole scoring is redone exactly as on the data: α (and the world's effect
 amplitudes) refitted on the training runs, every candidate family profiled on its grid by the
 training residual, held-out offsets refitted, the held-out mean square taken. The statistics:
@@ -245,8 +245,9 @@ def draw_noise(
 
     Every channel of a run (camera × chip axis) gets its own white and correlated parts
     (:class:`.floor.SeriesNoise`); the channels of one cycle are drawn correlated as the
-    residual's increments from cycle to cycle are (a pose error moves both cameras and both
-    axes at once), for the white draws and the correlated part's innovations alike.
+    floor found them (:class:`.floor.ChannelCorrelation`: the white draws as the white parts
+    are, the correlated part's innovations as the correlated parts are), or, where it has
+    no estimate for a run, both as the measured spots' increments from cycle to cycle are.
     """
     vs = design.vs
     n = vs.n
@@ -256,9 +257,18 @@ def draw_noise(
     for run, chans, pos, chol in _plan(design):
         m = max(int(p.max()) for p in pos) + 1
         k = len(chans)
+        chol_w: FloatArray = chol
+        chol_a: FloatArray = chol
+        cc = floor.correlations.get(run)
+        if cc is not None:
+            keys = tuple((str(vs.camera[rows[0] % n]), axis) for rows, axis in chans)
+            if set(keys) == set(cc.channels) and len(keys) == len(cc.channels):
+                at = [cc.channels.index(key) for key in keys]
+                chol_w = np.asarray(np.linalg.cholesky(cc.white[np.ix_(at, at)]), np.float64)
+                chol_a = np.asarray(np.linalg.cholesky(cc.correlated[np.ix_(at, at)]), np.float64)
         # Channel by channel, cycles × draws: one product with the correlation's factor.
-        zw = (chol @ rng.standard_normal((k, m * draws))).reshape(k, m, draws)
-        za = (chol @ rng.standard_normal((k, m * draws))).reshape(k, m, draws)
+        zw = (chol_w @ rng.standard_normal((k, m * draws))).reshape(k, m, draws)
+        za = (chol_a @ rng.standard_normal((k, m * draws))).reshape(k, m, draws)
         for c, (rows, axis) in enumerate(chans):
             cam = str(vs.camera[rows[0] % n])
             s = noise.get((run, cam, axis))
