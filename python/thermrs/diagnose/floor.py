@@ -14,6 +14,15 @@ Visit repeatability
     series): γ(h) = σ_w² + σ_a²·(1 − e^(−h/τ_c)) + c·h², white noise,
     a pose error correlated over τ_c, and a smooth structure that grows with the lag
     (non-negative least squares, τ_c profiled on a grid). The floor is √(σ_w² + σ_a²).
+    The series is first detrended by a local quadratic over the thermal time scale, and the
+    model's white and correlated terms are what those parts become once detrended (exact: a
+    variogram is linear in the covariance); each lag is weighted by √pairs over the
+    variogram's smoothed level, so that the short lags, where the noise is most of it, set
+    the noise. Without the two steps a gap left in the residual (a run heating and cooling,
+    a chip's self-heating) was read as noise: on the nominal residual of 42 bench worlds with
+    2 µm of noise and one effect at SNR 1–4, held-out floors of 1.82–2.72 µm (rms error
+    0.25 µm), now 1.79–2.40 µm (0.12 µm); without an effect unbiased as before
+    (:func:`_grid_fit`).
     One pose error moves every chip of a run, so the series of a run share one τ_c: the one
     whose fits leave least over all of them (relative to each variogram's size). A τ_c
     shorter than the cycle is kept (an AR(1) of lag-one correlation e^(−cycle/τ_c) is not
@@ -294,14 +303,85 @@ def _tau_grid(dt: float, tau_c_max_s: float) -> FloatArray:
     return np.array([0.0, *[x for x in grid if not (x > tau_c_max_s and x > 0)]])
 
 
+#: The detrending smoother's Gaussian kernel σ, as a share of the shortest thermal time
+#: constant: a local quadratic over about ± one thermal time constant follows a heating
+#: curve's bend and leaves what varies faster than a tenth of it (the noise) in place.
+DETREND_BANDWIDTH = 0.5
+#: The log-variogram is averaged over this many neighbouring lags for the fit's weights.
+WEIGHT_LAGS = 5
+
+
+def _detrender(t: FloatArray, bandwidth_s: float) -> FloatArray:
+    """I − S: S the local quadratic regression smoother with a Gaussian kernel of σ
+    ``bandwidth_s`` at the times ``t`` (n × n)."""
+    d = (t[None, :] - t[:, None]) / bandwidth_s  # row i: the others' offsets from t_i
+    w = np.exp(-0.5 * d**2)
+    x = np.stack([np.ones_like(d), d, d**2], axis=2)  # n × n × 3
+    xw = x * w[:, :, None]
+    g = np.einsum("ijk,ijl->ikl", xw, x)  # n × 3 × 3
+    e1 = np.linalg.solve(g, np.broadcast_to(np.eye(3)[0], (len(t), 3))[:, :, None])[:, :, 0]
+    out: FloatArray = np.eye(len(t)) - np.einsum("ik,ijk->ij", e1, xw)
+    return out
+
+
+def _band_semivariogram(b: FloatArray, a: FloatArray, lags: npt.NDArray[np.intp]) -> FloatArray:
+    """The mean semivariogram at ``lags`` of a series with covariance B·Aᵀ (B = A·Σ)."""
+    dg = np.einsum("ij,ij->i", b, a)
+    out = np.empty(len(lags))
+    for i, k in enumerate(lags):
+        off = np.einsum("ij,ij->i", b[k:], a[:-k])  # (B·Aᵀ)[t + k, t]
+        out[i] = 0.5 * np.mean(dg[k:] + dg[:-k] - 2.0 * off)
+    return out
+
+
+_DESIGNS: dict[tuple[bytes, bytes, bytes, float], tuple[FloatArray, FloatArray, FloatArray]] = {}
+_DESIGNS_KEPT = 64
+
+
+def _detrended_design(
+    t: FloatArray, lags: npt.NDArray[np.intp], taus: FloatArray, bandwidth_s: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """I − S (:func:`_detrender`), and the semivariogram at ``lags`` that a unit white part
+    and a unit correlated part (each τ of ``taus``; row 0, τ = 0, zero) have once detrended:
+    the model's columns, exact for any smoother (the variogram is linear in the covariance).
+    Kept per sampling (the replicates of a series share it)."""
+    key = (t.tobytes(), lags.tobytes(), taus.tobytes(), bandwidth_s)
+    got = _DESIGNS.get(key)
+    if got is not None:
+        return got
+    a = _detrender(t, bandwidth_s)
+    white = _band_semivariogram(a, a, lags)
+    corr = np.zeros((len(taus), len(lags)))
+    dist = np.abs(t[:, None] - t[None, :])
+    for i, tau in enumerate(taus):
+        if tau > 0:
+            corr[i] = _band_semivariogram(a @ np.exp(-dist / tau), a, lags)
+    if len(_DESIGNS) >= _DESIGNS_KEPT:
+        _DESIGNS.pop(next(iter(_DESIGNS)))
+    _DESIGNS[key] = (a, white, corr)
+    return a, white, corr
+
+
 def _grid_fit(
     r: FloatArray, t: FloatArray, tau_c_max_s: float, taus: FloatArray
 ) -> tuple[FloatArray, FloatArray] | None:
     """The variogram model of every column of ``r`` (no missing visit) at every τ of
     ``taus``: coefficients (T × 3 × B, τ = 0 without a correlated part) and the residual
-    norms relative to each column's variogram (T × B); None if too short."""
+    norms relative to each column's (weighted) variogram (T × B); None if too short.
+
+    The series is first detrended by a local quadratic over the thermal time scale
+    (:data:`DETREND_BANDWIDTH`): a gap's slow structure is not quadratic in the lag out to
+    the thermal time constant, and what the model's smooth term could not follow was read as
+    noise (a floor 10–35 % high, or a white part pinned at zero, with a strong effect in
+    the residual). The model's white and correlated columns are what those parts become
+    once detrended, so the detrending costs no bias. The fit weighs each lag by
+    √(pairs) / γ̂(h), γ̂ averaged in log over :data:`WEIGHT_LAGS` neighbouring lags
+    (Cressie's weights with the empirical variogram, smoothed so that a lag's weight does
+    not follow its own error): at the short lags the noise is most of the variogram,
+    at the long ones what is left of a gap is."""
     if len(r) < 12:
         return None
+    t = np.asarray(t, dtype=np.float64)
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     if dt <= 0:
         return None
@@ -310,15 +390,28 @@ def _grid_fit(
     # levelled off, so that it cannot absorb a correlated part near its allowed limit.
     k_max = int(np.clip(np.ceil(SCALE_SEPARATION * tau_c_max_s / dt), 4, len(r) // 3))
     lags = np.arange(1, k_max + 1)
-    gam = _variogram(r, lags)
+    bandwidth = DETREND_BANDWIDTH * SCALE_SEPARATION * tau_c_max_s
+    det, white, corr = _detrended_design(t, lags, taus, bandwidth)
+    gam = _variogram(det @ r, lags)
     h = lags * dt
-    corr = np.zeros((len(taus), len(h)))
-    corr[1:] = 1.0 - np.exp(-h[None, :] / taus[1:, None])
-    a = np.stack([np.ones_like(corr), corr, np.broadcast_to((h / h[-1]) ** 2, corr.shape)], axis=2)
-    coef, err = _nnls_many(a, gam)
+    a = np.stack(
+        [np.broadcast_to(white, corr.shape), corr, np.broadcast_to((h / h[-1]) ** 2, corr.shape)],
+        axis=2,
+    )
+    half = WEIGHT_LAGS // 2
+    lg = np.pad(np.log(np.maximum(gam, 1e-300)), ((half, half), (0, 0)), mode="edge")
+    smooth = np.exp(np.mean([lg[i : i + len(lags)] for i in range(WEIGHT_LAGS)], axis=0))
+    wt = np.sqrt(len(t) - lags)[:, None] / smooth  # lags × B
+    coef = np.zeros((len(taus), 3, r.shape[1]))
+    err = np.zeros((len(taus), r.shape[1]))
+    for c in range(r.shape[1]):
+        g = (gam[:, c] * wt[:, c])[:, None]
+        cc, ee = _nnls_many(a * wt[None, :, c, None], g)
+        coef[:, :, c] = cc[:, :, 0]
+        scale = float(np.linalg.norm(g))
+        err[:, c] = ee[:, 0] / (scale if scale > 0 else 1.0)
     coef[0, 1] = 0.0  # τ = 0: no correlated part
-    scale = np.linalg.norm(gam, axis=0)
-    return coef, err / np.where(scale > 0, scale, 1.0)
+    return coef, err
 
 
 def pooled_noise(
