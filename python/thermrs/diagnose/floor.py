@@ -275,23 +275,25 @@ _SUBSETS = [s for m in range(1, 8) if (s := [j for j in range(3) if m >> j & 1])
 
 
 def _nnls_many(a: FloatArray, g: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Non-negative least squares of every column of ``g`` (k × B) on the stacked designs
-    ``a`` (T × k × 3): coefficients (T × 3 × B) and residual norms (T × B).
+    """Non-negative least squares of every column of ``g`` (T × k × B: per design) on the
+    stacked designs ``a`` (T × B × k × 3: per design and column): coefficients (T × 3 × B)
+    and residual norms (T × B).
 
     The solution is the least-squares fit on one subset of the columns with every coefficient
     ≥ 0 (the Karush–Kuhn–Tucker conditions), and that fit has the least residual among all such
     feasible subset fits (each is a feasible point); with three columns, all seven subsets
     (and none) are tried at once for every design and column."""
-    t_n, b_n = a.shape[0], g.shape[1]
-    best_err = np.broadcast_to(np.linalg.norm(g, axis=0), (t_n, b_n)).copy()
+    t_n, b_n = a.shape[0], a.shape[1]
+    gg = g.transpose(0, 2, 1)[..., None]  # T × B × k × 1
+    best_err = np.linalg.norm(g, axis=1)
     best = np.zeros((t_n, 3, b_n))
     for sub in _SUBSETS:
-        c = np.linalg.pinv(a[:, :, sub]) @ g  # T × |S| × B
-        err = np.linalg.norm(a[:, :, sub] @ c - g, axis=1)
-        take = np.all(c >= 0.0, axis=1) & (err < best_err)
+        c = (np.linalg.pinv(a[..., sub]) @ gg)[..., 0]  # T × B × |S|
+        err = np.linalg.norm((a[..., sub] @ c[..., None])[..., 0] - gg[..., 0], axis=2)
+        take = np.all(c >= 0.0, axis=2) & (err < best_err)
         best_err = np.where(take, err, best_err)
         for j in range(3):
-            now = c[:, sub.index(j)] if j in sub else 0.0
+            now = c[:, :, sub.index(j)] if j in sub else 0.0
             best[:, j] = np.where(take, now, best[:, j])
     return best, best_err
 
@@ -402,16 +404,13 @@ def _grid_fit(
     lg = np.pad(np.log(np.maximum(gam, 1e-300)), ((half, half), (0, 0)), mode="edge")
     smooth = np.exp(np.mean([lg[i : i + len(lags)] for i in range(WEIGHT_LAGS)], axis=0))
     wt = np.sqrt(len(t) - lags)[:, None] / smooth  # lags × B
-    coef = np.zeros((len(taus), 3, r.shape[1]))
-    err = np.zeros((len(taus), r.shape[1]))
-    for c in range(r.shape[1]):
-        g = (gam[:, c] * wt[:, c])[:, None]
-        cc, ee = _nnls_many(a * wt[None, :, c, None], g)
-        coef[:, :, c] = cc[:, :, 0]
-        scale = float(np.linalg.norm(g))
-        err[:, c] = ee[:, 0] / (scale if scale > 0 else 1.0)
+    g = gam * wt
+    coef, err = _nnls_many(
+        a[:, None] * wt.T[None, :, :, None], np.broadcast_to(g, (len(taus), *g.shape))
+    )
     coef[0, 1] = 0.0  # τ = 0: no correlated part
-    return coef, err
+    scale = np.linalg.norm(g, axis=0)
+    return coef, err / np.where(scale > 0, scale, 1.0)
 
 
 def pooled_noise(
