@@ -17,8 +17,9 @@ The compensation law (:func:`compensation_law`)
     ``reference_c … reference_c + span_k``; :attr:`CompensationLaw.linearity_um` is the largest
     departure of the full model from the line over that span), a ``fixture_drift`` as its own
     ambient slope, a ``sensor_drift`` as an amplitude with its time constant and a
-    ``thermal_lag`` as the time constant by which the structure lags the measured surface (a
-    controller filters the temperatures with it first). Each coefficient carries a 95 %
+    ``thermal_lag`` as the time constant by which the structure lags the measured surface and
+    the share of the expansion that lags (a controller filters the temperatures with it
+    first and uses T + share·(T_s − T)). Each coefficient carries a 95 %
     interval: α's interval from the joint fit of α with the effects (the diagnosis'
     ``verdict.alpha_ci95``) and the effect parameters' (``params_ci95``: amplitudes from the
     joint fit's covariance, time constants by profile likelihood) propagated through the
@@ -292,7 +293,8 @@ class CompensationLaw:
         """The law as one self-contained row per camera pose and chip axis (the CSV a
         controller reads): ``reference_c``, then per temperature name ``<T>_um_per_k`` with
         its ``_ci95_low``/``_ci95_high``, then the chip and time terms (``chip_mount_…``,
-        ``chip_drift_um``/``chip_drift_tau_min``, ``structure_lag_tau_min``). Units are in the
+        ``chip_drift_um``/``chip_drift_tau_min``, ``structure_lag_tau_min`` and
+        ``structure_lag_share``). Units are in the
         column names; drift (µm) = Σ ``<T>_um_per_k`` · (T − ``reference_c``) + chip terms."""
         rows: dict[tuple[str, str, str], dict[str, Any]] = {}
         for r in self.table.iter_rows(named=True):
@@ -376,6 +378,8 @@ def _wide_column(r: dict[str, Any]) -> str:
         return "chip_drift_um"
     if term.startswith("structure lag"):
         return "structure_lag_tau_min"
+    if term.startswith("lagging share"):
+        return "structure_lag_share"
     if " reading drift " in term:
         return f"{term.split(' ')[0]}_reading_drift_k_per_h"
     if term.startswith("thermal camera stamps late"):
@@ -584,9 +588,12 @@ def _chip_rows(e: Effect, cam: str, pose: str, ci: dict[str, Any]) -> list[dict[
         return (float(c[0]), float(c[1]))
 
     if e.name == "thermal_lag":
+        w = float(d.get("weight", 1.0))
         for axis in "uv":
             row(axis, "structure lag (filter every T first: dT_s/dt = (T - T_s)/tau)", "min",
                 d["tau_min"], *interval("tau_min", None, d["tau_min"]))  # fmt: skip
+            row(axis, "lagging share (use T + share * (T_s - T) for every T)", "1", w,
+                *interval("weight", None, w))  # fmt: skip
     elif e.name == "fixture_drift" and d["camera"] == cam:
         tau = float(d.get("mount_tau_min", 0.0))
         mount = f" (filter ambient first: dT_m/dt = (T - T_m)/{tau:.4g} min)" if tau > 0 else ""

@@ -239,10 +239,19 @@ class AlphaPerLink(Effect):
 @register
 @dataclass(frozen=True)
 class ThermalLag(Effect):
-    """The structure lags the surface temperature the IR camera sees (first order)."""
+    """The structure lags the surface temperature the IR camera sees (first order);
+    ``weight`` (an extension, default 1) is the share of the expansion that lags: the
+    structure sees T + weight·(lag(T) − T)."""
 
     name: ClassVar[str] = "thermal_lag"
     tau_min: float = 0.0
+    weight: float = 1.0
+
+    def to_dict(self) -> dict[str, Any]:
+        d = super().to_dict()
+        if self.weight == 1.0:
+            d.pop("weight", None)  # SPEC §6's own shape where all of it lags
+        return d
 
     @classmethod
     def families(cls, rig: Rig, visits: Visits) -> list[Family]:
@@ -253,8 +262,11 @@ class ThermalLag(Effect):
         def params(
             eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
         ) -> tuple[dict[str, Any], dict[str, Any]]:
+            # The lag's column is the full lag's departure per unit α: its amplitude over α is
+            # the share that lags, which the effect carries so that what the diagnosis fitted
+            # is what a law or a prediction from it applies.
             w, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
-            return {"tau_min": eta["tau_min"]}, {"weight": _ci(w, sd)}
+            return {"tau_min": eta["tau_min"], "weight": w}, {"weight": _ci(w, sd)}
 
         grid = [{"tau_min": float(t)} for t in TAU_GRID_MIN]
         return [

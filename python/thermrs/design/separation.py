@@ -64,7 +64,8 @@ class Rival:
 
 
 def rivals_from(diagnosis: Mapping[str, Any], names: Sequence[str], rig: Rig) -> list[Rival]:
-    """The named effects with the parameters of their best row in the diagnosis's ranking.
+    """The named effects with the parameters of their best row in the diagnosis's ranking
+    (a lag's share outside 0–2 left at 1, all of it lagging).
 
     Raises
     ------
@@ -94,6 +95,11 @@ def rivals_from(diagnosis: Mapping[str, Any], names: Sequence[str], rig: Rig) ->
         cls = known[name]
         fields = set(cls.__dataclass_fields__)
         params = {k: v for k, v in row["params"].items() if k in fields}
+        w = params.get("weight")
+        if name == "thermal_lag" and w is not None and not 0.0 < float(w) <= 2.0:
+            # A share that cannot lag (a rival fitted against the sign of a lag): the full
+            # lag at its time constant is what is simulated, as `simulated_as` says.
+            params.pop("weight")
         try:
             truth = from_dict({"name": name, **params}, rig=rig)
         except InputError as e:

@@ -55,6 +55,9 @@ pub mod bounds {
     pub const UM_PER_K: f64 = 1_000.0;
     /// |chip self-heating drift| (µm).
     pub const UM: f64 = 10_000.0;
+    /// The share of the expansion that lags (`thermal_lag`'s `weight`): above zero, at most
+    /// this (a structure cannot overshoot its surface's change by more).
+    pub const LAG_WEIGHT: f64 = 2.0;
 }
 
 /// One SPEC §6 effect with its parameters.
@@ -63,8 +66,14 @@ pub mod bounds {
 pub enum Effect {
     /// Each mapped temperature has its own α (1/K); temperatures not listed keep the model's α.
     AlphaPerLink { alpha_per_k: BTreeMap<String, f64> },
-    /// The structure lags the surface temperature the IR camera sees, first order, `tau_min`.
-    ThermalLag { tau_min: f64 },
+    /// The structure lags the surface temperature the IR camera sees, first order, `tau_min`;
+    /// `weight` (an extension, default 1: all of it) is the share of the expansion that lags,
+    /// the structure seeing T + weight·(lag(T) − T).
+    ThermalLag {
+        tau_min: f64,
+        #[serde(default = "unit_weight", skip_serializing_if = "is_unit_weight")]
+        weight: f64,
+    },
     /// A DH length (`a<i>`/`d<i>`) the rig does not list expands with `temperature`.
     UnmodelledLength { length: String, temperature: String },
     /// `camera`'s mount moves with ambient: `um_per_k` [u, v] per kelvin above reference; the
@@ -99,6 +108,14 @@ pub enum Effect {
     },
 }
 
+fn unit_weight() -> f64 {
+    1.0
+}
+
+fn is_unit_weight(w: &f64) -> bool {
+    *w == 1.0
+}
+
 /// An effect as a scenario file writes it: a name and flat optional keys (parsed strictly, so
 /// that an unknown key is named), turned into an [`Effect`] by [`Effect::from_spec`].
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -131,6 +148,8 @@ pub struct EffectSpec {
     pub um: Option<[f64; 2]>,
     #[serde(default)]
     pub mount_tau_min: Option<f64>,
+    #[serde(default)]
+    pub weight: Option<f64>,
 }
 
 /// A problem with an effect: the key (relative to the effect) and what is wrong.
@@ -188,7 +207,7 @@ impl Effect {
     pub fn keys(name: &str) -> Option<(&'static [&'static str], &'static [&'static str])> {
         Some(match name {
             "alpha_per_link" => (&["alpha_per_k"], &[]),
-            "thermal_lag" => (&["tau_min"], &[]),
+            "thermal_lag" => (&["tau_min"], &["weight"]),
             "unmodelled_length" => (&["length", "temperature"], &[]),
             "fixture_drift" => (&["camera", "um_per_k"], &["mount_tau_min"]),
             "laser_tilt" => (&["tilt_deg"], &["azimuth_deg"]),
@@ -242,6 +261,7 @@ impl Effect {
             },
             "thermal_lag" => Effect::ThermalLag {
                 tau_min: s.tau_min.unwrap_or(f64::NAN),
+                weight: s.weight.unwrap_or(1.0),
             },
             "unmodelled_length" => Effect::UnmodelledLength {
                 length: text(&s.length),
@@ -288,7 +308,15 @@ impl Effect {
                     finite_within(&format!("alpha_per_k.{k}"), *v, ALPHA_PER_K, "1/K")?;
                 }
             }
-            Effect::ThermalLag { tau_min } => time_constant("tau_min", *tau_min)?,
+            Effect::ThermalLag { tau_min, weight } => {
+                time_constant("tau_min", *tau_min)?;
+                if !(weight.is_finite() && *weight > 0.0 && *weight <= LAG_WEIGHT) {
+                    return Err(KeyError::new(
+                        "weight",
+                        format!("is {weight}, expected a share 0 < weight ≤ {LAG_WEIGHT}"),
+                    ));
+                }
+            }
             Effect::UnmodelledLength {
                 length,
                 temperature,
@@ -466,7 +494,8 @@ impl EffectSpec {
             joint,
             urad_per_k,
             kappa_per_k,
-            um
+            um,
+            weight
         );
         k
     }
@@ -489,6 +518,8 @@ pub struct Effects {
     pub params: ModelParams,
     /// `thermal_lag`'s time constant (s), if any.
     pub lag_tau_s: Option<f64>,
+    /// `thermal_lag`'s share of the expansion that lags (1 without one).
+    pub lag_weight: f64,
     chip: Vec<ChipShift>,
 }
 
@@ -507,6 +538,7 @@ impl Effects {
         let mut set = Effects {
             params,
             lag_tau_s: None,
+            lag_weight: 1.0,
             chip: Vec::new(),
         };
         let mut seen: Vec<String> = Vec::new();
@@ -542,7 +574,10 @@ impl Effects {
                 p.alpha_by_temperature = alpha_per_k.clone();
             }
             Effect::NonlinearAlpha { kappa_per_k } => p.kappa_per_k = *kappa_per_k,
-            Effect::ThermalLag { tau_min } => self.lag_tau_s = Some(tau_min * 60.0),
+            Effect::ThermalLag { tau_min, weight } => {
+                self.lag_tau_s = Some(tau_min * 60.0);
+                self.lag_weight = *weight;
+            }
             Effect::UnmodelledLength {
                 length,
                 temperature,
@@ -585,9 +620,9 @@ impl Effects {
         }
     }
 
-    /// The structure temperature after `dt` seconds, from the surface's `x_prev` → `x_now`
-    /// (linear in between) and the structure's `y_prev` (`thermal_lag`; without it the
-    /// structure is the surface).
+    /// The lagged state after `dt` seconds, from the surface's `x_prev` → `x_now` (linear in
+    /// between) and the state's `y_prev` (`thermal_lag`; without it the surface itself); the
+    /// structure expands with [`Effects::structure_seen`] of it.
     pub fn structure_step(&self, x_prev: f64, x_now: f64, y_prev: f64, dt: f64) -> f64 {
         match self.lag_tau_s {
             Some(tau) => crate::heat::lag_step(x_prev, x_now, y_prev, dt, tau),
@@ -595,10 +630,23 @@ impl Effects {
         }
     }
 
-    /// A surface temperature series (times `t_s`, seconds) as the structure sees it.
+    /// The temperature the structure expands with, from the surface's `x` and the lagged
+    /// state `y` of [`Effects::structure_step`]: x + weight·(y − x) (`thermal_lag`'s share).
+    pub fn structure_seen(&self, x: f64, y: f64) -> f64 {
+        x + self.lag_weight * (y - x)
+    }
+
+    /// A surface temperature series (times `t_s`, seconds) as the structure sees it
+    /// ([`Effects::structure_seen`] of its lag).
     pub fn structure_series(&self, t_s: &[f64], x: &[f64]) -> Result<Vec<f64>> {
         match self.lag_tau_s {
-            Some(tau) => Ok(crate::heat::first_order_lag(t_s, x, tau)?),
+            Some(tau) => {
+                let y = crate::heat::first_order_lag(t_s, x, tau)?;
+                Ok(x.iter()
+                    .zip(&y)
+                    .map(|(&a, &b)| self.structure_seen(a, b))
+                    .collect())
+            }
             None => Ok(x.to_vec()),
         }
     }

@@ -44,6 +44,10 @@ fn values_out_of_range_are_named() {
         (r#"{"name":"thermal_lag","tau_min":-3.0}"#, "tau_min"),
         (r#"{"name":"thermal_lag","tau_min":0.0}"#, "tau_min"),
         (
+            r#"{"name":"thermal_lag","tau_min":30.0,"weight":0.0}"#,
+            "weight",
+        ),
+        (
             r#"{"name":"sensor_drift","camera":"A","tau_min":1e9,"um":[1,1]}"#,
             "tau_min",
         ),
@@ -106,8 +110,14 @@ fn names_are_checked_against_the_rig() {
         assert!(m.contains(needle), "{m}");
     }
     let twice = [
-        Effect::ThermalLag { tau_min: 3.0 },
-        Effect::ThermalLag { tau_min: 4.0 },
+        Effect::ThermalLag {
+            tau_min: 3.0,
+            weight: 1.0,
+        },
+        Effect::ThermalLag {
+            tau_min: 4.0,
+            weight: 1.0,
+        },
     ];
     assert!(matches!(
         Effects::build(&r, &twice, 2e-5, 20.0),
@@ -240,4 +250,55 @@ fn a_mount_with_inertia_follows_the_room_through_its_lag() {
         mount_tau_min: -3.0,
     };
     assert_eq!(bad.validate().unwrap_err().key, "mount_tau_min");
+}
+
+#[test]
+fn a_lag_of_weight_w_is_the_surface_moved_w_of_the_way_to_its_first_order_lag() {
+    // A step of 10 K at t = 0 seen every minute for two hours through τ = 30 min: the full
+    // lag is 10·(1 − e^(−t/τ)) (closed form); with weight 0.4 the structure sees
+    // 10 − 0.4·10·e^(−t/τ).
+    let t: Vec<f64> = (0..=120).map(|k| 60.0 * k as f64).collect();
+    let x: Vec<f64> = t
+        .iter()
+        .map(|&s| if s > 0.0 { 10.0 } else { 0.0 })
+        .collect();
+    let lag: Effect =
+        serde_json::from_str(r#"{"name":"thermal_lag","tau_min":30.0,"weight":0.4}"#).unwrap();
+    let fx = Effects::build(&rig(), &[lag.clone()], 2.3e-5, 20.0).unwrap();
+    let full = Effects::build(
+        &rig(),
+        &[Effect::ThermalLag {
+            tau_min: 30.0,
+            weight: 1.0,
+        }],
+        2.3e-5,
+        20.0,
+    )
+    .unwrap();
+    let y = fx.structure_series(&t, &x).unwrap();
+    let y1 = full.structure_series(&t, &x).unwrap();
+    for k in 1..t.len() {
+        let closed = 10.0 - 0.4 * 10.0 * (-(t[k] - 60.0) / 1800.0).exp();
+        let ramp = y1[k] - 10.0; // the full lag's departure, whatever the first step's ramp
+        assert!((y[k] - (10.0 + 0.4 * ramp)).abs() < 1e-9, "{k}");
+        if k > 5 {
+            assert!(
+                (y[k] - closed).abs() < 0.2,
+                "{k}: {} against {closed}",
+                y[k]
+            );
+        }
+    }
+    // The default weight is not written: the SPEC §6 shape is unchanged.
+    let plain = Effect::ThermalLag {
+        tau_min: 30.0,
+        weight: 1.0,
+    };
+    assert_eq!(
+        serde_json::to_string(&plain).unwrap(),
+        r#"{"name":"thermal_lag","tau_min":30.0}"#
+    );
+    assert!(serde_json::to_string(&lag)
+        .unwrap()
+        .contains(r#""weight":0.4"#));
 }

@@ -152,7 +152,10 @@ pub(super) fn ccd_frames<W: Write + Seek>(
 ) -> Result<()> {
     // Temperatures are stepped per cycle; within a cycle the structure is taken as constant
     // (minutes against time constants of hours).
-    let temps = setup.model_temperatures(&st.structure, ambient_at(&setup.sc.ambient, c.cycle_t));
+    let seen: Vec<f64> = (st.surface.iter().zip(&st.structure))
+        .map(|(&x, &y)| setup.fx.structure_seen(x, y))
+        .collect();
+    let temps = setup.model_temperatures(&seen, ambient_at(&setup.sc.ambient, c.cycle_t));
     let tcols: Vec<&[f64]> = temps.iter().map(std::slice::from_ref).collect();
     let cam = &setup.sc.camera;
     let bpp = if cam.bits == 8 { 1 } else { 2 };
@@ -262,6 +265,8 @@ pub(super) fn thermal<W: Write + Seek>(
                 .fx
                 .structure_step(st.surface[k], surface_ir[k], st.structure[k], into)
         })
+        .zip(&surface_ir)
+        .map(|(y, &x)| setup.fx.structure_seen(x, y))
         .collect();
     let ti = setup.t0_ns + (c.t_ir * 1e9) as i64;
     if let Some(wr) = wr {
