@@ -307,6 +307,7 @@ def _tests(steps: list[Step], level: float) -> dict[str, Any]:
                 "rival_p": s.rival_p,
                 "outside_rivals": s.outside,
                 "alternatives_p": s.alt_p,
+                "alternatives_p_equal_accuracy": s.alt_p_accuracy,
                 "alternatives": s.alternatives,
             }
             for s in steps

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from thermrs.diagnose.accuracy import equal_accuracy_p
 from thermrs.diagnose.family_fit import DesignMatrix
 from thermrs.diagnose.floor import NoiseFloor
 from thermrs.diagnose.null import Batch, BatchFit, Observations, draw_noise, quantile_above
@@ -109,7 +110,10 @@ class Step:
     outside: list[str] = field(default_factory=list)
     #: The chosen effect's other discrete choices (family labels: another joint, temperature,
     #: length or camera) tested as the truth, and those the data cannot reject.
+    #: Per alternative: the p of its test (:func:`_rival_p` with equal accuracy), and that of
+    #: the equal-accuracy part alone.
     alt_p: dict[str, float] = field(default_factory=dict)
+    alt_p_accuracy: dict[str, float] = field(default_factory=dict)
     alternatives: list[str] = field(default_factory=list)
     null_hold_ms: FloatArray = field(default_factory=lambda: np.zeros(0))
     low: float = 0.0
@@ -507,7 +511,8 @@ def _test_rivals(
     n = max(draws, int(np.ceil(2.0 * k / level)) - 1)
     step.rival_draws = n
     for ch in rivals:
-        step.rival_p[ch.effect] = _rival_p(batch, design, floor, model, best, ch, draws=n, rng=rng)
+        p, _ = _rival_p(batch, design, floor, model, best, ch, draws=n, rng=rng)
+        step.rival_p[ch.effect] = p
     # Holm's step-down: the smallest p against level / k, the next against level / (k − 1),
     # … until one is kept; it and every larger one are rivals the data cannot reject. The
     # rivals are rejected together at the level, as with Bonferroni, with more power.
@@ -562,9 +567,10 @@ def _test_alternatives(
             tested += len(block)
             n = max(draws, int(np.ceil(2.0 * tested / level)) - 1)
             for ch in block:
-                st.alt_p[ch.label] = _rival_p(
-                    batch, design, floor, others, best, ch, draws=n, rng=rng
+                ps = _rival_p(
+                    batch, design, floor, others, best, ch, draws=n, rng=rng, accuracy=True
                 )
+                st.alt_p[ch.label], st.alt_p_accuracy[ch.label] = ps
             if any(st.alt_p[c.label] < level / tested for c in block):
                 break
         st.alternatives = holm_kept(st.alt_p, level)
@@ -593,16 +599,53 @@ def _rival_p(
     *,
     draws: int,
     rng: np.random.Generator,
-) -> float:
-    """P(best's held-out advantage over ``rival`` ≥ the observed one | rival is the truth)."""
+    accuracy: bool = False,
+) -> tuple[float, float]:
+    """Can the data reject ``rival`` as the truth, ``best`` chosen? P(best's held-out
+    advantage over the rival ≥ the observed one | the rival, as the library writes it, is
+    the truth of a null world at the floor); with ``accuracy`` (an effect's other choices),
+    the larger of that and :mod:`.accuracy`'s p (intersection–union; why: that module).
+    Returns the p and the equal-accuracy p (NaN without ``accuracy``)."""
     ys_raw, _ = _world(batch, design, floor, [*model, rival], draws, rng)
     ys = batch.prepare(ys_raw)
     a = _profile(batch, model, best.grid, ys)
     b = _profile(batch, model, rival.grid, ys)
     if a is None or b is None:
-        return 1.0
+        return 1.0, 1.0
     d = b[0] - a[0]
-    return quantile_above(d[1:], float(d[0]))
+    p_exact = quantile_above(d[1:], float(d[0]))
+    if not accuracy:
+        return p_exact, float("nan")
+    p_acc = _accuracy_p(batch, design, floor, model, best, rival, a[1][0], b[1][0], rng)
+    return max(p_exact, p_acc), p_acc
+
+
+#: Draws of the held-out noise the equal-accuracy test's variance is taken from (its standard
+#: error then within 5 %).
+ACCURACY_DRAWS = 400
+
+
+def _accuracy_p(
+    batch: Batch,
+    design: DesignMatrix,
+    floor: NoiseFloor,
+    model: list[Choice],
+    best: Choice,
+    rival: Choice,
+    i_best: int,
+    i_rival: int,
+    rng: np.random.Generator,
+) -> float:
+    """Equal predictive accuracy of ``best`` and ``rival`` (each at its grid point on the data,
+    with ``model``) on the held-out runs, given the runs (:mod:`.accuracy`), the noise drawn
+    from the floor's model."""
+    y = design.y[:, None]
+    fa = batch.fit(_stack([*model, Choice(best.grid, int(i_best))]), y)
+    fb = batch.fit(_stack([*model, Choice(rival.grid, int(i_rival))]), y)
+    if fa is None or fb is None or fa.hold_resid is None or fb.hold_resid is None:
+        return 1.0
+    noise = draw_noise(design, floor, ACCURACY_DRAWS, rng)[batch.ho]
+    return equal_accuracy_p(fa.hold_resid[:, 0], fb.hold_resid[:, 0], noise)
 
 
 #: At most this many of a step's significant families are tried as its revised choice.
