@@ -264,7 +264,7 @@ fn a_lag_of_weight_w_is_the_surface_moved_w_of_the_way_to_its_first_order_lag() 
         .collect();
     let lag: Effect =
         serde_json::from_str(r#"{"name":"thermal_lag","tau_min":30.0,"weight":0.4}"#).unwrap();
-    let fx = Effects::build(&rig(), &[lag.clone()], 2.3e-5, 20.0).unwrap();
+    let fx = Effects::build(&rig(), std::slice::from_ref(&lag), 2.3e-5, 20.0).unwrap();
     let full = Effects::build(
         &rig(),
         &[Effect::ThermalLag {
