@@ -616,7 +616,10 @@ def _rival_p(
     p_exact = quantile_above(d[1:], float(d[0]))
     if not accuracy:
         return p_exact, float("nan")
-    p_acc = _accuracy_p(batch, design, floor, model, best, rival, a[1][0], b[1][0], rng)
+    fitted = [
+        _stack([*model, Choice(c.grid, int(got[1][0]))]) for c, got in ((best, a), (rival, b))
+    ]
+    p_acc = _accuracy_p(batch, design, floor, fitted, rng)
     return max(p_exact, p_acc), p_acc
 
 
@@ -629,19 +632,14 @@ def _accuracy_p(
     batch: Batch,
     design: DesignMatrix,
     floor: NoiseFloor,
-    model: list[Choice],
-    best: Choice,
-    rival: Choice,
-    i_best: int,
-    i_rival: int,
+    fitted: list[FloatArray | None],
     rng: np.random.Generator,
 ) -> float:
-    """Equal predictive accuracy of ``best`` and ``rival`` (each at its grid point on the data,
-    with ``model``) on the held-out runs, given the runs (:mod:`.accuracy`), the noise drawn
-    from the floor's model."""
+    """Equal predictive accuracy of two models (their ``fitted`` columns: the chosen one's,
+    the rival's, each at its grid point on the data) on the held-out runs, given the runs
+    (:mod:`.accuracy`), the noise drawn from the floor's model."""
     y = design.y[:, None]
-    fa = batch.fit(_stack([*model, Choice(best.grid, int(i_best))]), y)
-    fb = batch.fit(_stack([*model, Choice(rival.grid, int(i_rival))]), y)
+    fa, fb = (batch.fit(cols, y) for cols in fitted)
     if fa is None or fb is None or fa.hold_resid is None or fb.hold_resid is None:
         return 1.0
     noise = draw_noise(design, floor, ACCURACY_DRAWS, rng)[batch.ho]
