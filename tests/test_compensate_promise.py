@@ -93,6 +93,38 @@ def test_the_law_of_a_lag_is_the_model_the_diagnosis_fitted() -> None:
 
 
 @pytest.mark.slow
+def test_the_law_of_an_unmodelled_length_is_the_model_the_diagnosis_fitted() -> None:
+    # The independent world's unlisted length (a1) expands with link2 at 1.97 times the
+    # rig's α: the diagnosis fits that ratio (the effect's weight), and the law must apply it.
+    # Before the effect carried its weight the law assumed the rig's α for the length and
+    # left 8.1 µm where the diagnosis said 2.04.
+    rig, wrig = case_rigs(str(thermrs.default_rig_path()))
+    scene = draw_scene(wrig, Campaign(), "ar1", 6400, tolerances=rig.tolerances)
+    truths, _, _ = case_truths(wrig, scene, ("unmodelled_length",), 2.0, 6400)
+    tables = render(scene, tuple(truths))
+    doc = diagnose(tables[:1], tables[1:], rig, seed=6400, bootstrap=0).to_json()
+    v = doc["verdict"]
+    assert v["status"] == "identified" and v["effects"] == ["unmodelled_length"], doc["summary"]
+    truth = truths[0].spec(scene.alpha_per_k)
+    assert v["params"]["length"] == truth["length"] == "a1"
+    lo, hi = v["params_ci95"]["weight"]
+    assert lo <= truth["weight"] <= hi
+    law = compensation_law(rig, diagnosed_model(doc, rig))
+    left = law.check(tables[1:], rig)["all"]["compensated_rms_um"]
+    assert left == pytest.approx(doc["how_far"]["holdout_rms_after_um"], rel=0.05)
+    # Each slope's interval covers the world's own slope (its kinematics, its α for a1).
+    world = measured_slopes(scene, scene.alpha_per_k, extra=truths)
+    checked = 0
+    for r in law.table.iter_rows(named=True):
+        key = (str(r["camera"]), str(r["term"]).split(" ")[0])
+        if key in world and str(r["term"]).endswith("(T - reference_c)"):
+            t = float(world[key][0 if r["axis"] == "u" else 1])
+            assert r["ci95_low"] <= t <= r["ci95_high"], (key, r["axis"], t, r)
+            checked += 1
+    assert checked == 8
+
+
+@pytest.mark.slow
 def test_the_compensated_error_on_a_replicate_lies_in_the_promised_range() -> None:
     got = [_promise_kept(*c) for c in CASES]
     judged = [g for g in got if g is not None]

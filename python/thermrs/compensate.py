@@ -34,7 +34,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -460,15 +460,16 @@ def _param_corners(effects: Sequence[Effect], ci: dict[str, Any]) -> list[list[E
         return out
 
     for i, e in enumerate(effects):
-        d = e.to_dict()
+        names = {f.name for f in fields(e)}
         for key, c in ci.items():
-            if key not in d:
+            if key not in names:
                 continue
-            if isinstance(d[key], int | float) and len(c) == 2:
+            value = getattr(e, key)
+            if isinstance(value, int | float) and len(c) == 2:
                 variants = [w for v in variants for w in ends(v, i, key, None, c)]
-            elif isinstance(d[key], dict) and isinstance(c, dict):
+            elif isinstance(value, dict) and isinstance(c, dict):
                 for entry, ce in c.items():
-                    if entry in d[key] and len(ce) == 2 and all(np.isfinite(ce)):
+                    if entry in value and len(ce) == 2 and all(np.isfinite(ce)):
                         variants = [w for v in variants for w in ends(v, i, key, entry, ce)]
     return variants
 

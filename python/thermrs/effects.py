@@ -306,11 +306,20 @@ def _temperature_names(rig: Rig, visits: Visits) -> list[str]:
 @register
 @dataclass(frozen=True)
 class UnmodelledLength(Effect):
-    """A DH length the rig does not list expands with a temperature (the same α)."""
+    """A DH length the rig does not list expands with a temperature; ``weight`` (an
+    extension, default 1: the same α) is its α as a multiple of the model's (a part of
+    another material)."""
 
     name: ClassVar[str] = "unmodelled_length"
     length: str = ""
     temperature: str = ""
+    weight: float = 1.0
+
+    def to_dict(self) -> dict[str, Any]:
+        d = super().to_dict()
+        if self.weight == 1.0:
+            d.pop("weight", None)  # SPEC §6's own shape where the length has the model's α
+        return d
 
     @classmethod
     def families(cls, rig: Rig, visits: Visits) -> list[Family]:
@@ -330,8 +339,13 @@ class UnmodelledLength(Effect):
                     length: str = length,
                     temp: str = temp,
                 ) -> tuple[dict[str, Any], dict[str, Any]]:
+                    # The column is the length expanding at α per unit α: its amplitude over
+                    # α is the length's own α over the model's, which the effect carries so
+                    # that a law or a prediction applies what the diagnosis fitted.
                     w, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
-                    return {"length": length, "temperature": temp}, {"weight": _ci(w, sd)}
+                    return {"length": length, "temperature": temp, "weight": w}, {
+                        "weight": _ci(w, sd)
+                    }
 
                 fams.append(
                     Family(

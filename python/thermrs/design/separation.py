@@ -65,7 +65,8 @@ class Rival:
 
 def rivals_from(diagnosis: Mapping[str, Any], names: Sequence[str], rig: Rig) -> list[Rival]:
     """The named effects with the parameters of their best row in the diagnosis's ranking
-    (a lag's share outside 0–2 left at 1, all of it lagging).
+    (a fitted ``weight`` out of its effect's range left at 1: a lag all of which lags, a
+    length with the model's α).
 
     Raises
     ------
@@ -95,13 +96,17 @@ def rivals_from(diagnosis: Mapping[str, Any], names: Sequence[str], rig: Rig) ->
         cls = known[name]
         fields = set(cls.__dataclass_fields__)
         params = {k: v for k, v in row["params"].items() if k in fields}
-        w = params.get("weight")
-        if name == "thermal_lag" and w is not None and not 0.0 < float(w) <= 2.0:
-            # A share that cannot lag (a rival fitted against the sign of a lag): the full
-            # lag at its time constant is what is simulated, as `simulated_as` says.
-            params.pop("weight")
         try:
-            truth = from_dict({"name": name, **params}, rig=rig)
+            try:
+                truth = from_dict({"name": name, **params}, rig=rig)
+            except InputError:
+                if "weight" not in params:
+                    raise
+                # A weight no such effect can have (a rival fitted against the sign of a lag
+                # or of an expansion): the effect at weight 1 is what is simulated, as
+                # `simulated_as` says.
+                params.pop("weight")
+                truth = from_dict({"name": name, **params}, rig=rig)
         except InputError as e:
             raise InputError(
                 f"effect {name}: its fitted parameters do not simulate ({e})"

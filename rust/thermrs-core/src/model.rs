@@ -83,8 +83,9 @@ pub struct ModelParams {
     pub alpha_by_temperature: BTreeMap<String, f64>,
     /// Quadratic strain term κ (1/K): strain = α·ΔT·(1 + κ·ΔT) (`nonlinear_alpha`).
     pub kappa_per_k: f64,
-    /// DH lengths the rig does not list that expand too (`unmodelled_length`).
-    pub extra_lengths: Vec<(LengthRef, String)>,
+    /// DH lengths the rig does not list that expand too (`unmodelled_length`), each with its
+    /// temperature and its α as a multiple of that temperature's α.
+    pub extra_lengths: Vec<(LengthRef, String, f64)>,
     /// Joints whose zero moves with a temperature (`joint_offset`).
     pub joint_offsets: Vec<JointOffset>,
     /// The laser's true direction differs from the rig's (`laser_tilt`).
@@ -146,6 +147,8 @@ pub struct ForwardModel {
     temperature_names: Vec<String>,
     /// (length, index into temperature_names)
     lengths: Vec<(LengthRef, usize)>,
+    /// Each length's α as a multiple of its temperature's (1 but for `unmodelled_length`).
+    length_scale: Vec<f64>,
     /// α per temperature name.
     alpha: Vec<f64>,
     /// (joint, index into temperature_names, rad per K)
@@ -165,7 +168,7 @@ impl ForwardModel {
         finite("reference_c", params.reference_c)?;
         finite("kappa_per_k", params.kappa_per_k)?;
         let mut temps = Temperatures::of(rig);
-        let lengths = expanding_lengths(rig, params, &mut temps)?;
+        let (lengths, length_scale) = expanding_lengths(rig, params, &mut temps)?;
         let mut joint_offsets = Vec::new();
         for o in &params.joint_offsets {
             if o.joint >= 6 {
@@ -199,6 +202,7 @@ impl ForwardModel {
             camera_names: rig.camera.iter().map(|c| c.name.clone()).collect(),
             temperature_names,
             lengths,
+            length_scale,
             alpha,
             joint_offsets,
             kappa: params.kappa_per_k,
@@ -246,8 +250,9 @@ impl ForwardModel {
         let mut a = self.chain.a_mm;
         let mut d = self.chain.d_mm;
         if let Some(t) = temps {
-            for &(l, ti) in &self.lengths {
-                let f = ModelParams::factor(self.alpha[ti], self.kappa, self.reference_c, t[ti]);
+            for (&(l, ti), &scale) in self.lengths.iter().zip(&self.length_scale) {
+                let alpha = self.alpha[ti] * scale;
+                let f = ModelParams::factor(alpha, self.kappa, self.reference_c, t[ti]);
                 match l {
                     LengthRef::A(r) => a[r] *= f,
                     LengthRef::D(r) => d[r] *= f,
@@ -463,18 +468,24 @@ impl Temperatures {
     }
 }
 
+/// The expanding lengths with their temperatures' indices, and each one's α scale.
+type ExpandingLengths = (Vec<(LengthRef, usize)>, Vec<f64>);
+
 /// The lengths that expand, each with its temperature's index: the rig's `[expansion]`, then
-/// the effects' extra ones (`unmodelled_length`: not already expanding, not 0 mm).
+/// the effects' extra ones (`unmodelled_length`: not already expanding, not 0 mm); beside them
+/// each length's α as a multiple of its temperature's.
 fn expanding_lengths(
     rig: &Rig,
     params: &ModelParams,
     temps: &mut Temperatures,
-) -> Result<Vec<(LengthRef, usize)>> {
+) -> Result<ExpandingLengths> {
     let mut lengths: Vec<(LengthRef, usize)> = Vec::new();
+    let mut scale = Vec::new();
     for (l, t) in rig.length_map() {
         lengths.push((l, temps.index(&t, "expansion")?));
+        scale.push(1.0);
     }
-    for (l, t) in &params.extra_lengths {
+    for (l, t, w) in &params.extra_lengths {
         if lengths.iter().any(|(m, _)| m == l) {
             return Err(Error::LengthAlreadyExpands {
                 length: l.to_string(),
@@ -490,9 +501,11 @@ fn expanding_lengths(
                 length: l.to_string(),
             });
         }
+        finite("unmodelled_length.weight", *w)?;
         lengths.push((*l, temps.index(t, "unmodelled_length")?));
+        scale.push(*w);
     }
-    Ok(lengths)
+    Ok((lengths, scale))
 }
 
 /// α per temperature (its own where `alpha_per_link` gives one, else the nominal); an own α

@@ -85,7 +85,12 @@ class Truth:
         if self.name == "thermal_lag":
             return {"name": self.name, "tau_min": sum(t * w for t, w in self.lags())}
         if self.name == "unmodelled_length":
-            return {"name": self.name, "length": d["length"], "temperature": d["temperature"]}
+            return {
+                "name": self.name,
+                "length": d["length"],
+                "temperature": d["temperature"],
+                "weight": a,
+            }
         if self.name == "fixture_drift":
             return {
                 "name": self.name,

@@ -29,7 +29,7 @@ noise, and the room thermometer reads ±0.1 K off with 0.02 K noise.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -487,13 +487,22 @@ def nominal_prediction(scene: Scene, tables: list[pl.DataFrame]) -> list[FloatAr
 
 
 def measured_slopes(
-    scene: Scene, alpha_per_k: float, step_k: float = 20.0
+    scene: Scene,
+    alpha_per_k: float,
+    step_k: float = 20.0,
+    *,
+    extra: Sequence[Truth] = (),
 ) -> dict[tuple[str, str], FloatArray]:
     """Per (chip, link): the world's chip slope (u, v, µm) per *measured* kelvin of that
     link, at the true rig, by the world's own kinematics: the link's lengths expanded by
     α·ΔT_true, where the IR camera reads ΔT_measured = gain·ΔT_true (what a compensation law
-    applied to measured temperatures must use)."""
+    applied to measured temperatures must use). ``extra``: the world's ``unmodelled_length``
+    truths, each length expanding too at its own α (α times its amplitude)."""
     true = scene.true
+    lengths = [(name, temp, alpha_per_k) for name, temp in true.expansion.items()]
+    for t in extra:
+        if t.name == "unmodelled_length":
+            lengths.append((t.drawn["length"], t.drawn["temperature"], alpha_per_k * t.amplitude))
     out: dict[tuple[str, str], FloatArray] = {}
     for chip in true.chips:
         q = true.taught_rad(chip.name)[None, :]
@@ -501,12 +510,12 @@ def measured_slopes(
         for link in true.rois:
             a = true.a_mm.copy()[None, :]
             d = true.d_mm.copy()[None, :]
-            for name, temp in true.expansion.items():
+            for name, temp, al in lengths:
                 if temp != link:
                     continue
                 kind, i = length_index(name)
                 arr = a if kind == "a" else d
-                arr[0, i] = arr[0, i] * (1.0 + alpha_per_k * step_k / scene.ir_gain[link])
+                arr[0, i] = arr[0, i] * (1.0 + al * step_k / scene.ir_gain[link])
             moved = laser_spots(true, chip.name, q, a_mm=a, d_mm=d)[0]
             out[(chip.name, link)] = np.asarray((moved - base) / step_k, dtype=np.float64)
     return out

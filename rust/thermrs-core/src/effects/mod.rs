@@ -58,6 +58,9 @@ pub mod bounds {
     /// The share of the expansion that lags (`thermal_lag`'s `weight`): above zero, at most
     /// this (a structure cannot overshoot its surface's change by more).
     pub const LAG_WEIGHT: f64 = 2.0;
+    /// An unmodelled length's α over the model's (`unmodelled_length`'s `weight`): above zero,
+    /// at most this (a polymer part's ≈1e-4/K against a steel structure's 1.2e-5/K is 8).
+    pub const LENGTH_WEIGHT: f64 = 10.0;
 }
 
 /// One SPEC §6 effect with its parameters.
@@ -74,8 +77,15 @@ pub enum Effect {
         #[serde(default = "unit_weight", skip_serializing_if = "is_unit_weight")]
         weight: f64,
     },
-    /// A DH length (`a<i>`/`d<i>`) the rig does not list expands with `temperature`.
-    UnmodelledLength { length: String, temperature: String },
+    /// A DH length (`a<i>`/`d<i>`) the rig does not list expands with `temperature`;
+    /// `weight` (an extension, default 1: the same α) is its α as a multiple of the model's
+    /// α for that temperature (a part of another material).
+    UnmodelledLength {
+        length: String,
+        temperature: String,
+        #[serde(default = "unit_weight", skip_serializing_if = "is_unit_weight")]
+        weight: f64,
+    },
     /// `camera`'s mount moves with ambient: `um_per_k` [u, v] per kelvin above reference; the
     /// mount follows the room through its own first-order inertia `mount_tau_min` (an
     /// extension, default 0: at once).
@@ -208,7 +218,7 @@ impl Effect {
         Some(match name {
             "alpha_per_link" => (&["alpha_per_k"], &[]),
             "thermal_lag" => (&["tau_min"], &["weight"]),
-            "unmodelled_length" => (&["length", "temperature"], &[]),
+            "unmodelled_length" => (&["length", "temperature"], &["weight"]),
             "fixture_drift" => (&["camera", "um_per_k"], &["mount_tau_min"]),
             "laser_tilt" => (&["tilt_deg"], &["azimuth_deg"]),
             "joint_offset" => (&["joint", "temperature", "urad_per_k"], &[]),
@@ -266,6 +276,7 @@ impl Effect {
             "unmodelled_length" => Effect::UnmodelledLength {
                 length: text(&s.length),
                 temperature: text(&s.temperature),
+                weight: s.weight.unwrap_or(1.0),
             },
             "fixture_drift" => Effect::FixtureDrift {
                 camera: text(&s.camera),
@@ -320,6 +331,7 @@ impl Effect {
             Effect::UnmodelledLength {
                 length,
                 temperature,
+                weight,
             } => {
                 if LengthRef::parse(length).is_none() {
                     return Err(KeyError::new(
@@ -328,6 +340,15 @@ impl Effect {
                     ));
                 }
                 nonempty("temperature", temperature)?;
+                if !(weight.is_finite() && *weight > 0.0 && *weight <= LENGTH_WEIGHT) {
+                    return Err(KeyError::new(
+                        "weight",
+                        format!(
+                            "is {weight}, expected the length's α over the model's, \
+                             0 < weight ≤ {LENGTH_WEIGHT}"
+                        ),
+                    ));
+                }
             }
             Effect::FixtureDrift {
                 camera,
@@ -402,6 +423,7 @@ impl Effect {
             Effect::UnmodelledLength {
                 length,
                 temperature: t,
+                ..
             } => {
                 temperature(&context, t)?;
                 if rig.expansion.length.iter().any(|l| l.name == *length) {
@@ -581,9 +603,11 @@ impl Effects {
             Effect::UnmodelledLength {
                 length,
                 temperature,
+                weight,
             } => p.extra_lengths.push((
                 LengthRef::parse(length).expect("validated"),
                 temperature.clone(),
+                *weight,
             )),
             Effect::JointOffset {
                 joint,

@@ -302,3 +302,42 @@ fn a_lag_of_weight_w_is_the_surface_moved_w_of_the_way_to_its_first_order_lag() 
         .unwrap()
         .contains(r#""weight":0.4"#));
 }
+
+#[test]
+fn an_unmodelled_length_of_weight_w_expands_w_times_as_fast_as_its_temperature_says() {
+    // Closed form: a3 = 152.91 mm at link3 = reference + 10 K, α = 2.32e-5/K, weight 2.5:
+    // a3·(1 + 2.5·α·10). The rig's own lengths (a2 at link2, d4 at link3) keep α.
+    let r = rig();
+    let alpha = 2.32e-5;
+    let e = Effect::from_json(
+        r#"{"name":"unmodelled_length","length":"a3","temperature":"link3","weight":2.5}"#,
+    )
+    .unwrap();
+    let set = Effects::build(&r, std::slice::from_ref(&e), alpha, 23.0).unwrap();
+    let m = crate::model::ForwardModel::new(&r, &set.params).unwrap();
+    let names = m.temperature_names().to_vec();
+    let temps: Vec<f64> = names
+        .iter()
+        .map(|n| if n == "link3" { 33.0 } else { 23.0 })
+        .collect();
+    let (a, d) = m.lengths_at(Some(&temps));
+    assert!((a[2] - 152.91 * (1.0 + 2.5 * alpha * 10.0)).abs() < 1e-12);
+    assert!((d[3] - -600.0 * (1.0 + alpha * 10.0)).abs() < 1e-12);
+    assert_eq!(a[1], 650.0);
+    // Out of range by name; the default not written.
+    for bad in ["0.0", "-1.0", "11.0"] {
+        let j = format!(
+            r#"{{"name":"unmodelled_length","length":"a3","temperature":"link3","weight":{bad}}}"#
+        );
+        assert!(matches!(
+            Effect::from_json(&j),
+            Err(Error::EffectValue { effect: "unmodelled_length", error }) if error.key == "weight"
+        ));
+    }
+    let plain = Effect::UnmodelledLength {
+        length: "a3".into(),
+        temperature: "link3".into(),
+        weight: 1.0,
+    };
+    assert!(!serde_json::to_string(&plain).unwrap().contains("weight"));
+}
