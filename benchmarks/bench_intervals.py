@@ -13,10 +13,11 @@ produce:
 - α with the effect (``verdict.alpha_ci95``, the joint fit) against the world's α per
   *measured* kelvin: its true α over the IR camera's mean gain on the links (the coefficient a
   law applied to measured temperatures needs);
-- the compensation law's coefficients (µm/K per measured temperature, thermal_lag and
-  sensor_drift laws) against the same slopes of the world's true rig at that α, computed
-  with the world's own kinematics (:func:`thermrs.bench.world.world.measured_slopes`); the median
-  half-width of a law's coefficients of at least 0.5 µm/K.
+- the compensation law's coefficients (µm/K per measured temperature, every law) against
+  the same slopes of the world's true rig at that α with the world's effect at its true
+  parameters, computed with the world's own kinematics
+  (:func:`thermrs.bench.world.world.measured_slopes`); the median half-width of a law's
+  coefficients of at least 0.5 µm/K.
 
 Coverage is counted per parameter with an exact (Clopper–Pearson) 95 % interval.
 
@@ -114,21 +115,20 @@ def one(args: tuple[str, str, int, float, float]) -> dict[str, Any]:
         for k, c in (v.get("params_ci95") or {}).items()
         if isinstance(v["params"].get(k), int | float) and v["params"][k]
     }
-    if effect in ("thermal_lag", "sensor_drift"):
-        law = compensation_law(rig, diagnosed_model(doc, rig))
-        slopes = measured_slopes(scene, scene.alpha_per_k)
-        hits, widths = [], []
-        for r in law.table.iter_rows(named=True):
-            name = str(r["term"]).split(" ")[0]
-            key = (str(r["camera"]), name)
-            if key not in slopes or not str(r["term"]).endswith("(T - reference_c)"):
-                continue
-            t = float(slopes[key][0 if r["axis"] == "u" else 1])
-            hits.append(bool(r["ci95_low"] <= t <= r["ci95_high"]))
-            if abs(t) >= 0.5:  # the relative width of a slope of almost nothing says nothing
-                widths.append((r["ci95_high"] - r["ci95_low"]) / 2 / abs(r["coefficient"]))
-        row["law_covers"] = hits
-        row["law_half_width_median"] = float(np.median(widths)) if widths else None
+    law = compensation_law(rig, diagnosed_model(doc, rig))
+    slopes = measured_slopes(scene, scene.alpha_per_k, effects=truths)
+    hits, widths = [], []
+    for r in law.table.iter_rows(named=True):
+        name = str(r["term"]).split(" ")[0]
+        key = (str(r["camera"]), name)
+        if key not in slopes or not str(r["term"]).endswith("(T - reference_c)"):
+            continue
+        t = float(slopes[key][0 if r["axis"] == "u" else 1])
+        hits.append(bool(r["ci95_low"] <= t <= r["ci95_high"]))
+        if abs(t) >= 0.5:  # the relative width of a slope of almost nothing says nothing
+            widths.append((r["ci95_high"] - r["ci95_low"]) / 2 / abs(r["coefficient"]))
+    row["law_covers"] = hits
+    row["law_half_width_median"] = float(np.median(widths)) if widths else None
     return row
 
 

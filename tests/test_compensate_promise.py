@@ -113,7 +113,35 @@ def test_the_law_of_an_unmodelled_length_is_the_model_the_diagnosis_fitted() -> 
     left = law.check(tables[1:], rig)["all"]["compensated_rms_um"]
     assert left == pytest.approx(doc["how_far"]["holdout_rms_after_um"], rel=0.05)
     # Each slope's interval covers the world's own slope (its kinematics, its α for a1).
-    world = measured_slopes(scene, scene.alpha_per_k, extra=truths)
+    world = measured_slopes(scene, scene.alpha_per_k, effects=truths)
+    checked = 0
+    for r in law.table.iter_rows(named=True):
+        key = (str(r["camera"]), str(r["term"]).split(" ")[0])
+        if key in world and str(r["term"]).endswith("(T - reference_c)"):
+            t = float(world[key][0 if r["axis"] == "u" else 1])
+            assert r["ci95_low"] <= t <= r["ci95_high"], (key, r["axis"], t, r)
+            checked += 1
+    assert checked == 8
+
+
+@pytest.mark.slow
+def test_a_law_is_made_where_an_interval_reaches_past_the_physical_bound() -> None:
+    # The independent world's κ is at SPEC's bound (0.1/K); its estimate's interval reaches
+    # past it. The interval is cut to the bound, and the law's slopes (computed at the ends
+    # of each interval) must still be made and cover the world's own. (Before, the law's
+    # corner at κ = 0.18 was no effect the core admits: `thermrs compensate` failed.)
+    rig, wrig = case_rigs(str(thermrs.default_rig_path()))
+    scene = draw_scene(wrig, Campaign(), "white", 2384008, tolerances=rig.tolerances)
+    truths, _, _ = case_truths(wrig, scene, ("nonlinear_alpha",), 4.0, 2384008)
+    assert truths[0].spec(scene.alpha_per_k)["kappa_per_k"] == 0.1
+    tables = render(scene, tuple(truths))
+    doc = diagnose(tables[:1], tables[1:], rig, seed=2384008, bootstrap=0).to_json()
+    v = doc["verdict"]
+    assert v["effects"] == ["nonlinear_alpha"], doc["summary"]
+    lo, hi = v["params_ci95"]["kappa_per_k"]
+    assert lo <= 0.1 <= hi <= 0.1
+    law = compensation_law(rig, diagnosed_model(doc, rig))
+    world = measured_slopes(scene, scene.alpha_per_k, effects=truths)
     checked = 0
     for r in law.table.iter_rows(named=True):
         key = (str(r["camera"]), str(r["term"]).split(" ")[0])

@@ -447,15 +447,32 @@ def _param_corners(effects: Sequence[Effect], ci: dict[str, Any]) -> list[list[E
     interval comes from the joint fit's covariance with the common α)."""
     variants: list[list[Effect]] = [list(effects)]
 
+    def at(e: Effect, key: str, entry: str | None, x: float) -> Effect:
+        if entry is None:
+            return replace(e, **{key: x})
+        value = dict(getattr(e, key))
+        value[entry] = x
+        return replace(e, **{key: value})
+
     def ends(v: list[Effect], i: int, key: str, entry: str | None, c: Any) -> list[list[Effect]]:
         out = []
+        centre = getattr(v[i], key) if entry is None else getattr(v[i], key)[entry]
         for end in c:
-            if entry is None:
-                new = replace(v[i], **{key: float(end)})
-            else:
-                value = dict(getattr(v[i], key))
-                value[entry] = float(end)
-                new = replace(v[i], **{key: value})
+            # An end the effect cannot take (past a physical bound: a weight ≤ 0, |κ| > 0.1)
+            # is moved towards the estimate until it can: the interval cut to the
+            # parameter's space.
+            good, bad = float(centre), float(end)
+            try:
+                new = at(v[i], key, entry, bad).check()
+            except InputError:
+                for _ in range(40):  # bisection to the bound
+                    mid = (good + bad) / 2.0
+                    try:
+                        at(v[i], key, entry, mid).check()
+                        good = mid
+                    except InputError:
+                        bad = mid
+                new = at(v[i], key, entry, good)
             out.append([*v[:i], new, *v[i + 1 :]])
         return out
 

@@ -528,10 +528,11 @@ class NonlinearAlpha(Effect):
         ) -> tuple[dict[str, Any], dict[str, Any]]:
             k, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
             ci = _ci(k, sd)
-            if abs(k) > KAPPA_PER_K_MAX and ci[0] <= KAPPA_PER_K_MAX and ci[1] >= -KAPPA_PER_K_MAX:
-                # An estimate past the physical bound whose interval reaches inside it: the
-                # likelihood is quadratic in κ, so the bounded estimate is the bound, and the
-                # interval is what of it lies within (a κ at the bound is estimated past it
+            if ci[0] <= KAPPA_PER_K_MAX and ci[1] >= -KAPPA_PER_K_MAX:
+                # An interval that reaches inside the physical bound: what of it lies within
+                # (a confidence set cut to the parameter's space keeps its coverage); an
+                # estimate past the bound is the bound (the likelihood is quadratic in κ, so
+                # the bounded estimate is the bound; a κ at the bound is estimated past it
                 # half the time). One wholly past it stays there, and is no physical κ.
                 k = float(np.clip(k, -KAPPA_PER_K_MAX, KAPPA_PER_K_MAX))
                 ci = [max(ci[0], -KAPPA_PER_K_MAX), min(ci[1], KAPPA_PER_K_MAX)]

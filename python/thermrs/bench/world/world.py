@@ -491,33 +491,32 @@ def measured_slopes(
     alpha_per_k: float,
     step_k: float = 20.0,
     *,
-    extra: Sequence[Truth] = (),
+    effects: Sequence[Truth] = (),
 ) -> dict[tuple[str, str], FloatArray]:
     """Per (chip, link): the world's chip slope (u, v, µm) per *measured* kelvin of that
-    link, at the true rig, by the world's own kinematics: the link's lengths expanded by
-    α·ΔT_true, where the IR camera reads ΔT_measured = gain·ΔT_true (what a compensation law
-    applied to measured temperatures must use). ``extra``: the world's ``unmodelled_length``
-    truths, each length expanding too at its own α (α times its amplitude)."""
+    link, at the true rig, by the world's own kinematics: the secant from every temperature at
+    reference to that link ``step_k`` measured kelvin above, where the IR camera reads
+    ΔT_measured = gain·ΔT_true (what a compensation law applied to measured temperatures
+    must use). ``effects``: the world's effects at their true parameters (its geometric ones
+    act: a link's own α, an unlisted length, a joint's zero, κ, the laser's tilt)."""
     true = scene.true
-    lengths = [(name, temp, alpha_per_k) for name, temp in true.expansion.items()]
-    for t in extra:
-        if t.name == "unmodelled_length":
-            lengths.append((t.drawn["length"], t.drawn["temperature"], alpha_per_k * t.amplitude))
+    ref = true.reference_c
+    names = [*true.rois, "ambient"]
+    geometric = tuple(effects)
+
+    def spots(chip: str, temps: dict[str, float]) -> FloatArray:
+        cols = {k: np.array([v]) for k, v in temps.items()}
+        a, d, laser, dq = _geometry_at(scene, true, alpha_per_k, cols, geometric, 1)
+        q = true.taught_rad(chip)[None, :] + dq
+        return np.asarray(laser_spots(true, chip, q, a, d, laser)[0], dtype=np.float64)
+
     out: dict[tuple[str, str], FloatArray] = {}
     for chip in true.chips:
-        q = true.taught_rad(chip.name)[None, :]
-        base = laser_spots(true, chip.name, q)[0]
+        base = spots(chip.name, dict.fromkeys(names, ref))
         for link in true.rois:
-            a = true.a_mm.copy()[None, :]
-            d = true.d_mm.copy()[None, :]
-            for name, temp, al in lengths:
-                if temp != link:
-                    continue
-                kind, i = length_index(name)
-                arr = a if kind == "a" else d
-                arr[0, i] = arr[0, i] * (1.0 + al * step_k / scene.ir_gain[link])
-            moved = laser_spots(true, chip.name, q, a_mm=a, d_mm=d)[0]
-            out[(chip.name, link)] = np.asarray((moved - base) / step_k, dtype=np.float64)
+            temps = dict.fromkeys(names, ref)
+            temps[link] = ref + step_k / scene.ir_gain[link]
+            out[(chip.name, link)] = (spots(chip.name, temps) - base) / step_k
     return out
 
 
