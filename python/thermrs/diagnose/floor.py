@@ -16,7 +16,7 @@ Visit repeatability
     (non-negative least squares, τ_c profiled on a grid). The floor is √(σ_w² + σ_a²).
     The series is first detrended by a local quadratic over the thermal time scale, and the
     model's white and correlated terms are what those parts become once detrended (exact: a
-    variogram is linear in the covariance); each lag is weighted by √pairs over the
+    variogram is linear in the covariance; :mod:`.detrend`); each lag is weighted by √pairs over the
     variogram's smoothed level, so that the short lags, where the noise is most of it, set
     the noise. Without the two steps a gap left in the residual (a run heating and cooling,
     a chip's self-heating) was read as noise: on the nominal residual of 42 bench worlds with
@@ -60,6 +60,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from thermrs.diagnose.detrend import detrended_design
 from thermrs.errors import InputError
 from thermrs.heating import Curve, fit_curve
 from thermrs.memo import ContentCache, content_key
@@ -313,57 +314,6 @@ DETREND_BANDWIDTH = 0.5
 WEIGHT_LAGS = 5
 
 
-def _detrender(t: FloatArray, bandwidth_s: float) -> FloatArray:
-    """I − S: S the local quadratic regression smoother with a Gaussian kernel of σ
-    ``bandwidth_s`` at the times ``t`` (n × n)."""
-    d = (t[None, :] - t[:, None]) / bandwidth_s  # row i: the others' offsets from t_i
-    w = np.exp(-0.5 * d**2)
-    x = np.stack([np.ones_like(d), d, d**2], axis=2)  # n × n × 3
-    xw = x * w[:, :, None]
-    g = np.einsum("ijk,ijl->ikl", xw, x)  # n × 3 × 3
-    e1 = np.linalg.solve(g, np.broadcast_to(np.eye(3)[0], (len(t), 3))[:, :, None])[:, :, 0]
-    out: FloatArray = np.eye(len(t)) - np.einsum("ik,ijk->ij", e1, xw)
-    return out
-
-
-def _band_semivariogram(b: FloatArray, a: FloatArray, lags: npt.NDArray[np.intp]) -> FloatArray:
-    """The mean semivariogram at ``lags`` of a series with covariance B·Aᵀ (B = A·Σ)."""
-    dg = np.einsum("ij,ij->i", b, a)
-    out = np.empty(len(lags))
-    for i, k in enumerate(lags):
-        off = np.einsum("ij,ij->i", b[k:], a[:-k])  # (B·Aᵀ)[t + k, t]
-        out[i] = 0.5 * np.mean(dg[k:] + dg[:-k] - 2.0 * off)
-    return out
-
-
-_DESIGNS: dict[tuple[bytes, bytes, bytes, float], tuple[FloatArray, FloatArray, FloatArray]] = {}
-_DESIGNS_KEPT = 64
-
-
-def _detrended_design(
-    t: FloatArray, lags: npt.NDArray[np.intp], taus: FloatArray, bandwidth_s: float
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """I − S (:func:`_detrender`), and the semivariogram at ``lags`` that a unit white part
-    and a unit correlated part (each τ of ``taus``; row 0, τ = 0, zero) have once detrended:
-    the model's columns, exact for any smoother (the variogram is linear in the covariance).
-    Kept per sampling (the replicates of a series share it)."""
-    key = (t.tobytes(), lags.tobytes(), taus.tobytes(), bandwidth_s)
-    got = _DESIGNS.get(key)
-    if got is not None:
-        return got
-    a = _detrender(t, bandwidth_s)
-    white = _band_semivariogram(a, a, lags)
-    corr = np.zeros((len(taus), len(lags)))
-    dist = np.abs(t[:, None] - t[None, :])
-    for i, tau in enumerate(taus):
-        if tau > 0:
-            corr[i] = _band_semivariogram(a @ np.exp(-dist / tau), a, lags)
-    if len(_DESIGNS) >= _DESIGNS_KEPT:
-        _DESIGNS.pop(next(iter(_DESIGNS)))
-    _DESIGNS[key] = (a, white, corr)
-    return a, white, corr
-
-
 def _grid_fit(
     r: FloatArray, t: FloatArray, tau_c_max_s: float, taus: FloatArray
 ) -> tuple[FloatArray, FloatArray] | None:
@@ -393,7 +343,7 @@ def _grid_fit(
     k_max = int(np.clip(np.ceil(SCALE_SEPARATION * tau_c_max_s / dt), 4, len(r) // 3))
     lags = np.arange(1, k_max + 1)
     bandwidth = DETREND_BANDWIDTH * SCALE_SEPARATION * tau_c_max_s
-    det, white, corr = _detrended_design(t, lags, taus, bandwidth)
+    det, white, corr = detrended_design(t, lags, taus, bandwidth)
     gam = _variogram(det @ r, lags)
     h = lags * dt
     a = np.stack(
