@@ -119,34 +119,6 @@ def test_no_effect_gives_none_in_most_seeds(rig: thermrs.Rig) -> None:
     assert wrong <= 1
 
 
-def test_cycle_bootstrap_se_matches_the_spread_of_channels_that_move_together(
-    rig: thermrs.Rig,
-) -> None:
-    # Four channels (2 cameras × u, v) carrying one common AR(1) per run, as one effect does:
-    # resampling whole cycles must reproduce the Monte Carlo spread of the mean; resampling
-    # each channel on its own (the old bootstrap) would read about half of it.
-    from thermrs.diagnose.resample import cycle_se, cycle_units
-    from thermrs.signatures import VisitSet
-
-    runs = make_runs(rig, None, seed=3, hours=6.0, cycle_s=300.0, perturb=False)
-    vs = VisitSet(runs, rig)
-    units = cycle_units(vs)
-    rows = np.arange(2 * vs.n)
-    rng = np.random.default_rng(0)
-
-    def draw() -> np.ndarray:
-        common = {}
-        for r in np.unique(vs.run):
-            cyc = np.unique(units[vs.run == r])
-            common[r] = dict(zip(cyc, _ar1(len(cyc), 0.6, 1.0, rng), strict=True))
-        c = np.array([common[r][u] for r, u in zip(vs.run, units, strict=True)])
-        return np.concatenate([c, c]) + 0.3 * rng.standard_normal(2 * vs.n)
-
-    means = [draw().mean() for _ in range(300)]
-    ses = [cycle_se(draw(), rows, vs, units, rng, draws=200) for _ in range(20)]
-    assert np.median(ses) == pytest.approx(np.std(means), rel=0.25)
-
-
 def test_two_effects_at_once_are_both_named_or_the_rest_called_unexplained(
     rig: thermrs.Rig,
 ) -> None:

@@ -47,6 +47,7 @@ import numpy as np
 import numpy.typing as npt
 import polars as pl
 
+from thermrs.diagnose.accuracy import NOISE_DRAWS
 from thermrs.diagnose.candidates import Candidate, plausibility, score
 from thermrs.diagnose.closing import closing_interval
 from thermrs.diagnose.confounding import confounded_pairs
@@ -56,7 +57,7 @@ from thermrs.diagnose.floor import SCALE_SEPARATION, NoiseFloor, noise_floor, th
 from thermrs.diagnose.guard import GUARD_SCALE, rig_excess_guard
 from thermrs.diagnose.input_checks import check_inputs, smooth_temperatures
 from thermrs.diagnose.location import drivers, location_table, phases, whiteness
-from thermrs.diagnose.null import Batch
+from thermrs.diagnose.null import Batch, draw_noise
 from thermrs.diagnose.resample import cycle_units
 from thermrs.diagnose.result import Diagnosis, assemble
 from thermrs.diagnose.selection import FamilyGrid, Step, build_grids, forward_selection
@@ -577,6 +578,10 @@ def _evidence(
         placebo=VisitSet(b.tables, rig, shift_drivers=True),
         bootstrap=bootstrap,
         rng=rng,
+        # A child stream: the draws after it are those they were without it.
+        noise=draw_noise(b.design, b.floor, NOISE_DRAWS, rng.spawn(1)[0])[
+            np.flatnonzero(b.design.hold)
+        ],
     )
     return cands, n_eff_train
 

@@ -22,9 +22,10 @@ once the floor no longer read high. Between effects it is not asked: on the libr
 it costs the parametric test's power (a joint offset against an unmodelled length on 6-h runs of
 the simulator: p 0.042 against < 0.001).
 
-(A moving-block bootstrap of the differential's per-cycle sums reads its variance about
-a third low at a cycle-to-cycle correlation of 0.7; AR(1)-prewhitened, it counts the two
-predictions' slow systematic difference as noise and keeps rivals a chip's drift leaves
+The same standard error is each candidate's ``gain_z`` denominator (:func:`gain_se`). (A
+moving-block bootstrap of the differential's per-cycle sums, which gave it before, reads its
+variance about a third low at a cycle-to-cycle correlation of 0.7; AR(1)-prewhitened, it counts
+the two predictions' slow systematic difference as noise and keeps rivals a chip's drift leaves
 four times the floor's mean square to.)
 """
 
@@ -34,9 +35,20 @@ import numpy as np
 import numpy.typing as npt
 from scipy.stats import norm
 
-__all__ = ["equal_accuracy_p"]
+__all__ = ["NOISE_DRAWS", "equal_accuracy_p", "gain_se"]
 
 FloatArray = npt.NDArray[np.float64]
+
+#: Noise vectors drawn from the floor's model for one test or standard error.
+NOISE_DRAWS = 400
+
+
+def gain_se(r_a: FloatArray, r_b: FloatArray, noise: FloatArray) -> float:
+    """The standard error of mean(r_b² − r_a²), the held-out gain of prediction ``a`` over
+    ``b``, given the runs: the spread of its noise part 2 Δ·e / N over the ``noise`` draws
+    (rows × draws), Δ = r_b − r_a (module docs)."""
+    delta = r_b - r_a
+    return float(np.std(2.0 * (delta @ noise) / len(delta), ddof=1))
 
 
 def equal_accuracy_p(r_a: FloatArray, r_b: FloatArray, noise: FloatArray) -> float:
@@ -55,9 +67,8 @@ def equal_accuracy_p(r_a: FloatArray, r_b: FloatArray, noise: FloatArray) -> flo
     float
         P(mean(r_b² − r_a²) ≥ the observed mean | the two equally accurate).
     """
-    delta = r_b - r_a
     d = float(np.mean(r_b * r_b - r_a * r_a))
-    se = float(np.std(2.0 * (delta @ noise) / len(delta), ddof=1))
+    se = gain_se(r_a, r_b, noise)
     if not se > 0:
         return 1.0 if d <= 0 else 0.0
     return float(norm.sf(d / se))

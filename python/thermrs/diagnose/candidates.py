@@ -5,8 +5,9 @@ Evidence per candidate (added to the nominal model):
 
 - ``gain_p``: the held-out gain's p-value against the null world's largest gain over every
   family (:mod:`.selection`), the test that decides;
-- ``gain_z``: the held-out gain over its standard error from a block bootstrap of whole cycles
-  (:mod:`.resample`), descriptive;
+- ``gain_z``: the held-out gain over its standard error given the runs (the two fitted
+  predictions fixed, the held-out noise drawn from the floor's model: :func:`.accuracy.gain_se`),
+  descriptive;
 - ``gap_closed``: the share of the gap above the held-out floor it closes (capped at 1; above 1
   the floor is off, said by ``gap_closed_raw``);
 - ``delta_aicc``: ΔAICc on the training runs' effective sample size, penalty by the extra
@@ -26,8 +27,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from thermrs.diagnose.accuracy import gain_se
 from thermrs.diagnose.family_fit import DesignMatrix, Fit
-from thermrs.diagnose.resample import cycle_se
 from thermrs.diagnose.selection import Choice, FamilyGrid
 from thermrs.effects import EFFECT_NAMES, Family, InstrumentEffect, is_instrument
 from thermrs.effects import from_dict as effect_from_dict
@@ -156,10 +157,11 @@ def score(
     placebo: VisitSet,
     bootstrap: int,
     rng: np.random.Generator,
+    noise: FloatArray,
 ) -> list[Candidate]:
     """Every effect's leading family (least held-out residual), refined and with evidence,
-    sorted by held-out rms."""
-    vs = design.vs
+    sorted by held-out rms; ``noise``: draws of the held-out rows' noise (rows × draws, from
+    the floor's model) for the gains' standard errors."""
     hold = np.flatnonzero(design.hold)
     fits: list[tuple[Family, Fit]] = []
     for fg in grids:
@@ -175,7 +177,7 @@ def score(
     gap = base_rms - floor_um
     for fam, f in lead.values():
         d = base.residual[hold] ** 2 - f.residual[hold] ** 2
-        se = cycle_se(d, hold, vs, units, rng, draws=200)
+        se = gain_se(f.residual[hold], base.residual[hold], noise)
         params, ci = fam.params(f.eta, f.alpha, f.beta, f.cov)
         ci = {**ci, **profile_interval(design, fam, f, n_eff_train)}
         k = f.n_params - base.n_params

@@ -1,5 +1,5 @@
-"""Resampling whole cycles: the held-out gain's standard error without pretending that the
-channels of one cycle are independent.
+"""Resampling whole cycles: statistics of a residual without pretending that the channels of
+one cycle are independent.
 
 Every camera, chip axis and run channel of a cycle carries the same effect and the same
 thermal state, so a visit's u and v rows and the other camera's visit of the same cycle are
@@ -17,9 +17,9 @@ import numpy as np
 import numpy.typing as npt
 
 from thermrs.signatures import VisitSet
-from thermrs.stats import ar1_coefficient, moving_block_indices
+from thermrs.stats import ar1_coefficient
 
-__all__ = ["block_length", "cycle_se", "cycle_units"]
+__all__ = ["block_length", "cycle_units"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -47,32 +47,3 @@ def block_length(x: FloatArray) -> int:
     """Cycles per block from the series' AR(1) variance inflation (module docs)."""
     phi = min(max(ar1_coefficient(x), 0.0), 0.95)
     return int(np.clip(round((1 + phi) / (1 - phi)), 1, max(1, len(x) // 4)))
-
-
-def cycle_se(
-    d: FloatArray,
-    rows: IntArray,
-    visits: VisitSet,
-    units: IntArray,
-    rng: np.random.Generator,
-    *,
-    draws: int = 200,
-) -> float:
-    """Standard error of mean(d) over ``rows`` (indices into the 2n rows) by a moving-block
-    bootstrap of whole cycles within each run (module docs)."""
-    n = visits.n
-    unit_row = units[rows % n]
-    uniq, inv = np.unique(unit_row, return_inverse=True)
-    sums = np.bincount(inv, weights=d, minlength=len(uniq))
-    counts = np.bincount(inv, minlength=len(uniq)).astype(np.float64)
-    first = np.zeros(len(uniq), dtype=np.intp)
-    first[inv[::-1]] = (rows % n)[::-1]
-    run_of = visits.run[first]
-    order = uniq.astype(np.float64)
-    lengths = [block_length(sums[run_of == r]) for r in np.unique(run_of)]
-    gen = moving_block_indices(run_of, block_length=max(lengths), rng=rng, order=order)
-    means = np.empty(draws)
-    for b in range(draws):
-        idx = next(gen)
-        means[b] = sums[idx].sum() / max(counts[idx].sum(), 1.0)
-    return float(np.std(means, ddof=1))

@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from thermrs.diagnose.accuracy import equal_accuracy_p
+from thermrs.diagnose.accuracy import NOISE_DRAWS, equal_accuracy_p
 from thermrs.diagnose.family_fit import DesignMatrix
 from thermrs.diagnose.floor import NoiseFloor
 from thermrs.diagnose.null import Batch, BatchFit, Observations, draw_noise, quantile_above
@@ -623,11 +623,6 @@ def _rival_p(
     return max(p_exact, p_acc), p_acc
 
 
-#: Draws of the held-out noise the equal-accuracy test's variance is taken from (its standard
-#: error then within 5 %).
-ACCURACY_DRAWS = 400
-
-
 def _accuracy_p(
     batch: Batch,
     design: DesignMatrix,
@@ -642,7 +637,7 @@ def _accuracy_p(
     fa, fb = (batch.fit(cols, y) for cols in fitted)
     if fa is None or fb is None or fa.hold_resid is None or fb.hold_resid is None:
         return 1.0
-    noise = draw_noise(design, floor, ACCURACY_DRAWS, rng)[batch.ho]
+    noise = draw_noise(design, floor, NOISE_DRAWS, rng)[batch.ho]
     return equal_accuracy_p(fa.hold_resid[:, 0], fb.hold_resid[:, 0], noise)
 
 
