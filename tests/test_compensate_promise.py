@@ -14,6 +14,7 @@ import math
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 import thermrs
@@ -25,7 +26,7 @@ from thermrs.bench.world.world import (
     measured_slopes,
     render,
 )
-from thermrs.compensate import compensation_law, diagnosed_model
+from thermrs.compensate import CompensationLaw, compensation_law, diagnosed_model
 from thermrs.diagnose import diagnose
 from thermrs.errors import InputError
 
@@ -71,6 +72,31 @@ def _promise_kept(effect: str, world: str, seed: int) -> tuple[bool, list[bool]]
     return bool(checked["inside"]), covered
 
 
+def _diagnosed(
+    effect: str, world: str, seed: int, snr: float
+) -> tuple[thermrs.Rig, Any, list[Any], list[Any], dict[str, Any]]:
+    """The independent world's case of one effect, and its diagnosis' JSON."""
+    rig, wrig = case_rigs(str(thermrs.default_rig_path()))
+    scene = draw_scene(wrig, Campaign(), world, seed, tolerances=rig.tolerances)
+    truths, _, _ = case_truths(wrig, scene, (effect,), snr, seed)
+    tables = render(scene, tuple(truths))
+    doc = diagnose(tables[:1], tables[1:], rig, seed=seed, bootstrap=0).to_json()
+    return rig, scene, list(truths), list(tables), doc
+
+
+def _slopes_covered(law: CompensationLaw, world: dict[tuple[str, str], Any]) -> int:
+    """How many of the law's µm/K slopes were checked against the world's (each must lie in
+    its 95 % interval)."""
+    checked = 0
+    for r in law.table.iter_rows(named=True):
+        key = (str(r["camera"]), str(r["term"]).split(" ")[0])
+        if key in world and str(r["term"]).endswith("(T - reference_c)"):
+            t = float(world[key][0 if r["axis"] == "u" else 1])
+            assert r["ci95_low"] <= t <= r["ci95_high"], (key, r["axis"], t, r)
+            checked += 1
+    return checked
+
+
 @pytest.mark.slow
 def test_the_law_of_a_lag_is_the_model_the_diagnosis_fitted() -> None:
     # An independent world's lag (two time constants, no first-order form) is fitted as a
@@ -78,11 +104,7 @@ def test_the_law_of_a_lag_is_the_model_the_diagnosis_fitted() -> None:
     # held-out runs must leave what the diagnosis says its model leaves there. (With the
     # share dropped, all of the expansion lagging, it left 2.75 µm where the diagnosis
     # said 2.09 on this case.)
-    rig, wrig = case_rigs(str(thermrs.default_rig_path()))
-    scene = draw_scene(wrig, Campaign(), "ar1", 6101, tolerances=rig.tolerances)
-    truths, _, _ = case_truths(wrig, scene, ("thermal_lag",), 2.0, 6101)
-    tables = render(scene, tuple(truths))
-    doc = diagnose(tables[:1], tables[1:], rig, seed=6101, bootstrap=0).to_json()
+    rig, _, _, tables, doc = _diagnosed("thermal_lag", "ar1", 6101, 2.0)
     assert doc["verdict"]["effect"] == "thermal_lag", doc["summary"]
     share = doc["verdict"]["params"]["weight"]
     lo, hi = doc["verdict"]["params_ci95"]["weight"]
@@ -98,11 +120,7 @@ def test_the_law_of_an_unmodelled_length_is_the_model_the_diagnosis_fitted() -> 
     # rig's α: the diagnosis fits that ratio (the effect's weight), and the law must apply it.
     # Before the effect carried its weight the law assumed the rig's α for the length and
     # left 8.1 µm where the diagnosis said 2.04.
-    rig, wrig = case_rigs(str(thermrs.default_rig_path()))
-    scene = draw_scene(wrig, Campaign(), "ar1", 6400, tolerances=rig.tolerances)
-    truths, _, _ = case_truths(wrig, scene, ("unmodelled_length",), 2.0, 6400)
-    tables = render(scene, tuple(truths))
-    doc = diagnose(tables[:1], tables[1:], rig, seed=6400, bootstrap=0).to_json()
+    rig, scene, truths, tables, doc = _diagnosed("unmodelled_length", "ar1", 6400, 2.0)
     v = doc["verdict"]
     assert v["status"] == "identified" and v["effects"] == ["unmodelled_length"], doc["summary"]
     truth = truths[0].spec(scene.alpha_per_k)
@@ -114,14 +132,7 @@ def test_the_law_of_an_unmodelled_length_is_the_model_the_diagnosis_fitted() -> 
     assert left == pytest.approx(doc["how_far"]["holdout_rms_after_um"], rel=0.05)
     # Each slope's interval covers the world's own slope (its kinematics, its α for a1).
     world = measured_slopes(scene, scene.alpha_per_k, effects=truths)
-    checked = 0
-    for r in law.table.iter_rows(named=True):
-        key = (str(r["camera"]), str(r["term"]).split(" ")[0])
-        if key in world and str(r["term"]).endswith("(T - reference_c)"):
-            t = float(world[key][0 if r["axis"] == "u" else 1])
-            assert r["ci95_low"] <= t <= r["ci95_high"], (key, r["axis"], t, r)
-            checked += 1
-    assert checked == 8
+    assert _slopes_covered(law, world) == 8
 
 
 @pytest.mark.slow
@@ -142,14 +153,7 @@ def test_a_law_is_made_where_an_interval_reaches_past_the_physical_bound() -> No
     assert lo <= 0.1 <= hi <= 0.1
     law = compensation_law(rig, diagnosed_model(doc, rig))
     world = measured_slopes(scene, scene.alpha_per_k, effects=truths)
-    checked = 0
-    for r in law.table.iter_rows(named=True):
-        key = (str(r["camera"]), str(r["term"]).split(" ")[0])
-        if key in world and str(r["term"]).endswith("(T - reference_c)"):
-            t = float(world[key][0 if r["axis"] == "u" else 1])
-            assert r["ci95_low"] <= t <= r["ci95_high"], (key, r["axis"], t, r)
-            checked += 1
-    assert checked == 8
+    assert _slopes_covered(law, world) == 8
 
 
 @pytest.mark.slow

@@ -33,16 +33,23 @@ def _noise(vs: VisitSet, units: np.ndarray, rng: np.random.Generator) -> np.ndar
     return np.concatenate([c, c]) + 0.5 * rng.standard_normal(2 * vs.n)
 
 
+def _equal_pair(
+    rig: thermrs.Rig, seed: int
+) -> tuple[VisitSet, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.random.Generator]:
+    """The world, 400 draws of its noise, and a slow model error δ: +δ in one prediction and
+    −δ in the other, E[(e + δ)²] = E[(e − δ)²], the two equally accurate exactly, while their
+    loss differential −4eδ carries the noise's correlation."""
+    vs, units, t = _world(rig)
+    rng = np.random.default_rng(seed)
+    draws = np.column_stack([_noise(vs, units, rng) for _ in range(400)])
+    delta = 0.6 * np.sin(2 * np.pi * t / (3 * 3600.0))
+    return vs, units, t, draws, delta, rng
+
+
 def test_two_predictions_equally_accurate_are_told_apart_at_the_level_and_a_worse_one_is_not_missed(
     paper_rig: thermrs.Rig,
 ) -> None:
-    vs, units, t = _world(paper_rig)
-    rng = np.random.default_rng(11)
-    draws = np.column_stack([_noise(vs, units, rng) for _ in range(400)])
-    # A slow model error, +δ in one prediction and −δ in the other: E[(e + δ)²] = E[(e − δ)²],
-    # the two equally accurate exactly, while their loss differential −4eδ carries the noise's
-    # correlation.
-    delta = 0.6 * np.sin(2 * np.pi * t / (3 * 3600.0))
+    vs, units, t, draws, delta, rng = _equal_pair(paper_rig, 11)
     n = 400
     p_equal = np.empty(n)
     p_worse = np.empty(n)
@@ -69,10 +76,7 @@ def test_the_gain_s_standard_error_is_the_spread_of_the_gain_over_worlds(
     # (The moving-block bootstrap of whole cycles it replaces read it about a third low.)
     from thermrs.diagnose.accuracy import gain_se
 
-    vs, units, t = _world(paper_rig)
-    rng = np.random.default_rng(5)
-    draws = np.column_stack([_noise(vs, units, rng) for _ in range(400)])
-    delta = 0.6 * np.sin(2 * np.pi * t / (3 * 3600.0))
+    vs, units, _, draws, delta, rng = _equal_pair(paper_rig, 5)
     gains = []
     ses = []
     for _ in range(300):
