@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -484,7 +484,7 @@ def _param_corners(effects: Sequence[Effect], ci: dict[str, Any]) -> list[list[E
             value = getattr(e, key)
             if isinstance(value, int | float) and len(c) == 2:
                 variants = [w for v in variants for w in ends(v, i, key, None, c)]
-            elif isinstance(value, dict) and isinstance(c, dict):
+            elif isinstance(value, Mapping) and isinstance(c, dict):
                 for entry, ce in c.items():
                     if entry in value and len(ce) == 2 and all(np.isfinite(ce)):
                         variants = [w for v in variants for w in ends(v, i, key, entry, ce)]
