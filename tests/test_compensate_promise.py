@@ -140,7 +140,7 @@ def test_a_law_is_made_where_an_interval_reaches_past_the_physical_bound() -> No
     # The independent world's κ is at SPEC's bound (0.1/K); its estimate's interval reaches
     # past it. The interval is cut to the bound, and the law's slopes (computed at the ends
     # of each interval) must still be made and cover the world's own. (Before, the law's
-    # corner at κ = 0.18 was no effect the core admits: `thermrs compensate` failed.)
+    # corner at κ = 0.11–0.12 was no effect the core admits: `thermrs compensate` failed.)
     rig, wrig = case_rigs(str(thermrs.default_rig_path()))
     scene = draw_scene(wrig, Campaign(), "white", 2384008, tolerances=rig.tolerances)
     truths, _, _ = case_truths(wrig, scene, ("nonlinear_alpha",), 4.0, 2384008)
