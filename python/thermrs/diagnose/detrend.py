@@ -65,6 +65,7 @@ def band_semivariogram(b: FloatArray, a: FloatArray, lags: npt.NDArray[np.intp])
 def _dense(
     t: FloatArray, a: FloatArray, lags: npt.NDArray[np.intp], taus: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
+    """The white and correlated columns by the dense products (the definition; n³ per τ)."""
     white = band_semivariogram(a, a, lags)
     corr = np.zeros((len(taus), len(lags)))
     dist = np.abs(t[:, None] - t[None, :])
