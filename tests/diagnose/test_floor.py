@@ -109,9 +109,10 @@ def test_every_replicate_at_once_is_the_one_at_a_time_fit(seed: int) -> None:
     tau_c_max_s = float(rng.uniform(120, 3600))
     got = series_noise_many(r, t, tau_c_max_s)
     for j in range(r.shape[1]):
-        want = reference(r[:, j], t, tau_c_max_s)
-        assert want is not None
-        np.testing.assert_allclose(got[j], want, rtol=1e-7, atol=1e-9)
+        if j % 5 == 0:  # the dense reference (n³ per τ and column) on a fifth of them
+            want = reference(r[:, j], t, tau_c_max_s)
+            assert want is not None
+            np.testing.assert_allclose(got[j], want, rtol=1e-7, atol=1e-9)
         one = series_noise(r[:, j], t, tau_c_max_s)
         assert one is not None
         np.testing.assert_allclose(one, got[j], rtol=1e-12, atol=1e-12)
