@@ -288,7 +288,7 @@ def _baseline(
     holdout_runs = set(vs.run.tolist()) - set(names_t)
     floor = noise_floor(vs, base.residual, holdout_runs, rig.mapped_temperatures)
     design.min_tau_min = floor.tau_c_max_s / 60.0
-    design.nuisance, design.nuisance_names = nuisance_signatures(
+    design.nuisance, design.nuisance_names, design.model_nuisance = nuisance_signatures(
         vs, rig, base.alpha, floor_um=floor.holdout_um
     )
     return _Base(

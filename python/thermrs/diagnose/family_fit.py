@@ -18,7 +18,7 @@ minus α·s + E·β, centred per (camera, axis).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -27,6 +27,9 @@ from scipy.optimize import minimize_scalar
 from thermrs.effects import Family
 from thermrs.signatures import VisitSet
 from thermrs.stats import LeastSquares, lstsq_qr
+
+if TYPE_CHECKING:
+    from thermrs.diagnose.tolerances import ModelNuisance
 
 __all__ = ["DesignMatrix", "Fit"]
 
@@ -95,6 +98,8 @@ class DesignMatrix:
         #: (:mod:`.tolerances`; set by the floor step), and their names.
         self.nuisance: FloatArray = np.zeros((2 * n, 0))
         self.nuisance_names: list[str] = []
+        #: The same signatures about a model with effects (None: the nominal ones serve).
+        self.model_nuisance: ModelNuisance | None = None
         base = self.fit(None, {}, label="nominal")
         # Weights: inverse residual variance per camera and axis, from the nominal training fit.
         for ch in np.unique(self.channel):
@@ -160,15 +165,19 @@ class DesignMatrix:
             columns=columns,
         )
 
-    def tolerance_cov(self, columns: FloatArray | None) -> FloatArray:
+    def tolerance_cov(
+        self, columns: FloatArray | None, *, nuisance: FloatArray | None = None
+    ) -> FloatArray:
         """The covariance (α first, then the columns' amplitudes) the rig's stated tolerances
-        add to a fit on the training rows: each tolerance signature (:attr:`nuisance`, one
+        add to a fit on the training rows: each tolerance signature (:attr:`nuisance`, or
+        ``nuisance``: those about the fitted model, :class:`.tolerances.ModelNuisance`; one
         standard uncertainty of one quantity, independent standard normal in the null world)
         moves the fitted coefficients by the weighted least-squares fit of that signature,
         and those moves add as Σ Δ·Δᵀ. The statistical covariance of :meth:`fit` knows only
         the noise; a rig known to its tolerances is uncertain by this much more."""
         k = 0 if columns is None else columns.shape[1]
-        if self.nuisance.shape[1] == 0:
+        nuis = self.nuisance if nuisance is None else nuisance
+        if nuis.shape[1] == 0:
             return np.zeros((1 + k, 1 + k))
         tr = np.flatnonzero(self.train)
         used = np.unique(self.group[tr])
@@ -181,7 +190,7 @@ class DesignMatrix:
         scale = np.linalg.norm(xw, axis=0)
         scale[scale == 0] = 1.0
         q, r = np.linalg.qr(xw / scale)
-        moves = np.linalg.solve(r, q.T @ (self.nuisance[tr] * sw[:, None])) / scale[:, None]
+        moves = np.linalg.solve(r, q.T @ (nuis[tr] * sw[:, None])) / scale[:, None]
         d = moves[: 1 + k]
         out: FloatArray = d @ d.T
         return out

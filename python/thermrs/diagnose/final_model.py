@@ -65,7 +65,12 @@ def final_model(
     f = design.fit(x, eta, label=" + ".join(s["family"].label for s in sel))
     # The parameters' intervals carry the noise (the fit's HAC covariance) and the rig's
     # stated tolerances (what they move the fitted coefficients by).
-    cov = f.cov + design.tolerance_cov(x)
+    # About this model: its effects read the IR camera too (.tolerances.ModelNuisance).
+    nuis = None
+    if design.model_nuisance is not None and design.nuisance.shape[1]:
+        terms = [(s["family"], s["eta"], c) for s, c in zip(sel, cols, strict=True)]
+        nuis = design.model_nuisance.of(terms, np.concatenate([[f.alpha], f.beta]))
+    cov = f.cov + design.tolerance_cov(x, nuisance=nuis)
     alpha_ci = _alpha_interval(f, cov)
     out: list[dict[str, Any]] = []
     ends: list[tuple[int, dict[str, float]]] = []

@@ -83,6 +83,8 @@ class BatchFit:
     hold_ms: FloatArray  # (B,)
     hold_resid: FloatArray | None  # (n_hold, B)
     fitted: FloatArray | None  # (2n, B) fitted values (model + offsets), when asked
+    #: (k, B): α, then the amplitude of each of the model's columns, when asked.
+    coef: FloatArray | None = None
 
 
 class Batch:
@@ -139,10 +141,11 @@ class Batch:
         nest = self._nested(columns, obs)
         if nest is None:
             return None
-        fitted = None
+        fitted = coef = None
         if keep:
             k = nest.x_ho.shape[1]
-            fitted = self._x_all(columns) @ nest.coef[:k]
+            coef = nest.coef[:k]
+            fitted = self._x_all(columns) @ coef
             fitted[self.tr] += self.off_tr @ nest.coef[k:]
             fitted[self.ho] = obs.y_ho - nest.resid_ho  # the model and the held-out mountings
         return BatchFit(
@@ -150,6 +153,7 @@ class Batch:
             hold_ms=np.mean(nest.resid_ho**2, axis=0),
             hold_resid=nest.resid_ho,
             fitted=fitted,
+            coef=coef,
         )
 
     def _x_all(self, columns: FloatArray | None) -> FloatArray:

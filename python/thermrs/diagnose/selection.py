@@ -204,12 +204,17 @@ def _world(
     """The data and ``draws`` replicates of the world where ``model`` is the truth."""
     y = design.y[:, None]
     obs = batch.fit(_stack(model), y, keep=True)
-    if obs is None or obs.fitted is None:
+    if obs is None or obs.fitted is None or obs.coef is None:
         raise np.linalg.LinAlgError("the model cannot be fitted")
     sim = obs.fitted + draw_noise(design, floor, draws, rng)
-    if design.nuisance.shape[1]:
-        # The user's world: a rig within its stated tolerances, not the file's exact one.
-        sim = sim + design.nuisance @ rng.standard_normal((design.nuisance.shape[1], draws))
+    # The user's world: a rig within its stated tolerances, not the file's exact one; about
+    # a model with effects, its IR readings' errors move its effects too (.tolerances).
+    nuis = design.nuisance
+    if model and design.model_nuisance is not None and nuis.shape[1]:
+        terms = [(c.grid.family, c.eta, c.columns) for c in model]
+        nuis = design.model_nuisance.of(terms, obs.coef[:, 0])
+    if nuis.shape[1]:
+        sim = sim + nuis @ rng.standard_normal((nuis.shape[1], draws))
     ys = np.column_stack([y, sim])
     cur = batch.fit(_stack(model), ys)
     assert cur is not None

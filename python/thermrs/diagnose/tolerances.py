@@ -20,18 +20,27 @@ IR camera
 
 Every null replicate (:mod:`.selection`) adds these signatures with independent standard
 normal weights: the statistics then have the distribution they have over rigs within their
-tolerances, which is the world the user lives in.
+tolerances, which is the world the user lives in. In the world of a model with effects (a
+rival's, an alternative choice's, a later step's), the IR camera's signatures are that model's
+(:class:`ModelNuisance`): a joint offset driven by link 3 moves with link 3's reading error as
+the expansion does. Without that, on the independent bench world's runs, a joint offset's
+true temperature was rejected at p 0.001 against another link's (IR drift and gain within
+their tolerances); with it, at 0.006.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
 import numpy.typing as npt
 
+from thermrs.effects import Family
 from thermrs.rig import Rig, geometry_variants
 from thermrs.signatures import VisitSet
 
-__all__ = ["nuisance_signatures"]
+__all__ = ["ModelNuisance", "nuisance_signatures"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -51,23 +60,35 @@ def _geometry(vs: VisitSet, rig: Rig, alpha: float) -> list[tuple[str, FloatArra
     return out
 
 
-def _ir(vs: VisitSet, rig: Rig, alpha: float) -> list[tuple[str, FloatArray]]:
-    tol = rig.tolerances
-    rois = [t for t in rig.mapped_temperatures if t != "ambient" and vs.has(t)]
-    if not rois:
-        return []
-    hot = vs.positions(alpha_per_k=alpha)
+def _rise(vs: VisitSet, rig: Rig, r: str) -> FloatArray:
     room = vs.temps.get("ambient")
     room = room if room is not None else np.full(vs.n, rig.reference_c)
+    return np.concatenate([vs.temps[r] - room] * 2)
+
+
+def _sensitivity(vs: VisitSet, alpha: float, rois: list[str]) -> dict[str, FloatArray]:
+    """The nominal model's spots' change (2n, µm) per kelvin of each ROI's reading."""
+    hot = vs.positions(alpha_per_k=alpha)
     sens: dict[str, FloatArray] = {}
     for r in rois:
         temps = dict(vs.temps)
         temps[r] = temps[r] + 1.0
         sens[r] = vs.replaced(temps=temps).positions(alpha_per_k=alpha) - hot  # µm per K
-    rise = {r: np.concatenate([vs.temps[r] - room] * 2) for r in rois}
+    return sens
+
+
+def _ir(vs: VisitSet, rig: Rig, sens: dict[str, FloatArray]) -> list[tuple[str, FloatArray]]:
+    """The IR camera's tolerances' signatures, for a model whose spots move by ``sens``
+    (2n, µm per K of each ROI's reading)."""
+    tol = rig.tolerances
+    rois = list(sens)
+    if not rois:
+        return []
+    rise = {r: _rise(vs, rig, r) for r in rois}
     out: list[tuple[str, FloatArray]] = []
     if tol["ir_scale"] > 0:
-        out.append(("IR gain (common)", tol["ir_scale"] * sum(sens[r] * rise[r] for r in rois)))
+        common = np.sum([sens[r] * rise[r] for r in rois], axis=0)
+        out.append(("IR gain (common)", tol["ir_scale"] * common))
     if tol["ir_gain"] > 0:
         out += [(f"IR gain ({r})", tol["ir_gain"] * sens[r] * rise[r]) for r in rois]
     runs = list(dict.fromkeys(vs.run.tolist()))
@@ -94,16 +115,114 @@ def _ir(vs: VisitSet, rig: Rig, alpha: float) -> list[tuple[str, FloatArray]]:
     return out
 
 
+class ModelNuisance:
+    """The tolerances' signatures about a fitted model with effects, not the nominal one.
+
+    An IR reading's error moves every term of the model that reads that temperature: a joint
+    offset or an unmodelled length driven by link 3 moves with link 3's IR drift, gain and
+    clock as the nominal expansion does. A null world in which such a model is the truth
+    (a rival's, an alternative choice's, a later step's) draws the IR tolerances through the
+    model's own sensitivity to each reading: α's part (the nominal one, at the model's α)
+    plus each effect's column's change per kelvin of the reading, times its fitted
+    amplitude. The geometry's signatures are the nominal ones at the model's α (an effect's
+    own interaction with a length's tolerance is second order).
+
+    Parameters
+    ----------
+    vs
+        The visits the families' columns were computed on.
+    rig
+        The rig (its tolerances).
+    alpha
+        The nominal fit's α (the geometry's signatures were computed at it).
+    geometry
+        The geometry's signatures (2n × g) at ``alpha``.
+    """
+
+    def __init__(self, vs: VisitSet, rig: Rig, alpha: float, geometry: FloatArray):
+        self.vs = vs
+        self.rig = rig
+        self.alpha = alpha
+        self.geometry = geometry
+        self.rois = [t for t in vs.temps if t != "ambient"]
+        mapped = [r for r in self.rois if r in rig.mapped_temperatures]
+        nominal = _sensitivity(vs, alpha, mapped) if alpha != 0 else {}
+        zero = np.zeros(2 * vs.n)
+        #: Per ROI: the nominal spots' change per K of its reading, per unit α.
+        self.per_alpha = {r: (nominal[r] / alpha if r in nominal else zero) for r in self.rois}
+        self._derivatives: dict[tuple[str, tuple[tuple[str, float], ...]], Any] = {}
+
+    def _derivative(
+        self, family: Family, eta: dict[str, float], cols: FloatArray
+    ) -> dict[str, FloatArray]:
+        """Per ROI: the family's columns' change (2n × m) per kelvin of its reading."""
+        key = (family.label, tuple(sorted(eta.items())))
+        hit: dict[str, FloatArray] | None = self._derivatives.get(key)
+        if hit is not None:
+            return hit
+        out = {}
+        base = cols.reshape(2 * self.vs.n, -1)
+        for r in self.rois:
+            temps = dict(self.vs.temps)
+            temps[r] = temps[r] + 1.0
+            try:
+                moved = np.asarray(family.columns(self.vs.replaced(temps=temps), eta))
+                d = moved.reshape(base.shape) - base
+            except Exception:  # a family that cannot follow the reading: no interaction
+                d = np.zeros_like(base)
+            out[r] = np.where(np.isfinite(d), d, 0.0)
+        self._derivatives[key] = out
+        return out
+
+    def ir_columns(
+        self,
+        terms: Sequence[tuple[Family, dict[str, float], FloatArray]],
+        coef: FloatArray,
+    ) -> list[tuple[str, FloatArray]]:
+        """The IR camera's tolerances' signatures (name, 2n) about the model whose ``terms``
+        (the family, its parameters, its columns there) were fitted with ``coef`` (α, then
+        each column's amplitude)."""
+        sens = {r: float(coef[0]) * self.per_alpha[r] for r in self.rois}
+        j = 1
+        for family, eta, cols in terms:
+            d = self._derivative(family, eta, cols)
+            m = cols.reshape(2 * self.vs.n, -1).shape[1]
+            for r in self.rois:
+                sens[r] = sens[r] + d[r] @ coef[j : j + m]
+            j += m
+        return _ir(self.vs, self.rig, sens)
+
+    def of(
+        self,
+        terms: Sequence[tuple[Family, dict[str, float], FloatArray]],
+        coef: FloatArray,
+    ) -> FloatArray:
+        """Every signature (2n × p) about that model: the geometry's at its α, then
+        :meth:`ir_columns`."""
+        scale = float(coef[0]) / self.alpha if self.alpha else 1.0
+        ir = [c for _, c in self.ir_columns(terms, coef)]
+        return np.column_stack([self.geometry * scale, *ir])
+
+
 def nuisance_signatures(
     vs: VisitSet, rig: Rig, alpha: float, *, floor_um: float
-) -> tuple[FloatArray, list[str]]:
-    """Every tolerance's signature (2n × p) at the fitted α, and their names (module docs).
+) -> tuple[FloatArray, list[str], ModelNuisance]:
+    """Every tolerance's signature (2n × p) about the nominal model at the fitted α, their
+    names (module docs), and the same about any model with effects (:class:`ModelNuisance`).
 
-    Signatures smaller than a thousandth of the noise floor everywhere are left out (they
-    cannot move a statistic).
+    Signatures smaller than a thousandth of the noise floor everywhere are left out of the
+    nominal ones (they cannot move a statistic).
     """
-    cols = [*_geometry(vs, rig, alpha), *_ir(vs, rig, alpha)]
+    rois = [t for t in rig.mapped_temperatures if t != "ambient" and vs.has(t)]
+    geometry = _geometry(vs, rig, alpha)
+    cols = [*geometry, *_ir(vs, rig, _sensitivity(vs, alpha, rois))]
+    per_model = ModelNuisance(
+        vs,
+        rig,
+        alpha,
+        np.column_stack([c for _, c in geometry]) if geometry else np.zeros((2 * vs.n, 0)),
+    )
     keep = [(n, c) for n, c in cols if float(np.max(np.abs(c))) > 1e-3 * max(floor_um, 1e-9)]
     if not keep:
-        return np.zeros((2 * vs.n, 0)), []
-    return np.column_stack([c for _, c in keep]), [n for n, _ in keep]
+        return np.zeros((2 * vs.n, 0)), [], per_model
+    return np.column_stack([c for _, c in keep]), [n for n, _ in keep], per_model
