@@ -358,7 +358,7 @@ def _diagnose(
     if final is not None:
         _floor_of_final_model(b, final, rig)
         if final.columns is not None:
-            _with_final_model(b, batch, final.columns, seed)
+            _with_final_model(b, batch, final.columns, seed, final.extra.get("nuisance"))
     first = steps[0]
     if first.significant or min(first.p_at_floor, first.p_low, first.p_floor_contradicted) < (
         level / 4.0
@@ -622,7 +622,9 @@ def _floor_of_final_model(b: _Base, final: Fit, rig: Rig) -> None:
         fl.holdout_ci95 = (max(fl.holdout_um - 1.96 * se, 0.0), fl.holdout_um + 1.96 * se)
 
 
-def _with_final_model(b: _Base, batch: Batch, columns: FloatArray, seed: int) -> None:
+def _with_final_model(
+    b: _Base, batch: Batch, columns: FloatArray, seed: int, nuisance: FloatArray | None
+) -> None:
     """What the final model (its effect ``columns``) adds to the floor's record: the share of
     the gap it closes with its interval (:mod:`.closing`), and how far the rig's errors
     exceed its statement once the effects are fitted (:mod:`.tolerance_scale`; the estimate
@@ -631,7 +633,12 @@ def _with_final_model(b: _Base, batch: Batch, columns: FloatArray, seed: int) ->
     so the estimate holds whether they are real or not). Each from its own generator: the
     rest of the diagnosis draws what it drew."""
     b.floor.extra["closing"] = closing_interval(
-        batch, b.design, b.floor, columns, np.random.default_rng([seed % 2**63, 47])
+        batch,
+        b.design,
+        b.floor,
+        columns,
+        np.random.default_rng([seed % 2**63, 47]),
+        nuisance=nuisance,
     )
     ts = b.floor.extra.get("tolerance_scale")
     if ts is not None:

@@ -63,6 +63,7 @@ def closing_interval(
     rng: np.random.Generator,
     *,
     draws: int = CLOSING_DRAWS,
+    nuisance: FloatArray | None = None,
 ) -> dict[str, Any] | None:
     """The share closed and its 95 % interval (module docs); None where the model cannot be
     refitted or the floor not estimated.
@@ -80,14 +81,18 @@ def closing_interval(
         The final model's effect columns.
     rng
         Random draws.
+    nuisance
+        The rig's tolerances' signatures about the final model
+        (:class:`.tolerances.ModelNuisance`; default: the nominal model's).
     """
     y = design.y[:, None]
     obs = batch.fit(columns, y, keep=True)
     if obs is None or obs.fitted is None or not np.isfinite(floor.holdout_um):
         return None
     sim = obs.fitted + draw_noise(design, floor, draws, rng)
-    if design.nuisance.shape[1]:
-        sim = sim + design.nuisance @ rng.standard_normal((design.nuisance.shape[1], draws))
+    nuis = design.nuisance if nuisance is None else nuisance
+    if nuis.shape[1]:
+        sim = sim + nuis @ rng.standard_normal((nuis.shape[1], draws))
     ys = np.column_stack([y, sim])
     before = batch.fit(None, ys)
     after = batch.fit(columns, ys)

@@ -71,6 +71,8 @@ def final_model(
         terms = [(s["family"], s["eta"], c) for s, c in zip(sel, cols, strict=True)]
         nuis = design.model_nuisance.of(terms, np.concatenate([[f.alpha], f.beta]))
     cov = f.cov + design.tolerance_cov(x, nuisance=nuis)
+    if nuis is not None:
+        f.extra["nuisance"] = nuis
     alpha_ci = _alpha_interval(f, cov)
     out: list[dict[str, Any]] = []
     ends: list[tuple[int, dict[str, float]]] = []
