@@ -82,6 +82,10 @@ class DiagnosedModel:
     #: The identity of the rig the diagnosis was made with (its ``rig``; empty in a
     #: diagnosis written before it carried one).
     rig: dict[str, Any] = field(default_factory=dict)
+    #: The effect's other choices the data cannot tell from it (another joint, temperature,
+    #: length or camera), each as fitted in its place (the diagnosis'
+    #: ``verdict.params_alternatives_fitted``): the law's intervals span their laws.
+    alternatives: tuple[DiagnosedModel, ...] = ()
 
     @property
     def alpha_ci95(self) -> tuple[float, float]:
@@ -182,14 +186,33 @@ def diagnosed_model(
     if alts:
         note = (
             f"{note + '; ' if note else ''}the data cannot tell its parameters from "
-            f"{' or '.join(alts)}: the law is as sure as the diagnosis only for temperature "
-            "patterns like those of the diagnosis' runs"
+            f"{' or '.join(alts)}: the law's intervals span the laws of those fitted in its "
+            "place, which agree only for temperature patterns like those of the diagnosis' runs"
         )
     ci_after = how.get("holdout_rms_after_ci95")
     joint = verdict.get("alpha_ci95")
     joint_alpha = verdict.get("alpha_per_k")
+    others: list[DiagnosedModel] = []
+    for alt in verdict.get("params_alternatives_fitted") or []:
+        # A choice the core cannot take as an effect (a fitted weight past its bound) gives
+        # no law to span: said in the note.
+        try:
+            a_ci = alt.get("alpha_ci95")
+            eff = from_dict({"name": name, **dict(alt["params"])}, rig=rig)
+            others.append(
+                replace(
+                    model,
+                    alpha_per_k=float(alt["alpha_per_k"]),
+                    joint_alpha_ci95=None if not a_ci else (float(a_ci[0]), float(a_ci[1])),
+                    effects=(eff,),
+                    params_ci95=dict(alt.get("params_ci95") or {}),
+                )
+            )
+        except (KeyError, TypeError, ValueError, InputError) as e:
+            note += f"; {alt.get('family', 'an alternative')} gives no law ({e})"
     return replace(
         model,
+        alternatives=tuple(others),
         holdout_rms_after_ci95=None if not ci_after else (float(ci_after[0]), float(ci_after[1])),
         alpha_per_k=float(
             joint_alpha if isinstance(joint_alpha, int | float) else row["alpha_per_k"]
@@ -573,8 +596,12 @@ def compensation_law(
     for c in r.cameras:
         for e in model.effects:
             rows += _chip_rows(e, c.name, c.pose, model.params_ci95)
+    if model.alternatives:
+        rows = _spanning(rows, [compensation_law(r, a, span_k=span_k) for a in model.alternatives])
     table = pl.DataFrame(rows).filter(
-        (pl.col("coefficient") != 0) | ~pl.col("term").str.contains("reference_c")
+        (pl.col("coefficient") != 0)
+        | (pl.col("ci95_low") != pl.col("ci95_high"))
+        | ~pl.col("term").str.contains("reference_c")
     )
     return CompensationLaw(
         table=table,
@@ -585,6 +612,25 @@ def compensation_law(
         model=model,
         rig=rig_identity(r),
     )
+
+
+def _spanning(rows: list[dict[str, Any]], others: list[CompensationLaw]) -> list[dict[str, Any]]:
+    """The slopes per kelvin of ``rows`` with each interval widened to span the same slope's
+    interval in the ``others`` (the laws of the choices the data cannot tell from the one
+    named); a slope only another law has is 0 here, its interval spanning 0 and theirs."""
+    key = ("camera", "axis", "term")
+    out = {tuple(x[k] for k in key): dict(x) for x in rows}
+    for law in others:
+        for o in law.table.iter_rows(named=True):
+            if not str(o["term"]).endswith("(T - reference_c)"):
+                continue
+            k = tuple(o[q] for q in key)
+            if k not in out:
+                out[k] = {**o, "coefficient": 0.0, "ci95_low": 0.0, "ci95_high": 0.0}
+            x = out[k]
+            x["ci95_low"] = float(np.nanmin([x["ci95_low"], o["ci95_low"]]))
+            x["ci95_high"] = float(np.nanmax([x["ci95_high"], o["ci95_high"]]))
+    return list(out.values())
 
 
 def _chip_rows(e: Effect, cam: str, pose: str, ci: dict[str, Any]) -> list[dict[str, Any]]:

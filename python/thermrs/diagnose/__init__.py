@@ -52,7 +52,7 @@ from thermrs.diagnose.candidates import Candidate, plausibility, score
 from thermrs.diagnose.closing import closing_interval
 from thermrs.diagnose.confounding import confounded_pairs
 from thermrs.diagnose.family_fit import DesignMatrix, Fit
-from thermrs.diagnose.final_model import final_model
+from thermrs.diagnose.final_model import alternative_fits, final_model
 from thermrs.diagnose.floor import SCALE_SEPARATION, NoiseFloor, noise_floor, thermal_time_scales
 from thermrs.diagnose.guard import GUARD_SCALE, rig_excess_guard
 from thermrs.diagnose.input_checks import check_inputs, smooth_temperatures
@@ -382,6 +382,12 @@ def _diagnose(
     alternatives = {s.chosen.label: s.alternatives for s in steps if s.chosen is not None}
     for sel in selected:
         sel["alternatives"] = alternatives.get(sel["family"], [])
+    if selected and selected[0]["alternatives"]:
+        # What the law of the verdict's effect must span: each choice the data cannot tell
+        # from the one named, fitted in its place.
+        selected[0]["alternative_fits"] = alternative_fits(
+            b.design, steps, n_eff_train, grids, selected[0]["alternatives"]
+        )
     _agree(confounded, steps)
     return assemble(
         vs=b.vs,

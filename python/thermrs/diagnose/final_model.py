@@ -2,10 +2,14 @@
 that joint fit — amplitudes from its covariance (HAC) and the rig's stated tolerances, a time
 constant by profile likelihood, α and the amplitudes widened by how far they move over the
 time constant's interval (in quadrature: the marginal interval along the likelihood's ridge).
+The same joint fit of each choice of the verdict's effect the data cannot tell from the one
+named (another joint, temperature, length or camera), in its place: what the compensation law's
+intervals must span.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -13,9 +17,9 @@ import numpy.typing as npt
 
 from thermrs.diagnose.candidates import profile_interval
 from thermrs.diagnose.family_fit import DesignMatrix, Fit
-from thermrs.diagnose.selection import Step
+from thermrs.diagnose.selection import Choice, FamilyGrid, Step
 
-__all__ = ["final_model"]
+__all__ = ["alternative_fits", "final_model"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -188,3 +192,34 @@ def _widened(ci: Any, centre: Any, ends: list[Any]) -> Any:
         float(centre - np.hypot(centre - ci[0], down)),
         float(centre + np.hypot(ci[1] - centre, up)),
     ]
+
+
+def alternative_fits(
+    design: DesignMatrix,
+    steps: list[Step],
+    n_eff_train: float,
+    grids: list[FamilyGrid],
+    labels: list[str],
+) -> list[dict[str, Any]]:
+    """The first selected effect's alternative choices (family ``labels``: those the data
+    cannot reject as the truth), each fitted jointly in its place as :func:`final_model` fits
+    the effect named: per alternative its ``family``, ``params``, ``params_ci95``,
+    ``alpha_per_k`` and ``alpha_ci95``. An alternative the design cannot fit is left out."""
+    first = next((s for s in steps if s.chosen is not None), None)
+    by_label = {g.family.label: g for g in grids}
+    out: list[dict[str, Any]] = []
+    if first is None:
+        return out
+    for label in labels:
+        grid = by_label.get(label)
+        if grid is None:
+            continue
+        alt = [replace(s, chosen=Choice(grid, 0)) if s is first else s for s in steps]
+        try:
+            _, sel = final_model(design, alt, n_eff_train)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        if sel:
+            keys = ("family", "params", "params_ci95", "alpha_per_k", "alpha_ci95")
+            out.append({k: sel[0][k] for k in keys})
+    return out

@@ -642,6 +642,11 @@ def _verdict_doc(
         "params_alternatives": []
         if first is None or status == "partially explained"
         else first.get("alternatives", []),
+        # Each of them fitted jointly in the effect's place (family, params, params_ci95,
+        # alpha_per_k, alpha_ci95): the compensation law's intervals span their laws.
+        "params_alternatives_fitted": []
+        if first is None or status == "partially explained"
+        else first.get("alternative_fits", []),
         "confounded_with": rivals if status == "ambiguous" else [],
         # Excluded effects (never named) that explain the gap as well as the effects
         # selected and that the data cannot reject: those effects may only stand in for them.
