@@ -10,6 +10,10 @@ produce:
 - the noise floor's 95 % interval against the world's visit repeatability σ (every case);
 - each parameter of the true effect in the verdict's ``params_ci95`` against its true value
   (cases whose verdict names the true effect alone; a vector parameter counts per entry);
+  where the verdict names another of the effect's discrete choices (joint, temperature,
+  length, camera), the interval of the true choice's joint fit if it is among the
+  alternatives the data cannot reject (``params_alternatives_fitted``, what the user reads),
+  else a miss;
 - α with the effect (``verdict.alpha_ci95``, the joint fit) against the world's α per
   *measured* kelvin: its true α over the IR camera's mean gain on the links (the coefficient a
   law applied to measured temperatures needs);
@@ -96,10 +100,23 @@ def one(args: tuple[str, str, int, float, float]) -> dict[str, Any]:
     truth = {k: x for k, x in injected.items() if k != "name" and isinstance(x, int | float | list)}
     if isinstance(injected.get("alpha_per_k"), dict):
         truth["alpha_per_k"] = injected["alpha_per_k"]
+    # The effect's discrete choice (joint, temperature, length, camera): the one named, one
+    # of its alternatives the data cannot reject (whose joint fit the user reads in
+    # `params_alternatives_fitted`), or rejected (no interval the user reads holds the truth).
+    choice = {k: x for k, x in injected.items() if k != "name" and isinstance(x, str)}
+    fit = {"params_ci95": v.get("params_ci95") or {}, "alpha_ci95": v.get("alpha_ci95")}
+    row["choice"] = "named"
+    if any(v["params"].get(k) != x for k, x in choice.items()):
+        row["choice"] = "rejected"
+        for alt in v.get("params_alternatives_fitted") or []:
+            if all(alt["params"].get(k) == x for k, x in choice.items()):
+                row["choice"], fit = "kept", alt
     cover: dict[str, list[bool]] = {}
     for k, x in truth.items():
-        ci = (v.get("params_ci95") or {}).get(k)
-        if ci is not None:
+        ci = (fit.get("params_ci95") or {}).get(k)
+        if row["choice"] == "rejected":
+            cover[k] = [False] * len(_covers((v.get("params_ci95") or {}).get(k, [0, 0]), x))
+        elif ci is not None:
             cover[k] = _covers(ci, x)
     if effect == "thermal_lag" and "tau_min" in (v.get("params_ci95") or {}):
         # A two-time-constant lag against the first-order lag closest to it (what a
@@ -107,8 +124,9 @@ def one(args: tuple[str, str, int, float, float]) -> dict[str, Any]:
         tau_eq = closest_first_order_tau(scene, truths[0])
         row["tau_closest_first_order_min"] = tau_eq
         cover["tau_min (closest first-order lag)"] = _covers(v["params_ci95"]["tau_min"], tau_eq)
-    if v.get("alpha_ci95"):
-        cover["alpha (joint fit)"] = _covers(v["alpha_ci95"], alpha_meas)
+    if fit.get("alpha_ci95"):
+        hit = _covers(fit["alpha_ci95"], alpha_meas)
+        cover["alpha (joint fit)"] = [False] if row["choice"] == "rejected" else hit
     row["covers"] = cover
     row["half_width"] = {
         k: float((c[1] - c[0]) / 2 / abs(v["params"][k]))
@@ -172,6 +190,10 @@ def main() -> None:
         here = [r for r in rows if r["effect"] == e]
         named = [r for r in here if "covers" in r]
         print(f"{e}: identified alone in {len(named)}/{len(here)}")
+        ch = [r["choice"] for r in named]
+        if any(c != "named" for c in ch):
+            print(f"{e}: its true choice named {ch.count('named')}, kept among the "
+                  f"alternatives {ch.count('kept')}, rejected {ch.count('rejected')}")  # fmt: skip
         hw = [r["law_half_width_median"] for r in named if r.get("law_half_width_median")]
         if hw:
             print(f"{e}: law coefficients' median half-width {np.median(hw):.0%} (per law: "
