@@ -128,6 +128,7 @@ def closing_interval(
         if cov[0, 0] > 0 and cov[1, 1] > 0
         else None,
         "floor_bias_um": bias,
+        "sd_floor_um": float(np.sqrt(c[2, 2])),
         "draws": int(ok.sum()),
         "method": "Fieller's interval for (before − after) / (before − floor), the covariance "
         "of the two differences from replicates of the world where the final model is the "
