@@ -132,7 +132,7 @@ def test_the_law_of_an_unmodelled_length_is_the_model_the_diagnosis_fitted() -> 
     assert left == pytest.approx(doc["how_far"]["holdout_rms_after_um"], rel=0.05)
     # Each slope's interval covers the world's own slope (its kinematics, its α for a1).
     world = measured_slopes(scene, scene.alpha_per_k, effects=truths)
-    assert _slopes_covered(law, world) == 8
+    assert _slopes_covered(law, world) >= 8  # every camera, axis and mapped link
 
 
 @pytest.mark.slow
@@ -153,7 +153,7 @@ def test_a_law_is_made_where_an_interval_reaches_past_the_physical_bound() -> No
     assert lo <= 0.1 <= hi <= 0.1
     law = compensation_law(rig, diagnosed_model(doc, rig))
     world = measured_slopes(scene, scene.alpha_per_k, effects=truths)
-    assert _slopes_covered(law, world) == 8
+    assert _slopes_covered(law, world) >= 8  # every camera, axis and mapped link
 
 
 @pytest.mark.slow
@@ -182,7 +182,7 @@ def test_a_law_spans_the_choices_the_data_cannot_tell_from_the_one_named() -> No
         assert lo < a["alpha_per_k"] < hi
     law = compensation_law(rig, diagnosed_model(doc, rig))
     world = measured_slopes(scene, scene.alpha_per_k, effects=truths)
-    assert _slopes_covered(law, world) == 8
+    assert _slopes_covered(law, world) >= 8  # every camera, axis and mapped link
 
 
 @pytest.mark.slow
