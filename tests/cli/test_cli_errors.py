@@ -2,7 +2,9 @@
 one line on stderr and no traceback, writes nothing; an output the system will not take exits 1
 with one line naming the file; losses stay visible; Ctrl-C stops a long
 command at once with exit 130 and one line. (Tables never cut: tests/cli/test_tables.py; the
-recording these tests share, ``data``: tests/cli/conftest.py.)"""
+recording these tests share, ``data``: tests/cli/conftest.py.) The table of wrong invocations
+goes through the CLI's entry point in this process (``cli_in_process``); the other tests run
+``python -m thermrs`` in a child."""
 
 from __future__ import annotations
 
@@ -18,7 +20,7 @@ from pathlib import Path
 import pytest
 import thermrs
 
-from tests.support.cli import cli, interruptible
+from tests.support.cli import cli, cli_in_process, interruptible
 from tests.support.rigs import REPO, UR5
 
 PAPER_RUNS = REPO / "fixtures" / "scenarios" / "paper-runs.toml"
@@ -84,7 +86,7 @@ def test_wrong_invocation_exits_2_with_one_line(
 ) -> None:
     before = set(data["dir"].rglob("*"))
     argv = [a.format(**data, ur5=UR5) for a in args.split()]
-    p = cli(*argv)
+    p = cli_in_process(*argv)
     lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
     assert p.returncode == 2, p.stderr
     assert len(lines) == 1, p.stderr

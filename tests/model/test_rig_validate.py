@@ -6,6 +6,8 @@ changed in the resulting dict (see ``BAD_RIGS``) and the dict is written back wi
 writer of :mod:`tests.support.rig_mutations`. The error must be a :class:`thermrs.RigError` whose
 single-line message is ``rig SOURCE[ line N]: KEY: what is wrong``, naming the key; the CLI must
 print that message as one ``thermrs: error: ...`` line on stderr and exit 2, with no traceback.
+The tables of bad rigs go through the CLI's entry point in this process; a few cases (a laser
+missing its camera, ``--json``, a missing file) through ``python -m thermrs`` in a child.
 """
 
 from __future__ import annotations
@@ -614,7 +616,7 @@ def test_cli_rejects_bad_rig_in_one_line(
 ) -> None:
     path = tmp_path / "rig.toml"
     path.write_text(mutated_text(mutate), encoding="utf-8")
-    message = assert_cli_rejects(run_rig_cli(str(path)))
+    message = assert_cli_rejects(run_rig_cli(str(path), in_process=True))
     assert_names_key(message, str(path), key, says)
 
 
@@ -632,7 +634,7 @@ def test_cli_rejects_invalid_toml_in_one_line(
     text, want_line = _syntax_error_text(old, new, marker)
     path = tmp_path / "rig.toml"
     path.write_text(text, encoding="utf-8")
-    message = assert_cli_rejects(run_rig_cli(str(path)))
+    message = assert_cli_rejects(run_rig_cli(str(path), in_process=True))
     line, detail = message_detail(message, str(path))
     assert line == want_line, message
     if names:

@@ -1,8 +1,15 @@
 """The command line as a user meets it: ``python -m thermrs`` in a child process, and what a
-finished command must have said (exit 0; or bad input: exit 2 with one error line)."""
+finished command must have said (exit 0; or bad input: exit 2 with one error line).
+
+:func:`cli_in_process` runs the same entry point (:func:`thermrs.cli.app.main`, which maps
+every error to its exit code and line) in this process, for tables of many bad inputs whose
+subject is the message, not the process: the child's start (its imports, about half a second
+each) is covered by the tests that use :func:`cli`."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import subprocess
 import sys
@@ -18,6 +25,28 @@ def cli(
         text=True,
         env={**os.environ, "THERMRS_DEBUG": "", **(env or {})},
         cwd=cwd,
+    )
+
+
+def cli_in_process(*args: str) -> subprocess.CompletedProcess[str]:
+    """``thermrs ARGS…`` through the console script's entry point in this process: its exit
+    code, stdout and stderr, as :func:`cli` gives them (``THERMRS_DEBUG`` unset)."""
+    from thermrs.cli.app import main
+
+    out, err = io.StringIO(), io.StringIO()
+    debug = os.environ.pop("THERMRS_DEBUG", None)
+    code: int | str | None = 0
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            main(list(args))
+    except SystemExit as e:
+        code = e.code
+    finally:
+        if debug is not None:
+            os.environ["THERMRS_DEBUG"] = debug
+    rc = code if isinstance(code, int) else (0 if code is None else 1)
+    return subprocess.CompletedProcess(
+        ["thermrs", *args], rc, stdout=out.getvalue(), stderr=err.getvalue()
     )
 
 

@@ -23,6 +23,8 @@ from typing import Any
 import pytest
 import thermrs
 
+from tests.support.cli import cli_in_process
+
 # --------------------------------------------------------------------------------------------
 # Paths and the good rig
 # --------------------------------------------------------------------------------------------
@@ -244,7 +246,11 @@ def assert_names_key(message: str, source: str, key: str, says: Sequence[str]) -
         assert text in detail, f"expected {text!r} in: {message!r}"
 
 
-def run_rig_cli(*args: str) -> subprocess.CompletedProcess[str]:
+def run_rig_cli(*args: str, in_process: bool = False) -> subprocess.CompletedProcess[str]:
+    """``thermrs rig ARGS…`` in a child process, or (``in_process``: for the tables of bad
+    rigs, whose subject is the message) through the same entry point in this one."""
+    if in_process:
+        return cli_in_process("rig", *args)
     env = {k: v for k, v in os.environ.items() if k != "THERMRS_DEBUG"}
     return subprocess.run(
         [sys.executable, "-m", "thermrs", "rig", *args],
