@@ -183,6 +183,12 @@ def test_a_law_spans_the_choices_the_data_cannot_tell_from_the_one_named() -> No
     law = compensation_law(rig, diagnosed_model(doc, rig))
     world = measured_slopes(scene, scene.alpha_per_k, effects=truths)
     assert _slopes_covered(law, world) >= 8  # every camera, axis and mapped link
+    # α's interval in the law spans the choices' α as its slopes span their laws, and holds
+    # the world's α.
+    lo, hi = law.to_json()["alpha_ci95"]
+    assert all(lo <= a["alpha_ci95"][0] and a["alpha_ci95"][1] <= hi for a in fitted)
+    assert lo <= v["alpha_ci95"][0] and v["alpha_ci95"][1] <= hi
+    assert lo <= scene.alpha_per_k <= hi
 
 
 @pytest.mark.slow

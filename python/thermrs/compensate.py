@@ -100,6 +100,18 @@ class DiagnosedModel:
             return (float("nan"), float("nan"))
         return (self.alpha_per_k * lo / a0, self.alpha_per_k * hi / a0)
 
+    @property
+    def alpha_ci95_spanning(self) -> tuple[float, float]:
+        """α's 95 % interval widened to span each alternative's (:attr:`alternatives`: the
+        choices the data cannot tell from the effect named, each fitted with its own α), as
+        the law's slopes are; :attr:`alpha_ci95` without alternatives."""
+        ends = [self.alpha_ci95, *(a.alpha_ci95 for a in self.alternatives)]
+        lo = [e[0] for e in ends if np.isfinite(e[0])]
+        hi = [e[1] for e in ends if np.isfinite(e[1])]
+        if not lo or not hi:
+            return self.alpha_ci95
+        return (float(min(lo)), float(max(hi)))
+
 
 def load_diagnosis(path: str | os.PathLike[str], rig: Rig | None = None) -> DiagnosedModel:
     """Read a ``thermrs diagnose --json`` document into the model it identified.
@@ -375,7 +387,8 @@ class CompensationLaw:
             "residual_note": "the held-out rms a compensated run like the diagnosis' held-out "
             "runs keeps, and the range 95 % of such runs fall in",
             "alpha_per_k": m.alpha_per_k,
-            "alpha_ci95": list(m.alpha_ci95),
+            # Spanning the alternatives' α as the slopes span their laws.
+            "alpha_ci95": list(m.alpha_ci95_spanning),
             "effects": [e.to_dict() for e in m.effects],
             "diagnosis": {
                 "status": m.status,

@@ -167,6 +167,15 @@ def _say_verdict(doc: dict[str, Any]) -> None:
                 "(the joint fit, the rig's tolerances counted; the baseline's interval is the "
                 "nominal model's)"
             )
+        spans = [x.get("alpha_ci95") for x in v.get("params_alternatives_fitted") or []]
+        spans = [x for x in spans if x]
+        if aci and spans:
+            lo = min([aci[0], *(x[0] for x in spans)])
+            hi = max([aci[1], *(x[1] for x in spans)])
+            out.print(
+                f"  α over the choices the data cannot tell apart: [{lo * 1e6:.3f}, "
+                f"{hi * 1e6:.3f}]×10⁻⁶/K (each fitted in the effect's place; the law spans them)"
+            )
     from thermrs.numbers import gap_closed
 
     gap = hf.get("gap_closed_raw", hf["gap_closed"])  # uncapped: the display says why it caps
