@@ -7,7 +7,9 @@ were chosen on). The runs are diagnosed as ``thermrs diagnose`` does, and every 
 diagnosis prints is checked against the world's truth, which the code under test did not
 produce:
 
-- the noise floor's 95 % interval against the world's visit repeatability σ (every case);
+- the noise floor's 95 % interval against the world's visit repeatability σ (every case), and
+  that of its chips' and poses' part (the thermal camera's reading noise through the model
+  taken out: ``noise_floor.thermometers.chips_ci95``), which is what the world's σ is;
 - each parameter of the true effect in the verdict's ``params_ci95`` against its true value
   (cases whose verdict names the true effect alone; a vector parameter counts per entry);
   where the verdict names another of the effect's discrete choices (joint, temperature,
@@ -75,6 +77,7 @@ def one(args: tuple[str, str, int, float, float]) -> dict[str, Any]:
     injected = truths[0].spec(scene.alpha_per_k)
     gain = float(np.mean(list(scene.ir_gain.values())))
     alpha_meas = scene.alpha_per_k / gain
+    chips = (doc["noise_floor"].get("thermometers") or {}).get("chips_ci95")
     row: dict[str, Any] = {
         "effect": effect,
         "world": world,
@@ -88,6 +91,12 @@ def one(args: tuple[str, str, int, float, float]) -> dict[str, Any]:
             <= doc["noise_floor"]["holdout_ci95"][1]
         ),
         "floor_um": doc["noise_floor_um"],
+        # The chips' and poses' part of it (the thermal camera's reading noise through the
+        # model taken out): the world's σ is that part alone.
+        "chips_covers": None
+        if not chips
+        else bool(chips[0] <= scene.campaign.sigma_um <= chips[1]),
+        "thermometers_um": (doc["noise_floor"].get("thermometers") or {}).get("thermometers_um"),
         "injected": injected,
         "lags_min": [list(x) for x in truths[0].lags()],
         "params": v.get("params"),
@@ -178,6 +187,8 @@ def main() -> None:
         rows = list(pool.map(one, todo))
     floor = [r["floor_covers"] for r in rows]
     print(f"noise floor's interval covers σ: {_cp(sum(floor), len(floor))}")
+    chips = [r["chips_covers"] for r in rows if r["chips_covers"] is not None]
+    print(f"its chips' and poses' part's interval covers σ: {_cp(sum(chips), len(chips))}")
     by: dict[str, list[bool]] = {}
     for r in rows:
         for k, hits in (r.get("covers") or {}).items():

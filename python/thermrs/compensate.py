@@ -58,7 +58,14 @@ __all__ = [
 ]
 
 #: Effects that act on the chip or the time axis, not on the geometry at one instant.
-_TIME_EFFECTS = ("thermal_lag", "sensor_drift", "fixture_drift", "ir_drift", "ir_clock")
+_TIME_EFFECTS = (
+    "thermal_lag",
+    "sensor_drift",
+    "fixture_drift",
+    "ir_drift",
+    "ir_clock",
+    "ir_noise",
+)
 
 
 @dataclass(frozen=True)
@@ -420,6 +427,10 @@ def _wide_column(r: dict[str, Any]) -> str:
         return f"{term.split(' ')[0]}_reading_drift_k_per_h"
     if term.startswith("thermal camera stamps late"):
         return "ir_clock_late_s"
+    if term.startswith("smooth every T"):
+        return "reading_smoothing_half_width_min"
+    if term.startswith("smoothed share"):
+        return "reading_smoothing_share"
     return term
 
 
@@ -688,6 +699,13 @@ def _chip_rows(e: Effect, cam: str, pose: str, ci: dict[str, Any]) -> list[dict[
         for axis in "uv":
             row(axis, "thermal camera stamps late (read every T at t + s)", "s",
                 d["s"], *interval("s", None, d["s"]))  # fmt: skip
+    elif e.name == "ir_noise":
+        hw, w = float(d["half_width_min"]), float(d.get("weight", 1.0))
+        for axis in "uv":
+            row(axis, "smooth every T first (local quadratic over ± half-width, per run)", "min",
+                hw, *interval("half_width_min", None, hw))  # fmt: skip
+            row(axis, "smoothed share (use T + share * (T_smooth - T) for every T)", "1", w,
+                *interval("weight", None, w))  # fmt: skip
     elif e.name == "sensor_drift" and d["camera"] == cam:
         for k, axis in enumerate("uv"):
             v = d["um"][k]

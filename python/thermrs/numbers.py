@@ -134,7 +134,8 @@ def implausible(effect: str, params: Mapping[str, Any]) -> str | None:
     the diagnoser searched (the data want a process faster or slower than any it tried)."""
     import re
 
-    from thermrs.effects import TAU_GRID_MIN, effect_classes, from_dict
+    from thermrs.effect_base import TAU_GRID_MIN
+    from thermrs.effects import effect_classes, from_dict
     from thermrs.errors import ThermrsError
 
     if effect not in effect_classes():

@@ -22,10 +22,10 @@ from thermrs.effects import (
     IrClock,
     IrDrift,
     IrGain,
-    clock_shifted,
     effect_classes,
     from_dict,
 )
+from thermrs.instruments import clock_shifted
 
 
 @pytest.mark.slow

@@ -63,3 +63,25 @@ def test_an_ir_readings_error_moves_the_models_effect_as_the_forward_model_does(
     # The nominal model's signature alone misses the effect's part of it.
     missed = float(np.max(np.abs(sum(nominal[n] for n in names) - truth)))
     assert missed > 0.2 * scale
+
+
+def test_a_reading_changed_at_every_visit_moves_the_model_as_the_forward_model_does(
+    visits: VisitSet,
+) -> None:
+    # Noise on link 3's reading, a different change at every visit (what the thermal
+    # camera's reading noise is): the model with its effect moves as the forward model does.
+    vs = visits
+    rig = vs.rig
+    alpha = rig.alpha_per_k
+    (family,) = [f for f in effect_classes()["joint_offset"].families(rig, vs) if f.label == LABEL]
+    cols = np.asarray(family.columns(vs, {}), dtype=np.float64)
+    spec = {"joint": "joint_a2", "temperature": "link3", "urad_per_k": URAD_PER_K}
+    effect = from_dict({"name": "joint_offset", **spec}, rig=rig)
+    d = np.random.default_rng(7).normal(0.0, 0.5, vs.n)
+    err = {**vs.temps, "link3": vs.temps["link3"] + d}
+    truth = _spots(vs, err, effect, alpha) - _spots(vs, dict(vs.temps), effect, alpha)
+    mn = ModelNuisance(vs, rig, alpha, np.zeros((2 * vs.n, 0)))
+    got = mn.moved([(family, {}, cols)], np.array([alpha, URAD_PER_K]), {"link3": d})
+    scale = float(np.max(np.abs(truth)))
+    assert scale > 0.5
+    np.testing.assert_allclose(got, truth, atol=1e-3 * scale)

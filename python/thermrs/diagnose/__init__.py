@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -58,6 +58,7 @@ from thermrs.diagnose.guard import GUARD_SCALE, rig_excess_guard
 from thermrs.diagnose.input_checks import check_inputs, smooth_temperatures
 from thermrs.diagnose.location import drivers, location_table, phases, whiteness
 from thermrs.diagnose.null import Batch, draw_noise
+from thermrs.diagnose.reading_noise import reading_noise_k, thermometer_floor
 from thermrs.diagnose.resample import cycle_units
 from thermrs.diagnose.result import Diagnosis, assemble
 from thermrs.diagnose.selection import FamilyGrid, Step, build_grids, forward_selection
@@ -272,16 +273,21 @@ class _Base:
     floor: NoiseFloor
     role_visit: npt.NDArray[np.str_]
     groups3: npt.NDArray[np.str_]
+    #: The readings' smoother's half-width (s) and each ROI's reading noise (K) it left out.
+    smooth_s: float = 0.0
+    reading_k: dict[str, float] = field(default_factory=dict)
 
 
 def _baseline(
     tr: list[pl.DataFrame], ho: list[pl.DataFrame], names_t: list[str], rig: Rig
 ) -> _Base:
     raw = [*tr, *ho]
-    taus, _ = thermal_time_scales(VisitSet(raw, rig), rig.mapped_temperatures)
+    raw_vs = VisitSet(raw, rig)
+    taus, _ = thermal_time_scales(raw_vs, rig.mapped_temperatures)
     # Reading noise out of the temperatures: a symmetric smoother over ± two allowed noise
     # correlation times (a fifth of the shortest thermal time constant).
-    tables = smooth_temperatures(raw, 2.0 * min(taus.values()) * 60.0 / SCALE_SEPARATION)
+    smooth_s = 2.0 * min(taus.values()) * 60.0 / SCALE_SEPARATION
+    tables = smooth_temperatures(raw, smooth_s)
     vs = VisitSet(tables, rig)
     design = DesignMatrix(vs, set(names_t))
     base = design.fit(None, {}, label="nominal")
@@ -299,6 +305,8 @@ def _baseline(
         floor=floor,
         role_visit=np.where(np.isin(vs.run, names_t), "train", "holdout"),
         groups3=np.char.add(np.char.add(design.series, "/"), vs.axis),
+        smooth_s=smooth_s,
+        reading_k=reading_noise_k(raw_vs, vs, smooth_s, np.random.default_rng(48)),
     )
 
 
@@ -359,6 +367,7 @@ def _diagnose(
         _floor_of_final_model(b, final, rig)
         if final.columns is not None:
             _with_final_model(b, batch, final.columns, seed, final.extra.get("nuisance"))
+    _thermometers(b, final, seed)
     first = steps[0]
     if first.significant or min(first.p_at_floor, first.p_low, first.p_floor_contradicted) < (
         level / 4.0
@@ -626,6 +635,34 @@ def _floor_of_final_model(b: _Base, final: Fit, rig: Rig) -> None:
     if fl.holdout_se_um is not None:
         se = fl.holdout_se_um
         fl.holdout_ci95 = (max(fl.holdout_um - 1.96 * se, 0.0), fl.holdout_um + 1.96 * se)
+
+
+def _thermometers(b: _Base, final: Fit | None, seed: int) -> None:
+    """The thermal camera's reading noise's share of the held-out floor, through the final
+    model (the nominal one where there is none): :mod:`.reading_noise`."""
+    nuisance = b.design.model_nuisance
+    if nuisance is None or not b.reading_k:
+        return
+    terms = [] if final is None else final.extra.get("terms", [])
+    coef = (
+        np.array([b.base.alpha])
+        if final is None or "terms" not in final.extra
+        else np.concatenate([[final.alpha], final.beta])
+    )
+    holdout_runs = set(b.vs.run.tolist()) - set(np.unique(b.vs.run[b.role_visit == "train"]))
+    got = thermometer_floor(
+        b.vs,
+        nuisance,
+        terms,
+        coef,
+        b.reading_k,
+        b.floor,
+        holdout_runs,
+        b.smooth_s,
+        np.random.default_rng([seed % 2**63, 49]),
+    )
+    if got is not None:
+        b.floor.extra["thermometers"] = got
 
 
 def _with_final_model(

@@ -337,8 +337,17 @@ class DesignMatrix:
         return (min(ends[0], float(eta[key])), max(ends[1], float(eta[key])))
 
     def grid(self, fam: Family) -> list[dict[str, float]]:
-        """The family's grid without time constants below :attr:`min_tau_min`."""
-        return [e for e in fam.grid if float(e.get("tau_min", np.inf)) >= self.min_tau_min]
+        """The family's grid without time constants below :attr:`min_tau_min`; a smoother of
+        the readings (``half_width_min``) wider than the analysis' own (two of them) and at
+        most the shortest thermal time constant (ten of them: wider, it flattens the heating
+        curve it should follow)."""
+        lo, hi = 2.0 * self.min_tau_min, 10.0 * self.min_tau_min
+        return [
+            e
+            for e in fam.grid
+            if float(e.get("tau_min", np.inf)) >= self.min_tau_min
+            and ("half_width_min" not in e or lo < float(e["half_width_min"]) <= hi)
+        ]
 
     def _try(self, cols: FloatArray, eta: dict[str, float], label: str) -> Fit | None:
         try:

@@ -77,6 +77,7 @@ def final_model(
     cov = f.cov + design.tolerance_cov(x, nuisance=nuis)
     if nuis is not None:
         f.extra["nuisance"] = nuis
+    f.extra["terms"] = [(s["family"], s["eta"], c) for s, c in zip(sel, cols, strict=True)]
     alpha_ci = _alpha_interval(f, cov)
     out: list[dict[str, Any]] = []
     ends: list[tuple[int, dict[str, float]]] = []

@@ -145,6 +145,25 @@ class NoiseFloor:
         """The series' noise by (run, camera, axis)."""
         return {(s.run, s.camera, s.axis): s for s in self.series}
 
+    def _thermometers(self) -> dict[str, Any] | None:
+        """The held-out floor as its two parts: the thermal camera's reading noise through the
+        model (``thermometers_um``, :mod:`.reading_noise`) and the rest, the chips' and poses'
+        repeatability (``chips_um``, the floor's interval split alike: ``chips_ci95``)."""
+        got = self.extra.get("thermometers")
+        if got is None:
+            return None
+        thermo = float(got["thermometers_um"])
+
+        def rest(x: float) -> float:
+            return float(np.sqrt(max(x * x - thermo * thermo, 0.0)))
+
+        ci = self.holdout_ci95
+        return {
+            **got,
+            "chips_um": rest(self.holdout_um),
+            "chips_ci95": None if ci is None else [rest(ci[0]), rest(ci[1])],
+        }
+
     def to_json(self) -> dict[str, Any]:
         """The floor's parts and how each was estimated (for the JSON and the report)."""
         white = _pool([s.white_um for s in self.series], [s.n for s in self.series])
@@ -163,6 +182,7 @@ class NoiseFloor:
             "estimated_on": self.extra.get(
                 "estimated_on", "the nominal model's residual (no effect named)"
             ),
+            "thermometers": self._thermometers(),
             "parts": {
                 "centroid_um": self.centroid_um,
                 "centroid": self.centroid_note,

@@ -231,6 +231,12 @@ def instrument_advice(name: str, params: Mapping[str, Any]) -> str:
             f"check the thermal camera's clock: its frames are stamped "
             f"{abs(p['s']):.0f} s {'late' if p['s'] > 0 else 'early'} against the CCD cameras'"
         ),
+        "ir_noise": lambda: (
+            "check the thermal camera's readings: they scatter from visit to visit by more "
+            f"than the analysis' smoother takes out (smoothed over ±{p['half_width_min']:.0f} "
+            "min they predict the spots better; noise_floor.thermometers gives each ROI's "
+            "scatter)"
+        ),
     }.get(name)
     return "" if said is None else said() + " — an instrument error, not the robot's"
 

@@ -40,9 +40,11 @@ from thermrs.effects import Family
 from thermrs.rig import Rig, geometry_variants
 from thermrs.signatures import VisitSet
 
-__all__ = ["ModelNuisance", "nuisance_signatures"]
+__all__ = ["ModelNuisance", "Term", "nuisance_signatures"]
 
 FloatArray = npt.NDArray[np.float64]
+#: One effect of a fitted model: its family, its parameters, its columns there (2n × m).
+Term = tuple[Family, dict[str, float], FloatArray]
 
 
 def _geometry(vs: VisitSet, rig: Rig, alpha: float) -> list[tuple[str, FloatArray]]:
@@ -191,6 +193,37 @@ class ModelNuisance:
                 sens[r] = sens[r] + d[r] @ coef[j : j + m]
             j += m
         return _ir(self.vs, self.rig, sens)
+
+    def moved(
+        self,
+        terms: Sequence[tuple[Family, dict[str, float], FloatArray]],
+        coef: FloatArray,
+        dtemps: dict[str, FloatArray],
+    ) -> FloatArray:
+        """How far (2n, µm) the spots of the model whose ``terms`` were fitted with ``coef``
+        (α, then each column's amplitude) move when the ROIs' readings change by ``dtemps``
+        (per ROI, n, K: a different change at every visit): α's expansion, linear in each
+        reading, and each effect's columns computed again from the changed readings (a lag
+        filters the change as it filters the readings)."""
+        n = self.vs.n
+        out = np.zeros(2 * n)
+        temps = dict(self.vs.temps)
+        for r, d in dtemps.items():
+            if r in self.per_alpha:
+                out += float(coef[0]) * self.per_alpha[r] * np.concatenate([d, d])
+            temps[r] = temps[r] + d
+        moved_vs = self.vs.replaced(temps=temps)
+        j = 1
+        for family, eta, cols in terms:
+            base = cols.reshape(2 * n, -1)
+            m = base.shape[1]
+            try:
+                new = np.asarray(family.columns(moved_vs, eta)).reshape(base.shape)
+                out += np.where(np.isfinite(new - base), new - base, 0.0) @ coef[j : j + m]
+            except Exception:  # a family that cannot follow the readings: no part of it
+                pass
+            j += m
+        return out
 
     def of(
         self,

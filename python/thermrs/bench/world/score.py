@@ -38,7 +38,7 @@ __all__ = ["outcome", "score", "strict_outcome"]
 
 NAMING = ("identified", "ambiguous", "partially explained")
 #: The instrument effects' names (the diagnoser's library; the world draws such errors).
-INSTRUMENTS = frozenset(("ir_gain", "ir_drift", "ir_clock"))
+INSTRUMENTS = frozenset(("ir_gain", "ir_drift", "ir_clock", "ir_noise"))
 
 
 def outcome(row: dict[str, Any]) -> str:
