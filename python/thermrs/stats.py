@@ -45,6 +45,8 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg
 
+from thermrs.memo import ContentCache, content_key
+
 __all__ = [
     "LeastSquares",
     "andrews_bandwidth",
@@ -622,29 +624,69 @@ def moving_block_indices(
 
 def loess2(t: np.ndarray, y: np.ndarray, h: float) -> np.ndarray:
     """Local quadratic regression with tricube weights of half-width ``h`` (every sample's
-    weighted least squares by QR on its window, all windows at once)."""
-    ok = np.isfinite(y)
+    weighted least squares by QR on its window, all windows at once). ``y``: one series, or
+    several sampled at the same times (samples × series): the smoother is linear, its
+    weights depend on the times only, and are computed once per times and ``h`` (kept for
+    the next call: a diagnosis smooths the same readings at the same widths again)."""
+    y = np.asarray(y, dtype=np.float64)
+    ok = np.isfinite(y) if y.ndim == 1 else np.all(np.isfinite(y), axis=1)
     if ok.sum() < 5:
         return y
-    tt, yy = t[ok], y[ok]
+    if y.ndim == 2 and not ok.all():  # each series its own finite samples
+        return np.column_stack([loess2(t, y[:, k], h) for k in range(y.shape[1])])
+    t = np.asarray(t, dtype=np.float64)
+    idx, j, w = _LOESS.get(content_key(t, ok, float(h)), lambda: _loess2_weights(t, ok, h))
     out = y.copy()
+    if len(idx):
+        yy = y[ok]
+        out[idx] = np.einsum("nw,nw...->n...", w, yy[j])
+    return out
+
+
+def _loess2_weights(
+    t: np.ndarray, ok: np.ndarray, h: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The local quadratic's weights: per sample it is fitted at (``idx``), the finite
+    samples of its window (``j``) and their weights (``w``: its fitted value is Σ w·y)."""
+    tt = t[ok]
     lo = np.searchsorted(tt, t - h, side="left")
     hi = np.searchsorted(tt, t + h, side="right")
     idx = np.flatnonzero(ok & (hi - lo >= 5))
     if not len(idx):
-        return out
+        return idx, np.zeros((0, 1), dtype=np.intp), np.zeros((0, 1))
     width = int((hi - lo)[idx].max())
     j = lo[idx, None] + np.arange(width)[None, :]
     inside = j < hi[idx, None]
     j = np.minimum(j, len(tt) - 1)
     x = (tt[j] - t[idx, None]) / h
-    sw = np.where(inside, (1 - np.clip(np.abs(x), 0, 1) ** 3) ** 1.5, 0.0)
-    xm = np.stack([np.ones_like(x), x, x * x], axis=-1) * sw[..., None]
-    q, r = np.linalg.qr(xm)
-    good = np.abs(r[:, 2, 2]) > 1e-9 * np.abs(r[:, 0, 0])
-    rhs = np.einsum("nwk,nw->nk", q, yy[j] * sw)
-    coef = np.zeros_like(rhs)
-    for i in np.flatnonzero(good):
-        coef[i] = scipy.linalg.solve_triangular(r[i], rhs[i])
-    out[idx[good]] = coef[good, 0]
-    return out
+    ax = np.minimum(np.abs(x), 1.0)
+    u = 1.0 - ax * ax * ax
+    sw = np.where(inside, u * np.sqrt(u), 0.0)  # tricube weight^1.5 (the rows' scaling)
+    # The fitted value at the centre is the intercept: e0ᵀ (XᵀWX)⁻¹ XᵀW y, so each window's
+    # weights are W·(c0 + c1·x + c2·x²) with (XᵀWX) c = e0. The columns 1, x, x² on x ∈ [−1, 1]
+    # (time over the half-width) are scaled, and the 3 × 3 moment matrices solved at once
+    # (a window too short or too lopsided for a quadratic, near-singular, is left as it is).
+    w2 = sw * sw  # the rows scaled by the tricube weight: least squares weighted by its square
+    x2 = x * x
+    w2x, w2x2 = w2 * x, w2 * x2
+    p = [w2.sum(1), w2x.sum(1), w2x2.sum(1), (w2x2 * x).sum(1), (w2x2 * x2).sum(1)]
+    m = np.stack(
+        [np.stack([p[0], p[1], p[2]], -1), np.stack([p[1], p[2], p[3]], -1),
+         np.stack([p[2], p[3], p[4]], -1)], -2,
+    )  # fmt: skip
+    # A QR of the weighted columns would have R₂₂² = det M / det M₁:₂ and R₀₀² = M₀₀: the
+    # quadratic is kept where |R₂₂| > 10⁻⁹ |R₀₀|, as a QR would keep it.
+    d2 = p[0] * p[2] - p[1] ** 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        good = np.linalg.det(m) > 1e-18 * np.abs(d2) * p[0]
+    good &= d2 > 0
+    e0 = np.zeros((int(good.sum()), 3))
+    e0[:, 0] = 1.0
+    c = np.linalg.solve(m[good], e0[..., None])[..., 0]
+    w = c[:, :1] * w2[good] + c[:, 1:2] * w2x[good] + c[:, 2:3] * w2x2[good]
+    w.setflags(write=False)
+    return idx[good], j[good], w
+
+
+#: The local quadratic's weights by times, finite samples and half-width (:func:`loess2`).
+_LOESS: ContentCache[tuple[np.ndarray, np.ndarray, np.ndarray]] = ContentCache(64)

@@ -54,8 +54,7 @@ def _smoothed_draws(
     s = np.empty_like(z)
     for g in vs.groups:
         t = vs.t_s[g] - vs.t_s[g][0]
-        for j in range(k):
-            s[g, j] = loess2(t, z[g, j], half_width_s) if half_width_s > 0 else z[g, j]
+        s[g] = loess2(t, z[g], half_width_s) if half_width_s > 0 else z[g]
     return z, s
 
 
