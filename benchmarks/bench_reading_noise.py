@@ -107,7 +107,9 @@ def _report(head: str, effect: str, rs: list[dict[str, Any]]) -> None:
     err = np.abs([x for r in rs for x in r["reading_rel_error"]])
     chips = [r["chips_covers"] for r in rs if r["chips_covers"] is not None]
     floor = [r["floor_covers"] for r in rs]
-    print(f"  reading noise estimate: median |error| {np.median(err):.1%}, max {np.max(err):.1%}")
+    if len(err):
+        med, top = np.median(err), np.max(err)
+        print(f"  reading noise estimate: median |error| {med:.1%}, max {top:.1%}")
     print(f"  chips' part's interval covers σ {_cp(sum(chips), len(chips))}; the whole "
           f"floor's {_cp(sum(floor), len(floor))}")  # fmt: skip
 
