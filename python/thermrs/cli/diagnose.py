@@ -94,6 +94,17 @@ def _say_floor(doc: dict[str, Any]) -> None:
             if any(x.get("run") == r and x.get("role") == "holdout" for x in doc["location"])
         )
     )
+    th = nf.get("thermometers") or {}
+    if th.get("chips_um") is not None:
+        ci = th.get("chips_ci95")
+        k = th.get("reading_noise_k") or {}
+        out.print(
+            f"  of it the thermal camera's reading noise through the model "
+            f"{th['thermometers_um']:.2f} µm (each ROI's scatter: "
+            + ", ".join(f"{r} {v:.3f} K" for r, v in k.items())
+            + f"), the chips' and poses' {th['chips_um']:.2f} µm"
+            + (f" [{ci[0]:.2f}, {ci[1]:.2f}]" if ci else "")
+        )
 
 
 def _say_where(doc: dict[str, Any]) -> None:

@@ -110,6 +110,7 @@ def _noise_floor(doc: Doc) -> list[Block]:
                  fmt(parts.get("pose_correlated_um"), 3),
                  str(parts.get("pose_correlated", ""))],
                 ["joint states", fmt(parts.get("joints_um"), 3), str(parts.get("joints", ""))],
+                *_thermometer_rows(floor.get("thermometers") or {}),
                 *[[f"floor of run {r}", fmt(x, 3), "the run's series pooled"]
                   for r, x in (floor.get("per_run_um") or {}).items()],
                 ["thermal time constants (min)",
@@ -118,6 +119,21 @@ def _noise_floor(doc: Doc) -> list[Block]:
                  str(floor.get("thermal_time_constants", ""))],
             ],
         )
+    ]  # fmt: skip
+
+
+def _thermometer_rows(th: dict[str, Any]) -> list[list[str]]:
+    """The held-out floor as the thermal camera's reading noise and the rest (none without)."""
+    if th.get("chips_um") is None:
+        return []
+    ci = th.get("chips_ci95")
+    scatter = ", ".join(f"{r} {fmt(v, 3)} K" for r, v in (th.get("reading_noise_k") or {}).items())
+    return [
+        ["of the held-out floor: the thermal camera's reading noise through the model",
+         fmt(th.get("thermometers_um"), 3), f"each ROI's scatter {scatter}; {th.get('how', '')}"],
+        ["of the held-out floor: the chips' and poses' repeatability", fmt(th["chips_um"], 3),
+         "the rest in quadrature" + (f"; 95 % interval {fmt(ci[0], 3)}–{fmt(ci[1], 3)}" if ci
+                                     else "")],
     ]  # fmt: skip
 
 
