@@ -150,7 +150,7 @@ def test_tolerances_default_to_the_documented_values_and_a_table_overrides_some(
     bare = GOOD_TEXT[: GOOD_TEXT.index("\n# How well this set-up is known")]
     r = thermrs.Rig.from_toml(bare)
     documented = _documented_defaults()
-    assert len(documented) == 10
+    assert len(documented) == 11
     assert r.tolerances == documented
     assert r.tolerances_stated is False
     assert "tolerances" not in r.to_dict()

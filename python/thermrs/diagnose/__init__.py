@@ -294,6 +294,8 @@ def _baseline(
     holdout_runs = set(vs.run.tolist()) - set(names_t)
     floor = noise_floor(vs, base.residual, holdout_runs, rig.mapped_temperatures)
     design.min_tau_min = floor.tau_c_max_s / 60.0
+    reading_k = reading_noise_k(raw_vs, vs, smooth_s, np.random.default_rng(48))
+    design.reading_noise_k = max(reading_k.values()) if reading_k else None
     design.nuisance, design.nuisance_names, design.model_nuisance = nuisance_signatures(
         vs, rig, base.alpha, floor_um=floor.holdout_um
     )
@@ -306,7 +308,7 @@ def _baseline(
         role_visit=np.where(np.isin(vs.run, names_t), "train", "holdout"),
         groups3=np.char.add(np.char.add(design.series, "/"), vs.axis),
         smooth_s=smooth_s,
-        reading_k=reading_noise_k(raw_vs, vs, smooth_s, np.random.default_rng(48)),
+        reading_k=reading_k,
     )
 
 

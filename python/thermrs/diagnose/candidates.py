@@ -98,12 +98,20 @@ def is_plausible(
     params: dict[str, Any],
     ci: dict[str, Any],
     min_delay_s: float = 0.0,
+    reading_noise_k: float | None = None,
 ) -> bool:
     """The candidate's parameters are physically possible (module docs); a thermal camera's
     clock offset shorter than ``min_delay_s`` (the longest correlation the floor counts as
     noise, below which a lag is not told from noise either) is not told from the structure's
-    own short lags."""
+    own short lags; readings smoothed more (``ir_noise``) only where they scatter
+    (``reading_noise_k``, the largest ROI's, measured from the readings) by more than the rig
+    states (``tolerances.ir_noise_k``): a de-noising the null world, whose readings carry
+    no noise of their own, cannot weigh, is offered only for readings noisier than stated."""
     if fam.effect == "ir_clock" and abs(float(params.get("s", 0.0))) < min_delay_s:
+        return False
+    if fam.effect == "ir_noise" and (
+        reading_noise_k is None or reading_noise_k <= float(rig.tolerances.get("ir_noise_k", 0.0))
+    ):
         return False
     w = ci.get("weight")
     if w is not None and float(np.mean(w)) <= 0:
@@ -134,7 +142,9 @@ def plausibility(design: DesignMatrix, rig: Rig) -> Any:
         try:
             f = design.fit(cols, ch.eta, label=ch.label, covariance="iid")
             params, ci = _params(ch.grid.family, f, first)
-            good = is_plausible(rig, ch.grid.family, params, ci, design.min_tau_min * 60.0)
+            good = is_plausible(
+                rig, ch.grid.family, params, ci, design.min_tau_min * 60.0, design.reading_noise_k
+            )
         except (ValueError, np.linalg.LinAlgError, InputError):
             good = False
         cache[key] = good
@@ -202,7 +212,9 @@ def score(
                 closed_raw=raw,
                 d_aicc=aicc(f.train_rss_w, base.n_params + k)
                 - aicc(base.train_rss_w, base.n_params),
-                plausible=is_plausible(rig, fam, params, ci, design.min_tau_min * 60.0),
+                plausible=is_plausible(
+                    rig, fam, params, ci, design.min_tau_min * 60.0, design.reading_noise_k
+                ),
                 identifiable=design.identifiable(f.columns) if f.columns is not None else 0.0,
                 significant=fam.label in significant,
             )

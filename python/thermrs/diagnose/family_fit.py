@@ -94,6 +94,9 @@ class DesignMatrix:
         #: Shortest time constant (min) a family may take: faster than the floor's allowed
         #: noise correlation time, an effect cannot be told from noise (set by the floor step).
         self.min_tau_min = 0.0
+        #: The largest ROI's reading scatter from visit to visit (K), measured from the
+        #: readings (:func:`.reading_noise.reading_noise_k`); None before it is.
+        self.reading_noise_k: float | None = None
         #: Signatures (2n × p) of the rig's tolerances, drawn in every null replicate
         #: (:mod:`.tolerances`; set by the floor step), and their names.
         self.nuisance: FloatArray = np.zeros((2 * n, 0))
@@ -340,13 +343,18 @@ class DesignMatrix:
         """The family's grid without time constants below :attr:`min_tau_min`; a smoother of
         the readings (``half_width_min``) wider than the analysis' own (two of them) and at
         most the shortest thermal time constant (ten of them: wider, it flattens the heating
-        curve it should follow)."""
+        curve it should follow), and only where the readings scatter by more than the rig's
+        stated ``ir_noise_k`` (:attr:`reading_noise_k`)."""
         lo, hi = 2.0 * self.min_tau_min, 10.0 * self.min_tau_min
+        # Readings smoothed more only where they scatter by more than the rig states (the
+        # null world's readings carry no noise of their own: it cannot weigh a de-noising).
+        stated = float(self.vs.rig.tolerances.get("ir_noise_k", 0.0))
+        noisy = self.reading_noise_k is not None and self.reading_noise_k > stated
         return [
             e
             for e in fam.grid
             if float(e.get("tau_min", np.inf)) >= self.min_tau_min
-            and ("half_width_min" not in e or lo < float(e["half_width_min"]) <= hi)
+            and ("half_width_min" not in e or (noisy and lo < float(e["half_width_min"]) <= hi))
         ]
 
     def _try(self, cols: FloatArray, eta: dict[str, float], label: str) -> Fit | None:

@@ -68,6 +68,9 @@ pub struct Tolerances {
     pub ir_drift_k: f64,
     /// The IR camera's clock against the CCD cameras', per run (seconds).
     pub ir_clock_s: f64,
+    /// Each ROI's reading scatter from visit to visit (kelvin): the detector's noise
+    /// (its NETD), which the diagnosis' own smoother of the readings is made for.
+    pub ir_noise_k: f64,
 }
 
 impl Default for Tolerances {
@@ -75,7 +78,8 @@ impl Default for Tolerances {
     /// (`docs/tolerances.md` gives each source): nominal DH geometry of an uncalibrated
     /// six-axis industrial robot, chips located with the robot itself, a radiometric LWIR
     /// camera to its data sheet's "±2 % of reading" with each ROI's emissivity known to about
-    /// ±0.03, clocks synchronised over the network (NTP/chrony) and stamped by the drivers.
+    /// ±0.03, its readings scattering by an uncooled detector's NETD, clocks synchronised
+    /// over the network (NTP/chrony) and stamped by the drivers.
     fn default() -> Tolerances {
         Tolerances {
             length_mm: 0.5,
@@ -88,6 +92,7 @@ impl Default for Tolerances {
             ir_gain: 0.03,
             ir_drift_k: 0.1,
             ir_clock_s: 1.0,
+            ir_noise_k: 0.05,
         }
     }
 }
@@ -310,6 +315,7 @@ impl Rig {
             ("ir_gain", t.ir_gain),
             ("ir_drift_k", t.ir_drift_k),
             ("ir_clock_s", t.ir_clock_s),
+            ("ir_noise_k", t.ir_noise_k),
         ] {
             let key = format!("tolerances.{name}");
             check_finite(v, &key)?;
