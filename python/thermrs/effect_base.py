@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -22,7 +22,14 @@ from thermrs.effect_family import Family, Visits
 if TYPE_CHECKING:
     from thermrs.rig import Rig
 
-__all__ = ["EFFECT_NAMES", "MOUNT_TAU_GRID_MIN", "TAU_GRID_MIN", "Effect", "register"]
+__all__ = [
+    "EFFECT_NAMES",
+    "MOUNT_TAU_GRID_MIN",
+    "TAU_GRID_MIN",
+    "Effect",
+    "register",
+    "share_family",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -96,3 +103,31 @@ def _ratio_ci(num: float, den: float, cov: FloatArray, i: int, j: int) -> tuple[
     g[i] = 1.0 / den
     g[j] = -num / den**2
     return r, float(np.sqrt(max(float(g @ cov @ g), 0.0)))
+
+
+def share_family(
+    name: str,
+    key: str,
+    make: Callable[[float], Effect],
+    driver: str,
+) -> Family:
+    """The family of an effect that acts through one time constant (``key``, minutes, on
+    :data:`TAU_GRID_MIN`, refined), of which the data ask a share: its column is the whole
+    effect's move per unit α (``make(x)``: the effect at that time constant), its fitted
+    amplitude over α the share (``weight``, with its interval)."""
+
+    def columns(vs: Visits, eta: dict[str, float]) -> FloatArray:
+        moved = vs.positions(effects=[make(eta[key])])
+        return ((moved - vs.positions()) / vs.alpha0)[:, None]
+
+    def params(
+        eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        # The column is the whole effect's departure per unit α: its amplitude over α is the
+        # share, which the effect carries so that what the diagnosis fitted is what a law or a
+        # prediction from it applies.
+        w, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
+        return {key: eta[key], "weight": w}, {"weight": _ci(w, sd)}
+
+    grid = [{key: float(t)} for t in TAU_GRID_MIN]
+    return Family(name, name, {}, grid, columns, params, driver=driver, refine=(key,))

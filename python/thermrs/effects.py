@@ -53,6 +53,7 @@ from thermrs.effect_base import (
     _ratio_ci,
     _sd,
     register,
+    share_family,
 )
 from thermrs.effect_family import Family, Visits
 from thermrs.errors import InputError
@@ -195,32 +196,10 @@ class ThermalLag(Effect):
 
     @classmethod
     def families(cls, rig: Rig, visits: Visits) -> list[Family]:
-        def columns(vs: Visits, eta: dict[str, float]) -> FloatArray:
-            lagged = vs.positions(effects=[ThermalLag(tau_min=eta["tau_min"])])
-            return ((lagged - vs.positions()) / vs.alpha0)[:, None]
+        def make(tau_min: float) -> Effect:
+            return ThermalLag(tau_min=tau_min)
 
-        def params(
-            eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
-        ) -> tuple[dict[str, Any], dict[str, Any]]:
-            # The lag's column is the full lag's departure per unit α: its amplitude over α is
-            # the share that lags, which the effect carries so that what the diagnosis fitted
-            # is what a law or a prediction from it applies.
-            w, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
-            return {"tau_min": eta["tau_min"], "weight": w}, {"weight": _ci(w, sd)}
-
-        grid = [{"tau_min": float(t)} for t in TAU_GRID_MIN]
-        return [
-            Family(
-                cls.name,
-                cls.name,
-                {},
-                grid,
-                columns,
-                params,
-                driver=",".join(rig.mapped_temperatures),
-                refine=("tau_min",),
-            )
-        ]
+        return [share_family(cls.name, "tau_min", make, ",".join(rig.mapped_temperatures))]
 
 
 def _length_names(rig: Rig) -> list[str]:

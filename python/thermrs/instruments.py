@@ -20,11 +20,11 @@ import numpy.typing as npt
 
 from thermrs.effect_base import (
     _REGISTRY,
-    TAU_GRID_MIN,
     Effect,
     _ci,
     _ratio_ci,
     register,
+    share_family,
 )
 from thermrs.effect_family import Family, Visits
 from thermrs.errors import InputError
@@ -259,29 +259,10 @@ class IrNoise(InstrumentEffect):
         if not rois:
             return []
 
-        def columns(vs: Visits, eta: dict[str, float]) -> FloatArray:
-            moved = vs.positions(effects=[IrNoise(half_width_min=eta["half_width_min"])])
-            return ((moved - vs.positions()) / vs.alpha0)[:, None]
+        def make(half_width_min: float) -> Effect:
+            return IrNoise(half_width_min=half_width_min)
 
-        def params(
-            eta: dict[str, float], alpha: float, beta: FloatArray, cov: FloatArray
-        ) -> tuple[dict[str, Any], dict[str, Any]]:
-            w, sd = _ratio_ci(float(beta[0]), alpha, cov, 1, 0)
-            return {"half_width_min": eta["half_width_min"], "weight": w}, {"weight": _ci(w, sd)}
-
-        grid = [{"half_width_min": float(t)} for t in TAU_GRID_MIN]
-        return [
-            Family(
-                cls.name,
-                cls.name,
-                {},
-                grid,
-                columns,
-                params,
-                driver="instrument",
-                refine=("half_width_min",),
-            )
-        ]
+        return [share_family(cls.name, "half_width_min", make, "instrument")]
 
 
 def smoothed_readings(visits: Any, y: FloatArray, half_width_s: float) -> FloatArray:

@@ -10,7 +10,7 @@ import pytest
 import thermrs
 from thermrs.bench import make_runs
 from thermrs.diagnose.tolerances import ModelNuisance
-from thermrs.effects import effect_classes, from_dict
+from thermrs.effects import Family, effect_classes, from_dict
 from thermrs.signatures import VisitSet
 
 LABEL = "joint_offset joint=joint_a2 temperature=link3"
@@ -21,6 +21,16 @@ URAD_PER_K = 12.0
 def visits() -> VisitSet:
     rig = thermrs.load_rig()
     return VisitSet(make_runs(rig, None, seed=3, hours=4.0, cycle_s=300.0), rig)
+
+
+def _joint_offset(vs: VisitSet) -> tuple[Family, np.ndarray, object]:
+    """The joint offset's family (``LABEL``), its columns on ``vs`` and the effect itself at
+    ``URAD_PER_K``."""
+    rig = vs.rig
+    (family,) = [f for f in effect_classes()["joint_offset"].families(rig, vs) if f.label == LABEL]
+    cols = np.asarray(family.columns(vs, {}), dtype=np.float64)
+    spec = {"joint": "joint_a2", "temperature": "link3", "urad_per_k": URAD_PER_K}
+    return family, cols, from_dict({"name": "joint_offset", **spec}, rig=rig)
 
 
 def _spots(vs: VisitSet, temps: dict[str, np.ndarray], effect: object, alpha: float) -> np.ndarray:
@@ -34,10 +44,7 @@ def test_an_ir_readings_error_moves_the_models_effect_as_the_forward_model_does(
     vs = visits
     rig = vs.rig
     alpha = rig.alpha_per_k
-    (family,) = [f for f in effect_classes()["joint_offset"].families(rig, vs) if f.label == LABEL]
-    cols = np.asarray(family.columns(vs, {}), dtype=np.float64)
-    spec = {"joint": "joint_a2", "temperature": "link3", "urad_per_k": URAD_PER_K}
-    effect = from_dict({"name": "joint_offset", **spec}, rig=rig)
+    family, cols, effect = _joint_offset(vs)
     # The reading of link 3 in error by one standard uncertainty of the rig's tolerance.
     tol = rig.tolerances
     err = dict(vs.temps)
@@ -73,10 +80,7 @@ def test_a_reading_changed_at_every_visit_moves_the_model_as_the_forward_model_d
     vs = visits
     rig = vs.rig
     alpha = rig.alpha_per_k
-    (family,) = [f for f in effect_classes()["joint_offset"].families(rig, vs) if f.label == LABEL]
-    cols = np.asarray(family.columns(vs, {}), dtype=np.float64)
-    spec = {"joint": "joint_a2", "temperature": "link3", "urad_per_k": URAD_PER_K}
-    effect = from_dict({"name": "joint_offset", **spec}, rig=rig)
+    family, cols, effect = _joint_offset(vs)
     d = np.random.default_rng(7).normal(0.0, 0.5, vs.n)
     err = {**vs.temps, "link3": vs.temps["link3"] + d}
     truth = _spots(vs, err, effect, alpha) - _spots(vs, dict(vs.temps), effect, alpha)
