@@ -304,6 +304,12 @@ class DesignMatrix:
         grid = sorted(float(e[key]) for e in fam.grid) or [float(eta[key])]
         lo_bound = min(grid[0], float(eta[key])) / 10.0
         hi_bound = max(grid[-1], float(eta[key])) * 10.0
+        if key == "half_width_min":
+            # A smoother of the readings has a domain (:meth:`grid`): narrower than the
+            # analysis' own it does nothing, wider than the shortest thermal time constant it
+            # flattens the heating curve. The interval is cut to it, as a bounded parameter's.
+            lo_bound = min(2.0 * self.min_tau_min, float(eta[key]))
+            hi_bound = max(10.0 * self.min_tau_min, float(eta[key]))
 
         def rss(logt: float) -> float:
             e = {**eta, key: float(np.exp(logt))}
